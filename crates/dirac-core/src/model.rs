@@ -1,0 +1,146 @@
+//! The continuous model: a Lagrangian `L(q, v)` and an external force `f(q, v, t)`.
+
+use dirac_solve::Triplets;
+
+/// Second derivatives of a Lagrangian, stamped as three fixed-pattern triplet streams.
+///
+/// `qq` holds `∂²L/∂qᵢ∂qⱼ`, `qv` holds `∂²L/∂qᵢ∂vⱼ` (row = q index, column = v index) and `vv`
+/// holds `∂²L/∂vᵢ∂vⱼ`. Symmetric blocks are stamped in full (both `(i, j)` and `(j, i)`).
+/// A model must emit the same `(i, j)` sequence on every call, zeros included.
+#[derive(Debug, Clone, Default)]
+pub struct LagrangianHessian {
+    /// `∂²L/∂q∂q`.
+    pub qq: Triplets,
+    /// `∂²L/∂q∂v` (row: q index, column: v index).
+    pub qv: Triplets,
+    /// `∂²L/∂v∂v`.
+    pub vv: Triplets,
+}
+
+impl LagrangianHessian {
+    /// Starts a pass over all three blocks.
+    pub fn begin(&mut self) {
+        self.qq.begin();
+        self.qv.begin();
+        self.vv.begin();
+    }
+
+    /// Fixes the patterns after the first pass.
+    pub fn freeze(&mut self) {
+        self.qq.freeze();
+        self.qv.freeze();
+        self.vv.freeze();
+    }
+
+    /// Checks that a pass emitted the recorded patterns.
+    pub fn finish(&self) -> Result<(), dirac_solve::PatternMismatch> {
+        self.qq.finish()?;
+        self.qv.finish()?;
+        self.vv.finish()
+    }
+}
+
+/// Jacobians of an external force, stamped as fixed-pattern triplet streams.
+///
+/// `q` holds `∂fᵢ/∂qⱼ` and `v` holds `∂fᵢ/∂vⱼ`.
+#[derive(Debug, Clone, Default)]
+pub struct ForceJacobian {
+    /// `∂f/∂q`.
+    pub q: Triplets,
+    /// `∂f/∂v`.
+    pub v: Triplets,
+}
+
+impl ForceJacobian {
+    /// Starts a pass over both blocks.
+    pub fn begin(&mut self) {
+        self.q.begin();
+        self.v.begin();
+    }
+
+    /// Fixes the patterns after the first pass.
+    pub fn freeze(&mut self) {
+        self.q.freeze();
+        self.v.freeze();
+    }
+
+    /// Checks that a pass emitted the recorded patterns.
+    pub fn finish(&self) -> Result<(), dirac_solve::PatternMismatch> {
+        self.q.finish()?;
+        self.v.finish()
+    }
+}
+
+/// A mechanical or electrical model on `Qⁿ`: Lagrangian, external force and their derivatives.
+///
+/// The Lagrangian may be degenerate (`∂²L/∂v²` singular), as for a capacitor charge with no kinetic
+/// term; the discrete step then relies on constraints or potentials to determine every coordinate.
+/// Derivatives are exact: stock models write them by hand, [`crate::AutoDiff`] derives them from a
+/// generic `L(q, v)` and `f(q, v, t)` with dual numbers.
+pub trait Model {
+    /// Number of coordinates `n`.
+    fn dim(&self) -> usize;
+
+    /// `L(q, v)`.
+    fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64;
+
+    /// Writes `∂L/∂q` into `lq` and `∂L/∂v` into `lv` (overwriting them).
+    fn lagrangian_gradient(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]);
+
+    /// Stamps the second derivatives of `L` at `(q, v)`.
+    fn lagrangian_hessian(&self, q: &[f64], v: &[f64], hessian: &mut LagrangianHessian);
+
+    /// Whether the model has an external force. Models without one skip force evaluation.
+    fn has_force(&self) -> bool {
+        false
+    }
+
+    /// Writes the external force `f(q, v, t)` into `f` (overwriting it).
+    fn force(&self, _q: &[f64], _v: &[f64], _t: f64, f: &mut [f64]) {
+        f.fill(0.0);
+    }
+
+    /// Stamps `∂f/∂q` and `∂f/∂v` at `(q, v, t)`.
+    fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, _jacobian: &mut ForceJacobian) {}
+
+    /// True when `L` is quadratic and `f` is affine in `(q, v)` with `t` entering only additively:
+    /// every Hessian and force Jacobian is then constant, and so is the Newton matrix at fixed `h`.
+    fn is_linear(&self) -> bool {
+        false
+    }
+
+    /// Name of coordinate `i`, for diagnostics and output headers.
+    fn coordinate_name(&self, i: usize) -> String {
+        format!("q{i}")
+    }
+}
+
+impl<M: Model + ?Sized> Model for &M {
+    fn dim(&self) -> usize {
+        (**self).dim()
+    }
+    fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64 {
+        (**self).lagrangian(q, v)
+    }
+    fn lagrangian_gradient(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+        (**self).lagrangian_gradient(q, v, lq, lv);
+    }
+    fn lagrangian_hessian(&self, q: &[f64], v: &[f64], hessian: &mut LagrangianHessian) {
+        (**self).lagrangian_hessian(q, v, hessian);
+    }
+    fn has_force(&self) -> bool {
+        (**self).has_force()
+    }
+    fn force(&self, q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
+        (**self).force(q, v, t, f);
+    }
+    fn force_jacobian(&self, q: &[f64], v: &[f64], t: f64, jacobian: &mut ForceJacobian) {
+        (**self).force_jacobian(q, v, t, jacobian);
+    }
+    fn is_linear(&self) -> bool {
+        (**self).is_linear()
+    }
+    fn coordinate_name(&self, i: usize) -> String {
+        (**self).coordinate_name(i)
+    }
+}

@@ -1,0 +1,579 @@
+//! Residual and Jacobian of one forced discrete Dirac step (MATH §3–§4).
+
+use dirac_solve::Triplets;
+
+use crate::constraints::{ConstraintKind, Constraints};
+use crate::discretisation::Discretisation;
+use crate::model::{ForceJacobian, LagrangianHessian, Model};
+use crate::path::NodeTable;
+
+/// Which forced discrete Dirac integrator (MATH §4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Flavour {
+    /// `ωᵃ(q_k)·(q_{k+1} − q_k) = 0`, constraint impulse on `p_k`.
+    Plus,
+    /// `ωᵃ(q_{k+1})·(q_k − q_{k+1}) = 0`, in the look-ahead form: the impulse of step `k` is
+    /// solved at step `k + 1` together with `q_{k+2}`, so the carried momentum `p̃` excludes it.
+    Minus,
+}
+
+/// Where a constraint covector is evaluated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Point {
+    Start,
+    Control(usize),
+}
+
+/// The equations of one step from `(q_k, p_k, t_k)` with a Galerkin discretisation of degree `s`.
+///
+/// Unknowns `x = [Q¹ … Q^s, Λ⁰ … Λ^{s−1}]` (control points, then one multiplier vector per
+/// stationarity equation). With `S_j = h Σᵢ bᵢ [ℓⱼ(cᵢ)(∂L/∂q + f) + ℓⱼ'(cᵢ)/h ∂L/∂v]` the equations are
+///
+/// ```text
+/// E₀:  p_k + S₀ − Aᵀ(P₀) Λ⁰ = 0            (p_k = −D₁L_d − f_d⁻ + constraint impulse)
+/// Eⱼ:  Sⱼ − Aᵀ(Pⱼ) Λʲ = 0,  j = 1..s−1     (interior stationarity)
+/// C_l: Aᵃ(P)·(Q^l − q_k) = 0 or gᵃ(Q^l) = 0,  l = 1..s
+/// ```
+///
+/// and afterwards `p_{k+1} = S_s = D₂L_d + f_d⁺`. Constraints hold at every control point, so
+/// degenerate coordinates (massless endpoints, capacitor charges) are determined at interior
+/// points too (MATH §5). With `m = 0` this is the forced discrete Hamiltonian map (MATH §3).
+#[derive(Debug, Clone)]
+pub struct ForcedDiracStep {
+    n: usize,
+    m: usize,
+    s: usize,
+    h: f64,
+    flavour: Flavour,
+    lagrangian_nodes: NodeTable,
+    force_nodes: NodeTable,
+    kinds: Vec<ConstraintKind>,
+    has_holonomic: bool,
+    q0: Vec<f64>,
+    p0: Vec<f64>,
+    t0: f64,
+    y: Vec<f64>,
+    w: Vec<f64>,
+    lq: Vec<f64>,
+    lv: Vec<f64>,
+    f: Vec<f64>,
+    dq: Vec<f64>,
+    mask: Vec<f64>,
+    hessian: LagrangianHessian,
+    force_jacobian: ForceJacobian,
+    forms: Triplets,
+    curvature: Triplets,
+    contracted: Triplets,
+    g: Vec<f64>,
+}
+
+impl ForcedDiracStep {
+    /// A step for `model` with `constraints`, `discretisation`, `flavour` and step size `h`.
+    pub fn new<M: Model + ?Sized, C: Constraints + ?Sized>(
+        model: &M,
+        constraints: &C,
+        discretisation: &Discretisation,
+        flavour: Flavour,
+        h: f64,
+    ) -> Self {
+        let n = model.dim();
+        let m = constraints.count();
+        let kinds: Vec<ConstraintKind> = (0..m).map(|a| constraints.kind(a)).collect();
+        let has_holonomic = kinds.contains(&ConstraintKind::Holonomic);
+        Self {
+            n,
+            m,
+            s: discretisation.path().degree(),
+            h,
+            flavour,
+            lagrangian_nodes: NodeTable::new(discretisation.path(), discretisation.lagrangian_rule()),
+            force_nodes: NodeTable::new(discretisation.path(), discretisation.force_rule()),
+            kinds,
+            has_holonomic,
+            q0: vec![0.0; n],
+            p0: vec![0.0; n],
+            t0: 0.0,
+            y: vec![0.0; n],
+            w: vec![0.0; n],
+            lq: vec![0.0; n],
+            lv: vec![0.0; n],
+            f: vec![0.0; n],
+            dq: vec![0.0; n],
+            mask: vec![0.0; m],
+            hessian: LagrangianHessian::default(),
+            force_jacobian: ForceJacobian::default(),
+            forms: Triplets::new(),
+            curvature: Triplets::new(),
+            contracted: Triplets::new(),
+            g: vec![0.0; m],
+        }
+    }
+
+    /// Number of coordinates `n`.
+    #[must_use]
+    pub fn dim(&self) -> usize {
+        self.n
+    }
+
+    /// Number of constraint rows `m`.
+    #[must_use]
+    pub fn constraint_count(&self) -> usize {
+        self.m
+    }
+
+    /// Path degree `s`.
+    #[must_use]
+    pub fn degree(&self) -> usize {
+        self.s
+    }
+
+    /// Step size.
+    #[must_use]
+    pub fn step_size(&self) -> f64 {
+        self.h
+    }
+
+    /// Changes the step size (the Newton matrix of a linear model changes with it).
+    pub fn set_step_size(&mut self, h: f64) {
+        self.h = h;
+    }
+
+    /// The flavour.
+    #[must_use]
+    pub fn flavour(&self) -> Flavour {
+        self.flavour
+    }
+
+    /// Number of unknowns `s(n + m)`.
+    #[must_use]
+    pub fn unknowns(&self) -> usize {
+        self.s * (self.n + self.m)
+    }
+
+    /// Offset of control point `Q^l` (`l = 1..=s`) in the unknown vector.
+    #[must_use]
+    pub fn control_offset(&self, l: usize) -> usize {
+        (l - 1) * self.n
+    }
+
+    /// Offset of multiplier vector `Λʲ` (`j = 0..s`) in the unknown vector.
+    #[must_use]
+    pub fn multiplier_offset(&self, j: usize) -> usize {
+        self.s * self.n + j * self.m
+    }
+
+    /// Index of the first equation of block `Eⱼ` (`j = 0..s`), or of `C_l` via
+    /// [`ForcedDiracStep::constraint_row`].
+    #[must_use]
+    pub fn stationarity_row(&self, j: usize) -> usize {
+        j * self.n
+    }
+
+    /// Index of the first equation of constraint block `C_l` (`l = 1..=s`).
+    #[must_use]
+    pub fn constraint_row(&self, l: usize) -> usize {
+        self.s * self.n + (l - 1) * self.m
+    }
+
+    /// Sets the start of the step: `q_k`, the carried momentum `p_k` and `t_k`.
+    pub fn set_start(&mut self, q: &[f64], p: &[f64], t: f64) {
+        self.q0.copy_from_slice(q);
+        self.p0.copy_from_slice(p);
+        self.t0 = t;
+    }
+
+    /// `q_k`.
+    #[must_use]
+    pub fn start_position(&self) -> &[f64] {
+        &self.q0
+    }
+
+    /// The end point `q_{k+1} = Q^s` inside an unknown vector.
+    #[must_use]
+    pub fn end_position<'a>(&self, x: &'a [f64]) -> &'a [f64] {
+        let o = self.control_offset(self.s);
+        &x[o..o + self.n]
+    }
+
+    /// Whether the Newton matrix is constant for this model and constraint set at fixed `h`.
+    pub fn jacobian_is_constant<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+    ) -> bool {
+        model.is_linear() && constraints.is_constant()
+    }
+
+    /// Fills the path value `y` and velocity `w` at a node with basis row (`phi`, `dphi`).
+    fn eval_path(&mut self, x: &[f64], phi: &[f64], dphi: &[f64]) {
+        let n = self.n;
+        let inv_h = 1.0 / self.h;
+        for k in 0..n {
+            self.y[k] = phi[0] * self.q0[k];
+            self.w[k] = dphi[0] * self.q0[k];
+        }
+        for l in 1..=self.s {
+            let o = (l - 1) * n;
+            let (a, b) = (phi[l], dphi[l]);
+            for k in 0..n {
+                self.y[k] += a * x[o + k];
+                self.w[k] += b * x[o + k];
+            }
+        }
+        for wk in &mut self.w {
+            *wk *= inv_h;
+        }
+    }
+
+    /// Where the covector of a row of `kind` is evaluated in stationarity equation `j`.
+    fn multiplier_point(&self, kind: ConstraintKind, j: usize) -> Point {
+        match (kind, self.flavour) {
+            _ if j == 0 => Point::Start,
+            (ConstraintKind::Holonomic, _) => Point::Control(j),
+            (ConstraintKind::OneForm, Flavour::Plus) => Point::Start,
+            (ConstraintKind::OneForm, Flavour::Minus) => Point::Control(self.s),
+        }
+    }
+
+    /// Where the covector of a one-form row is evaluated in the kinematic constraint.
+    fn kinematic_point(&self) -> Point {
+        match self.flavour {
+            Flavour::Plus => Point::Start,
+            Flavour::Minus => Point::Control(self.s),
+        }
+    }
+
+    fn point_slice<'a>(&'a self, x: &'a [f64], p: Point) -> &'a [f64] {
+        match p {
+            Point::Start => &self.q0,
+            Point::Control(l) => {
+                let o = (l - 1) * self.n;
+                &x[o..o + self.n]
+            }
+        }
+    }
+
+    /// Number of points at which constraint covectors are needed: `q_k`, then `Q¹ … Q^s` when a
+    /// holonomic row or the (−) flavour evaluates covectors at control points.
+    fn constraint_point_count(&self) -> usize {
+        if self.m == 0 {
+            0
+        } else if self.has_holonomic || self.flavour == Flavour::Minus {
+            self.s + 1
+        } else {
+            1
+        }
+    }
+
+    fn eval_forms<C: Constraints + ?Sized>(&mut self, constraints: &C, x: &[f64], p: Point) {
+        let mut forms = std::mem::take(&mut self.forms);
+        forms.begin();
+        constraints.forms(self.point_slice(x, p), &mut forms);
+        if !forms.is_frozen() {
+            forms.freeze();
+        }
+        self.forms = forms;
+    }
+
+    /// Evaluates the step equations `r = F(x)`.
+    pub fn residual<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &mut self,
+        model: &M,
+        constraints: &C,
+        x: &[f64],
+        r: &mut [f64],
+    ) {
+        let (n, m, s, h) = (self.n, self.m, self.s, self.h);
+        r.fill(0.0);
+        r[..n].copy_from_slice(&self.p0);
+        let nodes = std::mem::take(&mut self.lagrangian_nodes);
+        for i in 0..nodes.nodes.len() {
+            self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+            model.lagrangian_gradient(&self.y, &self.w, &mut self.lq, &mut self.lv);
+            let b = nodes.weights[i];
+            for j in 0..s {
+                let (cq, cv) = (h * b * nodes.phi[i][j], b * nodes.dphi[i][j]);
+                let row = &mut r[j * n..(j + 1) * n];
+                for k in 0..n {
+                    row[k] += cq * self.lq[k] + cv * self.lv[k];
+                }
+            }
+        }
+        self.lagrangian_nodes = nodes;
+        if model.has_force() {
+            let nodes = std::mem::take(&mut self.force_nodes);
+            for i in 0..nodes.nodes.len() {
+                self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+                let t = self.t0 + nodes.nodes[i] * h;
+                model.force(&self.y, &self.w, t, &mut self.f);
+                let b = nodes.weights[i];
+                for j in 0..s {
+                    let cq = h * b * nodes.phi[i][j];
+                    if cq != 0.0 {
+                        let row = &mut r[j * n..(j + 1) * n];
+                        for k in 0..n {
+                            row[k] += cq * self.f[k];
+                        }
+                    }
+                }
+            }
+            self.force_nodes = nodes;
+        }
+        if m == 0 {
+            return;
+        }
+        for i in 0..self.constraint_point_count() {
+            let p = if i == 0 { Point::Start } else { Point::Control(i) };
+            self.eval_forms(constraints, x, p);
+            for (a, col, val) in self.forms.iter() {
+                let kind = self.kinds[a];
+                for j in 0..s {
+                    if self.multiplier_point(kind, j) == p {
+                        r[j * n + col] -= val * x[s * n + j * m + a];
+                    }
+                }
+                if kind == ConstraintKind::OneForm && self.kinematic_point() == p {
+                    for l in 1..=s {
+                        let dq = x[(l - 1) * n + col] - self.q0[col];
+                        r[s * n + (l - 1) * m + a] += val * dq;
+                    }
+                }
+            }
+        }
+        if self.has_holonomic {
+            for l in 1..=s {
+                let o = (l - 1) * n;
+                constraints.values(&x[o..o + n], &mut self.g);
+                for a in 0..m {
+                    if self.kinds[a] == ConstraintKind::Holonomic {
+                        r[s * n + (l - 1) * m + a] = self.g[a];
+                    }
+                }
+            }
+        }
+    }
+
+    /// Stamps the Jacobian `∂F/∂x` (fixed pattern).
+    pub fn jacobian<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &mut self,
+        model: &M,
+        constraints: &C,
+        x: &[f64],
+        jac: &mut Triplets,
+    ) {
+        let (n, m, s, h) = (self.n, self.m, self.s, self.h);
+        let nodes = std::mem::take(&mut self.lagrangian_nodes);
+        for i in 0..nodes.nodes.len() {
+            self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+            let mut hess = std::mem::take(&mut self.hessian);
+            hess.begin();
+            model.lagrangian_hessian(&self.y, &self.w, &mut hess);
+            if !hess.qq.is_frozen() {
+                hess.freeze();
+            }
+            let b = nodes.weights[i];
+            for j in 0..s {
+                let (pj, dj) = (nodes.phi[i][j], nodes.dphi[i][j]);
+                for l in 1..=s {
+                    let (pl, dl) = (nodes.phi[i][l], nodes.dphi[i][l]);
+                    let (er, uc) = (j * n, (l - 1) * n);
+                    let (aqq, aqv, avq, avv) = (h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h);
+                    if aqq != 0.0 {
+                        for (r, c, v) in hess.qq.iter() {
+                            jac.add(er + r, uc + c, aqq * v);
+                        }
+                    }
+                    for (r, c, v) in hess.qv.iter() {
+                        if aqv != 0.0 {
+                            jac.add(er + r, uc + c, aqv * v);
+                        }
+                        if avq != 0.0 {
+                            jac.add(er + c, uc + r, avq * v);
+                        }
+                    }
+                    if avv != 0.0 {
+                        for (r, c, v) in hess.vv.iter() {
+                            jac.add(er + r, uc + c, avv * v);
+                        }
+                    }
+                }
+            }
+            self.hessian = hess;
+        }
+        self.lagrangian_nodes = nodes;
+        if model.has_force() {
+            let nodes = std::mem::take(&mut self.force_nodes);
+            for i in 0..nodes.nodes.len() {
+                self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+                let t = self.t0 + nodes.nodes[i] * h;
+                let mut fj = std::mem::take(&mut self.force_jacobian);
+                fj.begin();
+                model.force_jacobian(&self.y, &self.w, t, &mut fj);
+                if !fj.q.is_frozen() {
+                    fj.freeze();
+                }
+                let b = nodes.weights[i];
+                for j in 0..s {
+                    let pj = nodes.phi[i][j];
+                    if pj == 0.0 {
+                        continue;
+                    }
+                    for l in 1..=s {
+                        let (pl, dl) = (nodes.phi[i][l], nodes.dphi[i][l]);
+                        let (er, uc) = (j * n, (l - 1) * n);
+                        let (cq, cv) = (h * b * pj * pl, b * pj * dl);
+                        if cq != 0.0 {
+                            for (r, c, v) in fj.q.iter() {
+                                jac.add(er + r, uc + c, cq * v);
+                            }
+                        }
+                        if cv != 0.0 {
+                            for (r, c, v) in fj.v.iter() {
+                                jac.add(er + r, uc + c, cv * v);
+                            }
+                        }
+                    }
+                }
+                self.force_jacobian = fj;
+            }
+            self.force_nodes = nodes;
+        }
+        if m == 0 {
+            return;
+        }
+        let constant = constraints.is_constant();
+        for i in 0..self.constraint_point_count() {
+            let p = if i == 0 { Point::Start } else { Point::Control(i) };
+            self.eval_forms(constraints, x, p);
+            for (a, col, val) in self.forms.iter() {
+                let kind = self.kinds[a];
+                for j in 0..s {
+                    if self.multiplier_point(kind, j) == p {
+                        jac.add(j * n + col, s * n + j * m + a, -val);
+                    }
+                }
+                match kind {
+                    ConstraintKind::OneForm if self.kinematic_point() == p => {
+                        for l in 1..=s {
+                            jac.add(s * n + (l - 1) * m + a, (l - 1) * n + col, val);
+                        }
+                    }
+                    ConstraintKind::Holonomic => {
+                        if let Point::Control(l) = p {
+                            jac.add(s * n + (l - 1) * m + a, (l - 1) * n + col, val);
+                        }
+                    }
+                    ConstraintKind::OneForm => {}
+                }
+            }
+            let Point::Control(pl) = p else { continue };
+            if constant {
+                continue;
+            }
+            // −∂/∂Q^pl of Aᵀ(Q^pl) Λʲ for the rows whose multiplier covector sits at this point.
+            for j in 0..s {
+                let mut any = false;
+                for a in 0..m {
+                    let here = self.multiplier_point(self.kinds[a], j) == p;
+                    self.mask[a] = if here { x[s * n + j * m + a] } else { 0.0 };
+                    any |= here;
+                }
+                if !any {
+                    continue;
+                }
+                let mut curvature = std::mem::take(&mut self.curvature);
+                curvature.begin();
+                constraints.multiplier_hessian(self.point_slice(x, p), &self.mask, &mut curvature);
+                if !curvature.is_frozen() {
+                    curvature.freeze();
+                }
+                for (r, c, v) in curvature.iter() {
+                    jac.add(j * n + r, (pl - 1) * n + c, -v);
+                }
+                self.curvature = curvature;
+            }
+            // ∂/∂Q^s of A(Q^s)·(Q^l − q_k) for one-form rows in the (−) flavour.
+            if self.kinematic_point() == p && self.kinds.contains(&ConstraintKind::OneForm) {
+                for l in 1..=s {
+                    let o = (l - 1) * n;
+                    for k in 0..n {
+                        self.dq[k] = x[o + k] - self.q0[k];
+                    }
+                    let mut contracted = std::mem::take(&mut self.contracted);
+                    contracted.begin();
+                    constraints.contracted_derivative(self.point_slice(x, p), &self.dq, &mut contracted);
+                    if !contracted.is_frozen() {
+                        contracted.freeze();
+                    }
+                    for (a, c, v) in contracted.iter() {
+                        if self.kinds[a] == ConstraintKind::OneForm {
+                            jac.add(s * n + (l - 1) * m + a, (pl - 1) * n + c, v);
+                        }
+                    }
+                    self.contracted = contracted;
+                }
+            }
+        }
+    }
+
+    /// `p_{k+1} = S_s = D₂L_d + f_d⁺` at the solution `x`.
+    pub fn end_momentum<M: Model + ?Sized>(&mut self, model: &M, x: &[f64], p1: &mut [f64]) {
+        let (n, s, h) = (self.n, self.s, self.h);
+        p1.fill(0.0);
+        let nodes = std::mem::take(&mut self.lagrangian_nodes);
+        for i in 0..nodes.nodes.len() {
+            let (cq, cv) = (h * nodes.weights[i] * nodes.phi[i][s], nodes.weights[i] * nodes.dphi[i][s]);
+            self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+            model.lagrangian_gradient(&self.y, &self.w, &mut self.lq, &mut self.lv);
+            for k in 0..n {
+                p1[k] += cq * self.lq[k] + cv * self.lv[k];
+            }
+        }
+        self.lagrangian_nodes = nodes;
+        if model.has_force() {
+            let nodes = std::mem::take(&mut self.force_nodes);
+            for i in 0..nodes.nodes.len() {
+                let cq = h * nodes.weights[i] * nodes.phi[i][s];
+                if cq == 0.0 {
+                    continue;
+                }
+                self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+                model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
+                for k in 0..n {
+                    p1[k] += cq * self.f[k];
+                }
+            }
+            self.force_nodes = nodes;
+        }
+    }
+
+    /// The constraint impulse `Aᵀ(q_k) Λ⁰` of the solved step (what `p_k` gained from constraints).
+    pub fn start_impulse<C: Constraints + ?Sized>(
+        &mut self,
+        constraints: &C,
+        x: &[f64],
+        impulse: &mut [f64],
+    ) {
+        impulse.fill(0.0);
+        if self.m == 0 {
+            return;
+        }
+        self.eval_forms(constraints, x, Point::Start);
+        let o = self.multiplier_offset(0);
+        for (a, col, val) in self.forms.iter() {
+            impulse[col] += val * x[o + a];
+        }
+    }
+
+    /// An initial guess: control points on the straight line `q_k + dⱼ h v`, multipliers zero.
+    pub fn straight_guess(&self, control_nodes: &[f64], velocity: &[f64], x: &mut [f64]) {
+        let n = self.n;
+        for l in 1..=self.s {
+            let o = (l - 1) * n;
+            for k in 0..n {
+                x[o + k] = self.q0[k] + control_nodes[l] * self.h * velocity[k];
+            }
+        }
+        x[self.s * n..].fill(0.0);
+    }
+}

@@ -1,0 +1,42 @@
+//! Errors of the time stepper.
+
+use dirac_solve::NewtonError;
+use thiserror::Error;
+
+/// Failure of a simulation, with where and when it happened.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SimError {
+    /// Newton failed in a step; `likely_cause` explains what usually produces this failure.
+    #[error("step {step} (t = {t}): {source}; {likely_cause}")]
+    Newton {
+        /// Index of the step that failed (0 is the first step).
+        step: usize,
+        /// Time at the start of that step.
+        t: f64,
+        /// The solver's report.
+        source: NewtonError,
+        /// A short hint naming the likely cause.
+        likely_cause: String,
+    },
+    /// The initial data violate a constraint that cannot be repaired by projecting velocities.
+    #[error("inconsistent initial condition: {constraint} is violated by {residual:.3e}")]
+    InconsistentInitialCondition {
+        /// Name of the violated constraint.
+        constraint: String,
+        /// Its residual.
+        residual: f64,
+    },
+    /// Vectors of the wrong length were given.
+    #[error("{what} has length {got}, expected {expected}")]
+    Dimension {
+        /// Which argument.
+        what: &'static str,
+        /// Its length.
+        got: usize,
+        /// The model dimension.
+        expected: usize,
+    },
+    /// A non-positive or non-finite step size.
+    #[error("step size must be positive and finite, got {0}")]
+    StepSize(f64),
+}

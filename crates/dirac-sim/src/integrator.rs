@@ -1,0 +1,466 @@
+//! The integrator: state, initialisation and the step loop.
+
+use dirac_core::{
+    ConstraintKind, Constraints, Discretisation, Flavour, ForcedDiracStep, Model, Triplets,
+};
+use dirac_solve::{
+    LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem,
+};
+
+use crate::error::SimError;
+use crate::linear::{AutoLu, SolverChoice};
+
+/// How to integrate: discretisation, flavour, step size and solver settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IntegratorOptions {
+    /// Path and quadrature for `L_d` and `f_d^±`.
+    pub discretisation: Discretisation,
+    /// (+) or (−) forced discrete Dirac step (irrelevant without constraints).
+    pub flavour: Flavour,
+    /// Step size `h`.
+    pub h: f64,
+    /// Dense or sparse linear algebra.
+    pub solver: SolverChoice,
+    /// Newton tolerances.
+    pub newton: NewtonOptions,
+}
+
+impl IntegratorOptions {
+    /// Options with the (+) flavour, automatic solver choice and default tolerances.
+    #[must_use]
+    pub fn new(discretisation: Discretisation, h: f64) -> Self {
+        Self {
+            discretisation,
+            flavour: Flavour::Plus,
+            h,
+            solver: SolverChoice::Auto,
+            newton: NewtonOptions::default(),
+        }
+    }
+
+    /// Sets the flavour.
+    #[must_use]
+    pub fn flavour(mut self, flavour: Flavour) -> Self {
+        self.flavour = flavour;
+        self
+    }
+
+    /// Sets the linear solver.
+    #[must_use]
+    pub fn solver(mut self, solver: SolverChoice) -> Self {
+        self.solver = solver;
+        self
+    }
+}
+
+/// What one step cost.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StepReport {
+    /// Newton counters of this step.
+    pub newton: NewtonStats,
+}
+
+/// Advances `(q_k, p_k, t_k)` of a model with constraints by forced discrete Dirac steps.
+///
+/// Without constraints each step is the forced discrete Hamiltonian map
+/// `p_k = −D₁L_d − f_d⁻`, `p_{k+1} = D₂L_d + f_d⁺`. In the (−) flavour the carried momentum is
+/// `p̃_k` (without the constraint impulse of the previous step, MATH §4); compare momenta of the
+/// two flavours only after projecting onto the constraint distribution.
+#[derive(Debug)]
+pub struct Integrator<M, C> {
+    model: M,
+    constraints: C,
+    step: ForcedDiracStep,
+    newton: Newton<AutoLu>,
+    control_nodes: Vec<f64>,
+    q: Vec<f64>,
+    p: Vec<f64>,
+    q_prev: Vec<f64>,
+    v0: Vec<f64>,
+    t: f64,
+    k: usize,
+    x: Vec<f64>,
+    x_prev: Vec<f64>,
+    p_next: Vec<f64>,
+    stats: NewtonStats,
+}
+
+struct StepSystem<'a, M: ?Sized, C: ?Sized> {
+    model: &'a M,
+    constraints: &'a C,
+    step: &'a mut ForcedDiracStep,
+    constant: bool,
+    scale: f64,
+}
+
+impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for StepSystem<'_, M, C> {
+    fn len(&self) -> usize {
+        self.step.unknowns()
+    }
+    fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+        self.step.residual(self.model, self.constraints, x, r);
+    }
+    fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+        self.step.jacobian(self.model, self.constraints, x, jac);
+    }
+    fn jacobian_is_constant(&self) -> bool {
+        self.constant
+    }
+    fn residual_scale(&self) -> f64 {
+        self.scale
+    }
+}
+
+impl<M: Model, C: Constraints> Integrator<M, C> {
+    /// An integrator at `q = 0, p = 0, t = 0`; set the state with [`Integrator::initialise`] or
+    /// [`Integrator::set_state`].
+    pub fn new(model: M, constraints: C, options: IntegratorOptions) -> Result<Self, SimError> {
+        if !(options.h > 0.0 && options.h.is_finite()) {
+            return Err(SimError::StepSize(options.h));
+        }
+        let step = ForcedDiracStep::new(
+            &model,
+            &constraints,
+            &options.discretisation,
+            options.flavour,
+            options.h,
+        );
+        let n = model.dim();
+        let unknowns = step.unknowns();
+        Ok(Self {
+            newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
+            control_nodes: options.discretisation.path().control_nodes().to_vec(),
+            model,
+            constraints,
+            step,
+            q: vec![0.0; n],
+            p: vec![0.0; n],
+            q_prev: vec![0.0; n],
+            v0: vec![0.0; n],
+            t: 0.0,
+            k: 0,
+            x: vec![0.0; unknowns],
+            x_prev: vec![0.0; unknowns],
+            p_next: vec![0.0; n],
+            stats: NewtonStats::default(),
+        })
+    }
+
+    fn check_len(&self, what: &'static str, v: &[f64]) -> Result<(), SimError> {
+        if v.len() == self.model.dim() {
+            Ok(())
+        } else {
+            Err(SimError::Dimension {
+                what,
+                got: v.len(),
+                expected: self.model.dim(),
+            })
+        }
+    }
+
+    /// Sets `(q, p, t)` directly. `p` must satisfy the primary constraints `p = ∂L/∂v` in
+    /// degenerate directions; prefer [`Integrator::initialise`] from velocities.
+    pub fn set_state(&mut self, q: &[f64], p: &[f64], t: f64) -> Result<(), SimError> {
+        self.check_len("q", q)?;
+        self.check_len("p", p)?;
+        self.q.copy_from_slice(q);
+        self.p.copy_from_slice(p);
+        self.v0.fill(0.0);
+        self.t = t;
+        self.k = 0;
+        Ok(())
+    }
+
+    /// Consistent initialisation from positions and velocities: checks holonomic constraints at
+    /// `q`, projects `v` onto `ker A(q)` (Euclidean projection), and sets `p = ∂L/∂v(q, v)`.
+    pub fn initialise(&mut self, q: &[f64], v: &[f64], t: f64) -> Result<(), SimError> {
+        self.check_len("q", q)?;
+        self.check_len("v", v)?;
+        let n = q.len();
+        let m = self.constraints.count();
+        if m > 0 {
+            let mut g = vec![0.0; m];
+            self.constraints.values(q, &mut g);
+            let qn = q.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+            for (a, ga) in g.iter().enumerate() {
+                if self.constraints.kind(a) == ConstraintKind::Holonomic
+                    && ga.abs() > 1e-10 * (1.0 + qn)
+                {
+                    return Err(SimError::InconsistentInitialCondition {
+                        constraint: self.constraints.name(a),
+                        residual: *ga,
+                    });
+                }
+            }
+        }
+        let projected = if m > 0 && v.iter().any(|x| *x != 0.0) {
+            project_velocity(&self.constraints, q, v)?
+        } else {
+            v.to_vec()
+        };
+        let mut lq = vec![0.0; n];
+        let mut p = vec![0.0; n];
+        self.model.lagrangian_gradient(q, &projected, &mut lq, &mut p);
+        self.q.copy_from_slice(q);
+        self.p.copy_from_slice(&p);
+        self.v0.copy_from_slice(&projected);
+        self.t = t;
+        self.k = 0;
+        Ok(())
+    }
+
+    /// Advances one step.
+    pub fn step(&mut self) -> Result<StepReport, SimError> {
+        let n = self.model.dim();
+        let s = self.step.degree();
+        self.step.set_start(&self.q, &self.p, self.t);
+        if self.k == 0 {
+            self.step.straight_guess(&self.control_nodes, &self.v0, &mut self.x);
+        } else {
+            // Constant-velocity extrapolation of the previous step's control points and multipliers.
+            for l in 0..s {
+                for i in 0..n {
+                    let o = l * n + i;
+                    self.x[o] = self.x_prev[o] + self.q[i] - self.q_prev[i];
+                }
+            }
+            self.x[s * n..].copy_from_slice(&self.x_prev[s * n..]);
+        }
+        let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
+        let mut system = StepSystem {
+            model: &self.model,
+            constraints: &self.constraints,
+            constant: self.step.jacobian_is_constant(&self.model, &self.constraints),
+            step: &mut self.step,
+            scale,
+        };
+        let stats = match self.newton.solve(&mut system, &mut self.x) {
+            Ok(stats) => stats,
+            Err(source) => {
+                let likely_cause = self.likely_cause(&source);
+                return Err(SimError::Newton {
+                    step: self.k,
+                    t: self.t,
+                    source,
+                    likely_cause,
+                });
+            }
+        };
+        self.step.end_momentum(&self.model, &self.x, &mut self.p_next);
+        self.q_prev.copy_from_slice(&self.q);
+        let end = self.step.control_offset(s);
+        self.q.copy_from_slice(&self.x[end..end + n]);
+        std::mem::swap(&mut self.p, &mut self.p_next);
+        std::mem::swap(&mut self.x, &mut self.x_prev);
+        self.k += 1;
+        self.t += self.step.step_size();
+        self.stats.accumulate(&stats);
+        Ok(StepReport { newton: stats })
+    }
+
+    /// Describes equation `row` of the step system.
+    #[must_use]
+    pub fn describe_equation(&self, row: usize) -> String {
+        let n = self.model.dim();
+        let s = self.step.degree();
+        if row < s * n {
+            format!(
+                "momentum balance of coordinate `{}` at control point {}",
+                self.model.coordinate_name(row % n),
+                row / n
+            )
+        } else {
+            let m = self.constraints.count().max(1);
+            let a = (row - s * n) % m;
+            format!("constraint `{}`", self.constraints.name(a))
+        }
+    }
+
+    /// Describes unknown `col` of the step system.
+    #[must_use]
+    pub fn describe_unknown(&self, col: usize) -> String {
+        let n = self.model.dim();
+        let s = self.step.degree();
+        if col < s * n {
+            format!("coordinate `{}`", self.model.coordinate_name(col % n))
+        } else {
+            let m = self.constraints.count().max(1);
+            format!("multiplier of constraint `{}`", self.constraints.name((col - s * n) % m))
+        }
+    }
+
+    fn likely_cause(&self, error: &NewtonError) -> String {
+        match error {
+            NewtonError::Linear { source, .. } => match source {
+                LinearSolveError::EmptyRow { row } => format!(
+                    "{} has no entries (an empty constraint row)",
+                    self.describe_equation(*row)
+                ),
+                LinearSolveError::EmptyColumn { col } => format!(
+                    "{} appears in no equation (a degenerate direction with neither potential nor constraint)",
+                    self.describe_unknown(*col)
+                ),
+                LinearSolveError::NumericallySingular { index }
+                | LinearSolveError::StructurallySingular { index }
+                | LinearSolveError::NonFinite { index } => format!(
+                    "singular Newton matrix near {}: a coordinate no equation determines, or redundant or contradicting constraints",
+                    self.describe_unknown((*index).min(self.step.unknowns().saturating_sub(1)))
+                ),
+                LinearSolveError::Pattern(_) => {
+                    "a model or constraint emitted a different derivative pattern between calls".into()
+                }
+                LinearSolveError::Backend(_) => "the sparse solver failed".into(),
+            },
+            NewtonError::NotConverged { worst_equation, .. } => format!(
+                "largest residual in {}: step too large for the nonlinearity, or constraints that cannot all hold",
+                self.describe_equation(*worst_equation)
+            ),
+            NewtonError::NonFiniteResidual { equation, .. } => format!(
+                "the model returned NaN or infinity in {}: the state left the model's domain",
+                self.describe_equation(*equation)
+            ),
+        }
+    }
+
+    /// `q_k`.
+    #[must_use]
+    pub fn q(&self) -> &[f64] {
+        &self.q
+    }
+
+    /// The carried momentum `p_k` (`p̃_k` in the (−) flavour).
+    #[must_use]
+    pub fn p(&self) -> &[f64] {
+        &self.p
+    }
+
+    /// `t_k`.
+    #[must_use]
+    pub fn t(&self) -> f64 {
+        self.t
+    }
+
+    /// Steps taken since initialisation.
+    #[must_use]
+    pub fn steps_taken(&self) -> usize {
+        self.k
+    }
+
+    /// Newton counters accumulated since construction.
+    #[must_use]
+    pub fn stats(&self) -> NewtonStats {
+        self.stats
+    }
+
+    /// The model.
+    #[must_use]
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// The constraints.
+    #[must_use]
+    pub fn constraints(&self) -> &C {
+        &self.constraints
+    }
+
+    /// The unknowns of the last solved step (control points, then multipliers).
+    #[must_use]
+    pub fn last_unknowns(&self) -> &[f64] {
+        &self.x_prev
+    }
+
+    /// Multipliers `Λ⁰` of the last step: the constraint impulses at its start, one per row.
+    #[must_use]
+    pub fn last_multipliers(&self) -> &[f64] {
+        let o = self.step.multiplier_offset(0);
+        &self.x_prev[o..o + self.constraints.count()]
+    }
+
+    /// The step equations (for diagnostics and tests).
+    #[must_use]
+    pub fn step_equations(&self) -> &ForcedDiracStep {
+        &self.step
+    }
+}
+
+/// Euclidean projection of `v` onto `ker A(q)`: solves `[I Aᵀ; A 0][w; μ] = [v; 0]`.
+fn project_velocity<C: Constraints + ?Sized>(
+    constraints: &C,
+    q: &[f64],
+    v: &[f64],
+) -> Result<Vec<f64>, SimError> {
+    struct Projection {
+        n: usize,
+        m: usize,
+        forms: Vec<(usize, usize, f64)>,
+        v: Vec<f64>,
+    }
+    impl NonlinearSystem for Projection {
+        fn len(&self) -> usize {
+            self.n + self.m
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            let n = self.n;
+            for i in 0..n {
+                r[i] = x[i] - self.v[i];
+            }
+            r[n..].fill(0.0);
+            for &(a, j, c) in &self.forms {
+                r[j] += c * x[n + a];
+                r[n + a] += c * x[j];
+            }
+        }
+        fn jacobian(&mut self, _x: &[f64], jac: &mut Triplets) {
+            for i in 0..self.n {
+                jac.add(i, i, 1.0);
+            }
+            for &(a, j, c) in &self.forms {
+                jac.add(j, self.n + a, c);
+                jac.add(self.n + a, j, c);
+            }
+        }
+        fn jacobian_is_constant(&self) -> bool {
+            true
+        }
+    }
+    let n = q.len();
+    let m = constraints.count();
+    let mut t = Triplets::new();
+    t.begin();
+    constraints.forms(q, &mut t);
+    let forms: Vec<(usize, usize, f64)> = t.iter().collect();
+    let mut system = Projection {
+        n,
+        m,
+        forms,
+        v: v.to_vec(),
+    };
+    let mut x = vec![0.0; n + m];
+    x[..n].copy_from_slice(v);
+    let mut newton = Newton::new(
+        AutoLu::for_size(SolverChoice::Auto, n + m),
+        NewtonOptions::default(),
+    );
+    match newton.solve(&mut system, &mut x) {
+        Ok(_) => Ok(x[..n].to_vec()),
+        Err(NewtonError::Linear { source, .. }) => {
+            let constraint = match source {
+                LinearSolveError::EmptyRow { row } | LinearSolveError::EmptyColumn { col: row }
+                    if row >= n =>
+                {
+                    constraints.name(row - n)
+                }
+                _ => "the constraint set (rows are linearly dependent)".to_string(),
+            };
+            Err(SimError::InconsistentInitialCondition {
+                constraint,
+                residual: f64::NAN,
+            })
+        }
+        Err(other) => Err(SimError::InconsistentInitialCondition {
+            constraint: format!("velocity projection ({other})"),
+            residual: f64::NAN,
+        }),
+    }
+}

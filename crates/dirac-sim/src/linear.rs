@@ -1,0 +1,58 @@
+//! Choice of linear solver by system size.
+
+use dirac_solve::{DenseLu, LinearSolveError, LinearSolver, SparseLu};
+
+/// Which linear solver the Newton iteration uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SolverChoice {
+    /// Dense up to [`DenseLu::AUTO_LIMIT`] unknowns, sparse LU above.
+    #[default]
+    Auto,
+    /// Always dense LU.
+    Dense,
+    /// Always sparse LU (faer).
+    Sparse,
+}
+
+/// Dense or sparse LU behind one [`LinearSolver`].
+#[derive(Debug)]
+pub enum AutoLu {
+    /// Dense partial-pivoting LU.
+    Dense(DenseLu),
+    /// Sparse LU on faer.
+    Sparse(SparseLu),
+}
+
+impl AutoLu {
+    /// The solver for a system of `n` unknowns.
+    #[must_use]
+    pub fn for_size(choice: SolverChoice, n: usize) -> Self {
+        match choice {
+            SolverChoice::Dense => Self::Dense(DenseLu::new()),
+            SolverChoice::Sparse => Self::Sparse(SparseLu::default()),
+            SolverChoice::Auto if n <= DenseLu::AUTO_LIMIT => Self::Dense(DenseLu::new()),
+            SolverChoice::Auto => Self::Sparse(SparseLu::default()),
+        }
+    }
+}
+
+impl LinearSolver for AutoLu {
+    fn analyse(&mut self, n: usize, rows: &[usize], cols: &[usize]) -> Result<(), LinearSolveError> {
+        match self {
+            Self::Dense(s) => s.analyse(n, rows, cols),
+            Self::Sparse(s) => s.analyse(n, rows, cols),
+        }
+    }
+    fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError> {
+        match self {
+            Self::Dense(s) => s.factor(values),
+            Self::Sparse(s) => s.factor(values),
+        }
+    }
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
+        match self {
+            Self::Dense(s) => s.solve_in_place(rhs),
+            Self::Sparse(s) => s.solve_in_place(rhs),
+        }
+    }
+}

@@ -1,0 +1,22 @@
+//! Time-unaware Newton solver for the implicit step equations of `dirac`.
+//!
+//! This crate knows residuals and Jacobians, not Lagrangians: a [`NonlinearSystem`] supplies `F(x)`
+//! and the Jacobian as a fixed stream of triplets ([`Triplets`]); [`Newton`] solves `F(x) = 0` with
+//! a [`LinearSolver`] back end (dense LU for small systems, sparse LU on faer for large ones).
+//!
+//! The Jacobian pattern is analysed once; afterwards values are refilled in place, rows are
+//! equilibrated, and for systems whose Jacobian is constant the factorisation is reused for the
+//! whole run. Every solve is checked for non-finite values, so a numerically singular matrix is
+//! reported as an error instead of propagating NaN.
+
+mod dense;
+mod error;
+mod newton;
+mod sparse;
+mod triplets;
+
+pub use dense::DenseLu;
+pub use error::{LinearSolveError, NewtonError};
+pub use newton::{LinearSolver, Newton, NewtonOptions, NewtonStats, NonlinearSystem};
+pub use sparse::SparseLu;
+pub use triplets::{PatternMismatch, Triplets};
