@@ -26,8 +26,9 @@ enum Point {
 
 /// The equations of one step from `(q_k, p_k, t_k)` with a Galerkin discretisation of degree `s`.
 ///
-/// Unknowns `x = [Q¹ … Q^s, Λ⁰ … Λ^{s−1}]` (control points, then one multiplier vector per
-/// stationarity equation). With `S_j = h Σᵢ bᵢ [ℓⱼ(cᵢ)(∂L/∂q + f) + ℓⱼ'(cᵢ)/h ∂L/∂v]` the equations are
+/// Unknowns `x = [Z¹ … Z^s, Λ⁰ … Λ^{s−1}]`: the control-point increments `Z^l = Q^l − q_k`, then
+/// one multiplier vector per stationarity equation. Solving for increments keeps round-off
+/// relative to `h·v` rather than to `q`: the velocity `Σ ℓ_l'(σ) Z^l / h` involves no cancellation. With `S_j = h Σᵢ bᵢ [ℓⱼ(cᵢ)(∂L/∂q + f) + ℓⱼ'(cᵢ)/h ∂L/∂v]` the equations are
 ///
 /// ```text
 /// E₀:  p_k + S₀ − Aᵀ(P₀) Λ⁰ = 0            (p_k = −D₁L_d − f_d⁻ + constraint impulse)
@@ -58,6 +59,7 @@ pub struct ForcedDiracStep {
     lv: Vec<f64>,
     f: Vec<f64>,
     dq: Vec<f64>,
+    point: Vec<f64>,
     mask: Vec<f64>,
     hessian: LagrangianHessian,
     force_jacobian: ForceJacobian,
@@ -99,6 +101,7 @@ impl ForcedDiracStep {
             lv: vec![0.0; n],
             f: vec![0.0; n],
             dq: vec![0.0; n],
+            point: vec![0.0; n],
             mask: vec![0.0; m],
             hessian: LagrangianHessian::default(),
             force_jacobian: ForceJacobian::default(),
@@ -150,7 +153,7 @@ impl ForcedDiracStep {
         self.s * (self.n + self.m)
     }
 
-    /// Offset of control point `Q^l` (`l = 1..=s`) in the unknown vector.
+    /// Offset of the increment `Z^l = Q^l − q_k` (`l = 1..=s`) in the unknown vector.
     #[must_use]
     pub fn control_offset(&self, l: usize) -> usize {
         (l - 1) * self.n
@@ -188,11 +191,12 @@ impl ForcedDiracStep {
         &self.q0
     }
 
-    /// The end point `q_{k+1} = Q^s` inside an unknown vector.
-    #[must_use]
-    pub fn end_position<'a>(&self, x: &'a [f64]) -> &'a [f64] {
+    /// Writes the end point `q_{k+1} = q_k + Z^s` of an unknown vector into `q1`.
+    pub fn end_position(&self, x: &[f64], q1: &mut [f64]) {
         let o = self.control_offset(self.s);
-        &x[o..o + self.n]
+        for ((out, q), z) in q1.iter_mut().zip(&self.q0).zip(&x[o..o + self.n]) {
+            *out = q + z;
+        }
     }
 
     /// Whether the Newton matrix is constant for this model and constraint set at fixed `h`.
@@ -204,14 +208,13 @@ impl ForcedDiracStep {
         model.is_linear() && constraints.is_constant()
     }
 
-    /// Fills the path value `y` and velocity `w` at a node with basis row (`phi`, `dphi`).
+    /// Fills the path value `y = q_k + Σ ℓ_l Z^l` and velocity `w = Σ ℓ_l' Z^l / h` at a node with
+    /// basis row (`phi`, `dphi`) (the basis sums to one and its derivative to zero).
     fn eval_path(&mut self, x: &[f64], phi: &[f64], dphi: &[f64]) {
         let n = self.n;
         let inv_h = 1.0 / self.h;
-        for k in 0..n {
-            self.y[k] = phi[0] * self.q0[k];
-            self.w[k] = dphi[0] * self.q0[k];
-        }
+        self.y.copy_from_slice(&self.q0);
+        self.w.fill(0.0);
         for l in 1..=self.s {
             let o = (l - 1) * n;
             let (a, b) = (phi[l], dphi[l]);
@@ -243,12 +246,13 @@ impl ForcedDiracStep {
         }
     }
 
-    fn point_slice<'a>(&'a self, x: &'a [f64], p: Point) -> &'a [f64] {
-        match p {
-            Point::Start => &self.q0,
-            Point::Control(l) => {
-                let o = (l - 1) * self.n;
-                &x[o..o + self.n]
+    /// Loads the position of point `p` into `self.point`.
+    fn load_point(&mut self, x: &[f64], p: Point) {
+        self.point.copy_from_slice(&self.q0);
+        if let Point::Control(l) = p {
+            let o = (l - 1) * self.n;
+            for (out, z) in self.point.iter_mut().zip(&x[o..o + self.n]) {
+                *out += z;
             }
         }
     }
@@ -266,9 +270,10 @@ impl ForcedDiracStep {
     }
 
     fn eval_forms<C: Constraints + ?Sized>(&mut self, constraints: &C, x: &[f64], p: Point) {
+        self.load_point(x, p);
         let mut forms = std::mem::take(&mut self.forms);
         forms.begin();
-        constraints.forms(self.point_slice(x, p), &mut forms);
+        constraints.forms(&self.point, &mut forms);
         if !forms.is_frozen() {
             forms.freeze();
         }
@@ -334,16 +339,15 @@ impl ForcedDiracStep {
                 }
                 if kind == ConstraintKind::OneForm && self.kinematic_point() == p {
                     for l in 1..=s {
-                        let dq = x[(l - 1) * n + col] - self.q0[col];
-                        r[s * n + (l - 1) * m + a] += val * dq;
+                        r[s * n + (l - 1) * m + a] += val * x[(l - 1) * n + col];
                     }
                 }
             }
         }
         if self.has_holonomic {
             for l in 1..=s {
-                let o = (l - 1) * n;
-                constraints.values(&x[o..o + n], &mut self.g);
+                self.load_point(x, Point::Control(l));
+                constraints.values(&self.point, &mut self.g);
                 for a in 0..m {
                     if self.kinds[a] == ConstraintKind::Holonomic {
                         r[s * n + (l - 1) * m + a] = self.g[a];
@@ -481,9 +485,10 @@ impl ForcedDiracStep {
                 if !any {
                     continue;
                 }
+                self.load_point(x, p);
                 let mut curvature = std::mem::take(&mut self.curvature);
                 curvature.begin();
-                constraints.multiplier_hessian(self.point_slice(x, p), &self.mask, &mut curvature);
+                constraints.multiplier_hessian(&self.point, &self.mask, &mut curvature);
                 if !curvature.is_frozen() {
                     curvature.freeze();
                 }
@@ -494,14 +499,13 @@ impl ForcedDiracStep {
             }
             // ∂/∂Q^s of A(Q^s)·(Q^l − q_k) for one-form rows in the (−) flavour.
             if self.kinematic_point() == p && self.kinds.contains(&ConstraintKind::OneForm) {
+                self.load_point(x, p);
                 for l in 1..=s {
                     let o = (l - 1) * n;
-                    for k in 0..n {
-                        self.dq[k] = x[o + k] - self.q0[k];
-                    }
+                    self.dq.copy_from_slice(&x[o..o + n]);
                     let mut contracted = std::mem::take(&mut self.contracted);
                     contracted.begin();
-                    constraints.contracted_derivative(self.point_slice(x, p), &self.dq, &mut contracted);
+                    constraints.contracted_derivative(&self.point, &self.dq, &mut contracted);
                     if !contracted.is_frozen() {
                         contracted.freeze();
                     }
@@ -571,7 +575,7 @@ impl ForcedDiracStep {
         for l in 1..=self.s {
             let o = (l - 1) * n;
             for k in 0..n {
-                x[o + k] = self.q0[k] + control_nodes[l] * self.h * velocity[k];
+                x[o + k] = control_nodes[l] * self.h * velocity[k];
             }
         }
         x[self.s * n..].fill(0.0);

@@ -1,1 +1,13 @@
-//! placeholder
+//! Reference problems with exact solutions and invariants, shared by tests, benches and examples.
+//!
+//! Every model here writes its derivatives by hand; the generic twins (`*Generic`) write only
+//! `L(q, v)` and `f(q, v, t)` and get derivatives from `dirac_core::AutoDiff`, so tests can check
+//! one against the other.
+
+mod oscillator;
+mod pendulum;
+mod rlc;
+
+pub use oscillator::{ArtificialPotential, DampedOscillator, SplitOscillator};
+pub use pendulum::{QuarticPendulums, QuarticPendulumsGeneric};
+pub use rlc::{RlcLoop, rlc_exact};

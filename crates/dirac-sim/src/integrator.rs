@@ -75,7 +75,6 @@ pub struct Integrator<M, C> {
     control_nodes: Vec<f64>,
     q: Vec<f64>,
     p: Vec<f64>,
-    q_prev: Vec<f64>,
     v0: Vec<f64>,
     t: f64,
     k: usize,
@@ -135,7 +134,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             step,
             q: vec![0.0; n],
             p: vec![0.0; n],
-            q_prev: vec![0.0; n],
             v0: vec![0.0; n],
             t: 0.0,
             k: 0,
@@ -211,20 +209,12 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
 
     /// Advances one step.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
-        let n = self.model.dim();
-        let s = self.step.degree();
         self.step.set_start(&self.q, &self.p, self.t);
         if self.k == 0 {
             self.step.straight_guess(&self.control_nodes, &self.v0, &mut self.x);
         } else {
-            // Constant-velocity extrapolation of the previous step's control points and multipliers.
-            for l in 0..s {
-                for i in 0..n {
-                    let o = l * n + i;
-                    self.x[o] = self.x_prev[o] + self.q[i] - self.q_prev[i];
-                }
-            }
-            self.x[s * n..].copy_from_slice(&self.x_prev[s * n..]);
+            // Constant-velocity extrapolation: reuse the previous increments and multipliers.
+            self.x.copy_from_slice(&self.x_prev);
         }
         let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
         let mut system = StepSystem {
@@ -247,9 +237,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             }
         };
         self.step.end_momentum(&self.model, &self.x, &mut self.p_next);
-        self.q_prev.copy_from_slice(&self.q);
-        let end = self.step.control_offset(s);
-        self.q.copy_from_slice(&self.x[end..end + n]);
+        self.step.end_position(&self.x, &mut self.q);
         std::mem::swap(&mut self.p, &mut self.p_next);
         std::mem::swap(&mut self.x, &mut self.x_prev);
         self.k += 1;
