@@ -17,6 +17,8 @@ mod discretisation;
 mod model;
 mod path;
 mod quadrature;
+mod rank;
+mod shooting;
 mod step;
 
 pub use auto::{AutoDiff, GenericModel};
@@ -25,6 +27,11 @@ pub use discretisation::Discretisation;
 pub use model::{ForceJacobian, LagrangianHessian, Model};
 pub use path::PolynomialPath;
 pub use quadrature::{QuadratureKind, QuadratureRule};
+pub use rank::{RowAnalysis, RowSubset, analyse_rows};
+pub use shooting::{
+    OneStepMap, ShootingDiscretisation, ShootingError, ShootingStep, momentum,
+    velocity_from_momentum,
+};
 pub use step::{Flavour, ForcedDiracStep};
 
 /// Re-export of the triplet stream type models stamp derivatives into.

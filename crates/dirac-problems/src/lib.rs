@@ -4,10 +4,12 @@
 //! `L(q, v)` and `f(q, v, t)` and get derivatives from `dirac_core::AutoDiff`, so tests can check
 //! one against the other.
 
+mod mechanics;
 mod oscillator;
 mod pendulum;
 mod rlc;
 
+pub use mechanics::{CircleConstraint, FreeMasses, RollingDiskForms};
 pub use oscillator::{ArtificialPotential, DampedOscillator, SplitOscillator};
 pub use pendulum::{QuarticPendulums, QuarticPendulumsGeneric};
-pub use rlc::{RlcLoop, rlc_exact};
+pub use rlc::{LcTank, RlcLoop, rlc_exact};

@@ -83,3 +83,52 @@ pub fn rlc_exact(rlc: &RlcLoop, q0: f64, t: f64) -> f64 {
     let wd = (1.0 / (rlc.l * rlc.c) - gamma * gamma).sqrt();
     q0 * (-gamma * t).exp() * ((wd * t).cos() + gamma / wd * (wd * t).sin())
 }
+
+/// Degenerate LC tank on `q = (q_C, q_L)`: `L = ½ L v_L² − q_C²/(2C)`, one-form `dq_L − dq_C`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LcTank {
+    /// Inductance.
+    pub l: f64,
+    /// Capacitance.
+    pub c: f64,
+}
+
+impl LcTank {
+    /// The loop constraint `dq_L − dq_C`.
+    #[must_use]
+    pub fn kcl() -> LinearForms {
+        let mut forms = LinearForms::new(2);
+        forms.push("kcl(L,C)", &[(1, 1.0), (0, -1.0)]);
+        forms
+    }
+
+    /// Energy with the loop momentum `P = p_C + p_L`.
+    #[must_use]
+    pub fn energy(&self, q: &[f64], p: &[f64]) -> f64 {
+        let loop_p = p[0] + p[1];
+        loop_p * loop_p / (2.0 * self.l) + q[0] * q[0] / (2.0 * self.c)
+    }
+}
+
+impl Model for LcTank {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64 {
+        0.5 * self.l * v[1] * v[1] - q[0] * q[0] / (2.0 * self.c)
+    }
+    fn lagrangian_gradient(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+        lq.copy_from_slice(&[-q[0] / self.c, 0.0]);
+        lv.copy_from_slice(&[0.0, self.l * v[1]]);
+    }
+    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
+        h.qq.add(0, 0, -1.0 / self.c);
+        h.vv.add(1, 1, self.l);
+    }
+    fn is_linear(&self) -> bool {
+        true
+    }
+    fn coordinate_name(&self, i: usize) -> String {
+        ["qC", "qL"][i].to_string()
+    }
+}

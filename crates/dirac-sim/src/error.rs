@@ -26,6 +26,12 @@ pub enum SimError {
         /// Its residual.
         residual: f64,
     },
+    /// A constraint row has no nonzero coefficient: it constrains nothing.
+    #[error("constraint `{constraint}` is empty (all its coefficients are zero)")]
+    EmptyConstraint {
+        /// Name of the empty row.
+        constraint: String,
+    },
     /// Vectors of the wrong length were given.
     #[error("{what} has length {got}, expected {expected}")]
     Dimension {

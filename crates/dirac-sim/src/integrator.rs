@@ -1,7 +1,8 @@
 //! The integrator: state, initialisation and the step loop.
 
 use dirac_core::{
-    ConstraintKind, Constraints, Discretisation, Flavour, ForcedDiracStep, Model, Triplets,
+    ConstraintKind, Constraints, Discretisation, Flavour, ForcedDiracStep, Model, RowSubset,
+    Triplets, analyse_rows,
 };
 use dirac_solve::{
     LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem,
@@ -10,13 +11,44 @@ use dirac_solve::{
 use crate::error::SimError;
 use crate::linear::{AutoLu, SolverChoice};
 
+/// Relative size below which a reduced constraint row counts as linearly dependent.
+const REDUNDANCY_TOL: f64 = 1e-10;
+
+/// Largest `|g(q₀)|` (relative to `1 + ‖q₀‖∞`) accepted for a holonomic constraint at start.
+const HOLONOMIC_TOL: f64 = 1e-10;
+
+/// Which forced discrete Dirac scheme advances the state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Scheme {
+    /// The (+) step: constraint forms at `q_k`.
+    #[default]
+    Plus,
+    /// The (−) step: constraint forms at `q_{k+1}` (look-ahead form, MATH §4).
+    Minus,
+    /// The composition (−) over `h/2`, then (+) over `h/2`: both kinematic constraints sit at the
+    /// midpoint `q_{k+½}` and the map is symmetric. For constant forms it gives the same positions
+    /// as (+)/(−) with two half steps; for q-dependent forms it removes the one-sided energy drift
+    /// of (+) (which dissipates) and (−) (which gains): on the vertical rolling disk it conserves
+    /// the energy exactly.
+    Symmetric,
+}
+
+impl From<Flavour> for Scheme {
+    fn from(f: Flavour) -> Self {
+        match f {
+            Flavour::Plus => Self::Plus,
+            Flavour::Minus => Self::Minus,
+        }
+    }
+}
+
 /// How to integrate: discretisation, flavour, step size and solver settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IntegratorOptions {
     /// Path and quadrature for `L_d` and `f_d^±`.
     pub discretisation: Discretisation,
-    /// (+) or (−) forced discrete Dirac step (irrelevant without constraints).
-    pub flavour: Flavour,
+    /// (+), (−) or symmetric forced discrete Dirac scheme (irrelevant without constraints).
+    pub scheme: Scheme,
     /// Step size `h`.
     pub h: f64,
     /// Dense or sparse linear algebra.
@@ -31,17 +63,24 @@ impl IntegratorOptions {
     pub fn new(discretisation: Discretisation, h: f64) -> Self {
         Self {
             discretisation,
-            flavour: Flavour::Plus,
+            scheme: Scheme::Plus,
             h,
             solver: SolverChoice::Auto,
             newton: NewtonOptions::default(),
         }
     }
 
-    /// Sets the flavour.
+    /// Sets the flavour of a single-stage scheme.
     #[must_use]
     pub fn flavour(mut self, flavour: Flavour) -> Self {
-        self.flavour = flavour;
+        self.scheme = flavour.into();
+        self
+    }
+
+    /// Sets the scheme.
+    #[must_use]
+    pub fn scheme(mut self, scheme: Scheme) -> Self {
+        self.scheme = scheme;
         self
     }
 
@@ -69,19 +108,65 @@ pub struct StepReport {
 #[derive(Debug)]
 pub struct Integrator<M, C> {
     model: M,
-    constraints: C,
-    step: ForcedDiracStep,
-    newton: Newton<AutoLu>,
+    constraints: RowSubset<C>,
+    options: IntegratorOptions,
+    warnings: Vec<String>,
+    stages: Vec<Stage>,
     control_nodes: Vec<f64>,
     q: Vec<f64>,
     p: Vec<f64>,
     v0: Vec<f64>,
     t: f64,
     k: usize,
-    x: Vec<f64>,
-    x_prev: Vec<f64>,
     p_next: Vec<f64>,
     stats: NewtonStats,
+}
+
+/// One substep of a scheme: its step equations, its Newton solver (which keeps that substep's
+/// pattern and, for linear models, its factorisation) and its unknowns.
+#[derive(Debug)]
+struct Stage {
+    step: ForcedDiracStep,
+    newton: Newton<AutoLu>,
+    x: Vec<f64>,
+    x_prev: Vec<f64>,
+}
+
+impl Stage {
+    fn new<M: Model, C: Constraints>(
+        model: &M,
+        constraints: &C,
+        options: &IntegratorOptions,
+        flavour: Flavour,
+        h: f64,
+    ) -> Self {
+        let step =
+            ForcedDiracStep::new(model, constraints, &options.discretisation, flavour, h);
+        let unknowns = step.unknowns();
+        Self {
+            newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
+            x: vec![0.0; unknowns],
+            x_prev: vec![0.0; unknowns],
+            step,
+        }
+    }
+
+    /// The substeps of `options.scheme`.
+    fn for_scheme<M: Model, C: Constraints>(
+        model: &M,
+        constraints: &C,
+        options: &IntegratorOptions,
+    ) -> Vec<Self> {
+        let h = options.h;
+        match options.scheme {
+            Scheme::Plus => vec![Self::new(model, constraints, options, Flavour::Plus, h)],
+            Scheme::Minus => vec![Self::new(model, constraints, options, Flavour::Minus, h)],
+            Scheme::Symmetric => vec![
+                Self::new(model, constraints, options, Flavour::Minus, 0.5 * h),
+                Self::new(model, constraints, options, Flavour::Plus, 0.5 * h),
+            ],
+        }
+    }
 }
 
 struct StepSystem<'a, M: ?Sized, C: ?Sized> {
@@ -112,33 +197,26 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for StepSystem<
 
 impl<M: Model, C: Constraints> Integrator<M, C> {
     /// An integrator at `q = 0, p = 0, t = 0`; set the state with [`Integrator::initialise`] or
-    /// [`Integrator::set_state`].
+    /// [`Integrator::set_state`], which also check the constraint rows at the initial point.
     pub fn new(model: M, constraints: C, options: IntegratorOptions) -> Result<Self, SimError> {
         if !(options.h > 0.0 && options.h.is_finite()) {
             return Err(SimError::StepSize(options.h));
         }
-        let step = ForcedDiracStep::new(
-            &model,
-            &constraints,
-            &options.discretisation,
-            options.flavour,
-            options.h,
-        );
+        let constraints = RowSubset::new(constraints, &[]);
+        let stages = Stage::for_scheme(&model, &constraints, &options);
         let n = model.dim();
-        let unknowns = step.unknowns();
         Ok(Self {
-            newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
             control_nodes: options.discretisation.path().control_nodes().to_vec(),
             model,
             constraints,
-            step,
+            options,
+            warnings: Vec::new(),
+            stages,
             q: vec![0.0; n],
             p: vec![0.0; n],
             v0: vec![0.0; n],
             t: 0.0,
             k: 0,
-            x: vec![0.0; unknowns],
-            x_prev: vec![0.0; unknowns],
             p_next: vec![0.0; n],
             stats: NewtonStats::default(),
         })
@@ -156,11 +234,78 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
     }
 
+    /// Checks that `q` satisfies every holonomic constraint of the full set (before redundant rows
+    /// are dropped, so two contradicting constraints are reported rather than pruned).
+    fn check_positions(&self, q: &[f64]) -> Result<(), SimError> {
+        let full = self.constraints.inner();
+        let m = full.count();
+        if m == 0 {
+            return Ok(());
+        }
+        let mut g = vec![0.0; m];
+        full.values(q, &mut g);
+        let qn = q.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
+        for (a, ga) in g.iter().enumerate() {
+            if full.kind(a) == ConstraintKind::Holonomic && ga.abs() > HOLONOMIC_TOL * (1.0 + qn) {
+                return Err(SimError::InconsistentInitialCondition {
+                    constraint: full.name(a),
+                    residual: *ga,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks the constraint rows at `q`: empty rows are an error; rows that depend linearly on
+    /// earlier ones (KCL written at every node, a closed kinematic loop) are dropped with a
+    /// warning naming them, and the step equations are rebuilt without them.
+    fn prune_constraints(&mut self, q: &[f64]) -> Result<(), SimError> {
+        let full = self.constraints.inner();
+        let m = full.count();
+        if m == 0 {
+            return Ok(());
+        }
+        let mut forms = Triplets::new();
+        forms.begin();
+        full.forms(q, &mut forms);
+        let analysis = analyse_rows(m, self.model.dim(), &forms, REDUNDANCY_TOL);
+        if let Some(&a) = analysis.empty.first() {
+            return Err(SimError::EmptyConstraint {
+                constraint: full.name(a),
+            });
+        }
+        let unchanged = self.constraints.count() + analysis.dependent.len() == m
+            && analysis
+                .dependent
+                .iter()
+                .all(|a| !self.constraints.kept().contains(a));
+        if unchanged {
+            return Ok(());
+        }
+        for &a in &analysis.dependent {
+            self.warnings.push(format!(
+                "constraint `{}` is linearly dependent on the others at the initial point; dropped",
+                full.name(a)
+            ));
+        }
+        self.constraints.set_dropped(&analysis.dependent);
+        self.stages = Stage::for_scheme(&self.model, &self.constraints, &self.options);
+        Ok(())
+    }
+
+    /// Warnings raised while setting up (dropped redundant constraints).
+    #[must_use]
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
     /// Sets `(q, p, t)` directly. `p` must satisfy the primary constraints `p = ∂L/∂v` in
     /// degenerate directions; prefer [`Integrator::initialise`] from velocities.
     pub fn set_state(&mut self, q: &[f64], p: &[f64], t: f64) -> Result<(), SimError> {
         self.check_len("q", q)?;
         self.check_len("p", p)?;
+        self.check_positions(q)?;
+        self.prune_constraints(q)?;
         self.q.copy_from_slice(q);
         self.p.copy_from_slice(p);
         self.v0.fill(0.0);
@@ -174,23 +319,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     pub fn initialise(&mut self, q: &[f64], v: &[f64], t: f64) -> Result<(), SimError> {
         self.check_len("q", q)?;
         self.check_len("v", v)?;
+        self.check_positions(q)?;
+        self.prune_constraints(q)?;
         let n = q.len();
         let m = self.constraints.count();
-        if m > 0 {
-            let mut g = vec![0.0; m];
-            self.constraints.values(q, &mut g);
-            let qn = q.iter().fold(0.0_f64, |a, x| a.max(x.abs()));
-            for (a, ga) in g.iter().enumerate() {
-                if self.constraints.kind(a) == ConstraintKind::Holonomic
-                    && ga.abs() > 1e-10 * (1.0 + qn)
-                {
-                    return Err(SimError::InconsistentInitialCondition {
-                        constraint: self.constraints.name(a),
-                        residual: *ga,
-                    });
-                }
-            }
-        }
         let projected = if m > 0 && v.iter().any(|x| *x != 0.0) {
             project_velocity(&self.constraints, q, v)?
         } else {
@@ -207,24 +339,35 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         Ok(())
     }
 
-    /// Advances one step.
+    /// Advances one step (one or two substeps, depending on the scheme).
     pub fn step(&mut self) -> Result<StepReport, SimError> {
-        self.step.set_start(&self.q, &self.p, self.t);
+        let mut stats = NewtonStats::default();
+        for i in 0..self.stages.len() {
+            stats.accumulate(&self.substep(i)?);
+        }
+        self.k += 1;
+        self.stats.accumulate(&stats);
+        Ok(StepReport { newton: stats })
+    }
+
+    fn substep(&mut self, i: usize) -> Result<NewtonStats, SimError> {
+        let stage = &mut self.stages[i];
+        stage.step.set_start(&self.q, &self.p, self.t);
         if self.k == 0 {
-            self.step.straight_guess(&self.control_nodes, &self.v0, &mut self.x);
+            stage.step.straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
         } else {
             // Constant-velocity extrapolation: reuse the previous increments and multipliers.
-            self.x.copy_from_slice(&self.x_prev);
+            stage.x.copy_from_slice(&stage.x_prev);
         }
         let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
         let mut system = StepSystem {
             model: &self.model,
             constraints: &self.constraints,
-            constant: self.step.jacobian_is_constant(&self.model, &self.constraints),
-            step: &mut self.step,
+            constant: stage.step.jacobian_is_constant(&self.model, &self.constraints),
+            step: &mut stage.step,
             scale,
         };
-        let stats = match self.newton.solve(&mut system, &mut self.x) {
+        let stats = match stage.newton.solve(&mut system, &mut stage.x) {
             Ok(stats) => stats,
             Err(source) => {
                 let likely_cause = self.likely_cause(&source);
@@ -236,21 +379,19 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 });
             }
         };
-        self.step.end_momentum(&self.model, &self.x, &mut self.p_next);
-        self.step.end_position(&self.x, &mut self.q);
+        stage.step.end_momentum(&self.model, &stage.x, &mut self.p_next);
+        stage.step.end_position(&stage.x, &mut self.q);
         std::mem::swap(&mut self.p, &mut self.p_next);
-        std::mem::swap(&mut self.x, &mut self.x_prev);
-        self.k += 1;
-        self.t += self.step.step_size();
-        self.stats.accumulate(&stats);
-        Ok(StepReport { newton: stats })
+        std::mem::swap(&mut stage.x, &mut stage.x_prev);
+        self.t += stage.step.step_size();
+        Ok(stats)
     }
 
     /// Describes equation `row` of the step system.
     #[must_use]
     pub fn describe_equation(&self, row: usize) -> String {
         let n = self.model.dim();
-        let s = self.step.degree();
+        let s = self.stages[0].step.degree();
         if row < s * n {
             format!(
                 "momentum balance of coordinate `{}` at control point {}",
@@ -268,7 +409,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     #[must_use]
     pub fn describe_unknown(&self, col: usize) -> String {
         let n = self.model.dim();
-        let s = self.step.degree();
+        let s = self.stages[0].step.degree();
         if col < s * n {
             format!("coordinate `{}`", self.model.coordinate_name(col % n))
         } else {
@@ -292,7 +433,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 | LinearSolveError::StructurallySingular { index }
                 | LinearSolveError::NonFinite { index } => format!(
                     "singular Newton matrix near {}: a coordinate no equation determines, or redundant or contradicting constraints",
-                    self.describe_unknown((*index).min(self.step.unknowns().saturating_sub(1)))
+                    self.describe_unknown((*index).min(self.stages[0].step.unknowns().saturating_sub(1)))
                 ),
                 LinearSolveError::Pattern(_) => {
                     "a model or constraint emitted a different derivative pattern between calls".into()
@@ -346,29 +487,36 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         &self.model
     }
 
-    /// The constraints.
+    /// The constraints as given (including any dropped as redundant).
     #[must_use]
     pub fn constraints(&self) -> &C {
+        self.constraints.inner()
+    }
+
+    /// The constraint rows in use, after redundant ones were dropped.
+    #[must_use]
+    pub fn active_constraints(&self) -> &RowSubset<C> {
         &self.constraints
     }
 
-    /// The unknowns of the last solved step (control points, then multipliers).
+    /// The unknowns of the last solved substep (increments, then multipliers).
     #[must_use]
     pub fn last_unknowns(&self) -> &[f64] {
-        &self.x_prev
+        self.stages.last().map_or(&[], |s| &s.x_prev)
     }
 
-    /// Multipliers `Λ⁰` of the last step: the constraint impulses at its start, one per row.
+    /// Multipliers `Λ⁰` of the first substep of the last step: the constraint impulses at `q_k`,
+    /// one per active constraint row.
     #[must_use]
     pub fn last_multipliers(&self) -> &[f64] {
-        let o = self.step.multiplier_offset(0);
-        &self.x_prev[o..o + self.constraints.count()]
+        let stage = &self.stages[0];
+        let o = stage.step.multiplier_offset(0);
+        &stage.x_prev[o..o + self.constraints.count()]
     }
 
-    /// The step equations (for diagnostics and tests).
-    #[must_use]
-    pub fn step_equations(&self) -> &ForcedDiracStep {
-        &self.step
+    /// The step equations of each substep (for diagnostics and tests).
+    pub fn step_equations(&self) -> impl Iterator<Item = &ForcedDiracStep> {
+        self.stages.iter().map(|s| &s.step)
     }
 }
 

@@ -8,8 +8,10 @@
 mod error;
 mod integrator;
 mod linear;
+mod shooting;
 
 pub use dirac_core::{Discretisation, Flavour};
 pub use error::SimError;
-pub use integrator::{Integrator, IntegratorOptions, StepReport};
+pub use integrator::{Integrator, IntegratorOptions, Scheme, StepReport};
 pub use linear::{AutoLu, SolverChoice};
+pub use shooting::ShootingIntegrator;
