@@ -78,34 +78,46 @@ impl PolynomialPath {
     }
 }
 
-/// Basis values at the nodes of one quadrature rule: `phi[i][j] = ℓⱼ(cᵢ)`, `dphi[i][j] = ℓⱼ'(cᵢ)`.
+/// Basis values at the nodes of one quadrature rule, flattened row-major with stride `s + 1`:
+/// `phi[i(s+1) + j] = ℓⱼ(cᵢ)`, `dphi[i(s+1) + j] = ℓⱼ'(cᵢ)`.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub(crate) struct NodeTable {
     pub nodes: Vec<f64>,
     pub weights: Vec<f64>,
-    pub phi: Vec<Vec<f64>>,
-    pub dphi: Vec<Vec<f64>>,
+    pub phi: Vec<f64>,
+    pub dphi: Vec<f64>,
+    pub stride: usize,
 }
 
 impl NodeTable {
     pub fn new(path: &PolynomialPath, rule: &QuadratureRule) -> Self {
         let s = path.degree();
-        let phi = rule
-            .nodes()
-            .iter()
-            .map(|&c| (0..=s).map(|j| path.basis(c, j)).collect())
-            .collect();
-        let dphi = rule
-            .nodes()
-            .iter()
-            .map(|&c| (0..=s).map(|j| path.basis_derivative(c, j)).collect())
-            .collect();
+        let mut phi = Vec::new();
+        let mut dphi = Vec::new();
+        for &c in rule.nodes() {
+            for j in 0..=s {
+                phi.push(path.basis(c, j));
+                dphi.push(path.basis_derivative(c, j));
+            }
+        }
         Self {
             nodes: rule.nodes().to_vec(),
             weights: rule.weights().to_vec(),
             phi,
             dphi,
+            stride: s + 1,
         }
+    }
+
+    /// Number of nodes.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Basis values and derivatives at node `i`.
+    pub fn row(&self, i: usize) -> (&[f64], &[f64]) {
+        let o = i * self.stride;
+        (&self.phi[o..o + self.stride], &self.dphi[o..o + self.stride])
     }
 }
 

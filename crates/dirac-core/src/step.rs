@@ -7,6 +7,27 @@ use crate::discretisation::Discretisation;
 use crate::model::{ForceJacobian, LagrangianHessian, Model};
 use crate::path::NodeTable;
 
+/// Fills the path value `y = q_k + Σ ℓ_l Z^l` and velocity `w = Σ ℓ_l' Z^l / h` at a node with
+/// basis row (`phi`, `dphi`) (the basis sums to one and its derivative to zero).
+#[inline]
+fn eval_path(y: &mut [f64], w: &mut [f64], q0: &[f64], x: &[f64], phi: &[f64], dphi: &[f64], h: f64) {
+    let n = q0.len();
+    y.copy_from_slice(q0);
+    w.fill(0.0);
+    for l in 1..phi.len() {
+        let z = &x[(l - 1) * n..l * n];
+        let (a, b) = (phi[l], dphi[l]);
+        for k in 0..n {
+            y[k] += a * z[k];
+            w[k] += b * z[k];
+        }
+    }
+    let inv_h = 1.0 / h;
+    for wk in w.iter_mut() {
+        *wk *= inv_h;
+    }
+}
+
 /// Which forced discrete Dirac integrator (MATH §4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Flavour {
@@ -208,26 +229,6 @@ impl ForcedDiracStep {
         model.is_linear() && constraints.is_constant()
     }
 
-    /// Fills the path value `y = q_k + Σ ℓ_l Z^l` and velocity `w = Σ ℓ_l' Z^l / h` at a node with
-    /// basis row (`phi`, `dphi`) (the basis sums to one and its derivative to zero).
-    fn eval_path(&mut self, x: &[f64], phi: &[f64], dphi: &[f64]) {
-        let n = self.n;
-        let inv_h = 1.0 / self.h;
-        self.y.copy_from_slice(&self.q0);
-        self.w.fill(0.0);
-        for l in 1..=self.s {
-            let o = (l - 1) * n;
-            let (a, b) = (phi[l], dphi[l]);
-            for k in 0..n {
-                self.y[k] += a * x[o + k];
-                self.w[k] += b * x[o + k];
-            }
-        }
-        for wk in &mut self.w {
-            *wk *= inv_h;
-        }
-    }
-
     /// Where the covector of a row of `kind` is evaluated in stationarity equation `j`.
     fn multiplier_point(&self, kind: ConstraintKind, j: usize) -> Point {
         match (kind, self.flavour) {
@@ -270,6 +271,10 @@ impl ForcedDiracStep {
     }
 
     fn eval_forms<C: Constraints + ?Sized>(&mut self, constraints: &C, x: &[f64], p: Point) {
+        if self.forms.is_frozen() && constraints.is_constant() {
+            // Constant forms were stamped once; their values do not depend on the point.
+            return;
+        }
         self.load_point(x, p);
         let mut forms = std::mem::take(&mut self.forms);
         forms.begin();
@@ -291,29 +296,30 @@ impl ForcedDiracStep {
         let (n, m, s, h) = (self.n, self.m, self.s, self.h);
         r.fill(0.0);
         r[..n].copy_from_slice(&self.p0);
-        let nodes = std::mem::take(&mut self.lagrangian_nodes);
-        for i in 0..nodes.nodes.len() {
-            self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+        let nodes = &self.lagrangian_nodes;
+        for i in 0..nodes.len() {
+            let (phi, dphi) = nodes.row(i);
+            eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
             model.lagrangian_gradient(&self.y, &self.w, &mut self.lq, &mut self.lv);
             let b = nodes.weights[i];
             for j in 0..s {
-                let (cq, cv) = (h * b * nodes.phi[i][j], b * nodes.dphi[i][j]);
+                let (cq, cv) = (h * b * phi[j], b * dphi[j]);
                 let row = &mut r[j * n..(j + 1) * n];
                 for k in 0..n {
                     row[k] += cq * self.lq[k] + cv * self.lv[k];
                 }
             }
         }
-        self.lagrangian_nodes = nodes;
         if model.has_force() {
-            let nodes = std::mem::take(&mut self.force_nodes);
-            for i in 0..nodes.nodes.len() {
-                self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+            let nodes = &self.force_nodes;
+            for i in 0..nodes.len() {
+                let (phi, dphi) = nodes.row(i);
+                eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
                 let t = self.t0 + nodes.nodes[i] * h;
                 model.force(&self.y, &self.w, t, &mut self.f);
                 let b = nodes.weights[i];
                 for j in 0..s {
-                    let cq = h * b * nodes.phi[i][j];
+                    let cq = h * b * phi[j];
                     if cq != 0.0 {
                         let row = &mut r[j * n..(j + 1) * n];
                         for k in 0..n {
@@ -322,7 +328,6 @@ impl ForcedDiracStep {
                     }
                 }
             }
-            self.force_nodes = nodes;
         }
         if m == 0 {
             return;
@@ -366,9 +371,10 @@ impl ForcedDiracStep {
         jac: &mut Triplets,
     ) {
         let (n, m, s, h) = (self.n, self.m, self.s, self.h);
-        let nodes = std::mem::take(&mut self.lagrangian_nodes);
-        for i in 0..nodes.nodes.len() {
-            self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+        let nodes = &self.lagrangian_nodes;
+        for i in 0..nodes.len() {
+            let (phi, dphi) = nodes.row(i);
+            eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
             let mut hess = std::mem::take(&mut self.hessian);
             hess.begin();
             model.lagrangian_hessian(&self.y, &self.w, &mut hess);
@@ -377,9 +383,9 @@ impl ForcedDiracStep {
             }
             let b = nodes.weights[i];
             for j in 0..s {
-                let (pj, dj) = (nodes.phi[i][j], nodes.dphi[i][j]);
+                let (pj, dj) = (phi[j], dphi[j]);
                 for l in 1..=s {
-                    let (pl, dl) = (nodes.phi[i][l], nodes.dphi[i][l]);
+                    let (pl, dl) = (phi[l], dphi[l]);
                     let (er, uc) = (j * n, (l - 1) * n);
                     let (aqq, aqv, avq, avv) = (h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h);
                     if aqq != 0.0 {
@@ -404,11 +410,11 @@ impl ForcedDiracStep {
             }
             self.hessian = hess;
         }
-        self.lagrangian_nodes = nodes;
         if model.has_force() {
-            let nodes = std::mem::take(&mut self.force_nodes);
-            for i in 0..nodes.nodes.len() {
-                self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+            let nodes = &self.force_nodes;
+            for i in 0..nodes.len() {
+                let (phi, dphi) = nodes.row(i);
+                eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
                 let t = self.t0 + nodes.nodes[i] * h;
                 let mut fj = std::mem::take(&mut self.force_jacobian);
                 fj.begin();
@@ -418,12 +424,12 @@ impl ForcedDiracStep {
                 }
                 let b = nodes.weights[i];
                 for j in 0..s {
-                    let pj = nodes.phi[i][j];
+                    let pj = phi[j];
                     if pj == 0.0 {
                         continue;
                     }
                     for l in 1..=s {
-                        let (pl, dl) = (nodes.phi[i][l], nodes.dphi[i][l]);
+                        let (pl, dl) = (phi[l], dphi[l]);
                         let (er, uc) = (j * n, (l - 1) * n);
                         let (cq, cv) = (h * b * pj * pl, b * pj * dl);
                         if cq != 0.0 {
@@ -440,7 +446,6 @@ impl ForcedDiracStep {
                 }
                 self.force_jacobian = fj;
             }
-            self.force_nodes = nodes;
         }
         if m == 0 {
             return;
@@ -524,31 +529,46 @@ impl ForcedDiracStep {
     pub fn end_momentum<M: Model + ?Sized>(&mut self, model: &M, x: &[f64], p1: &mut [f64]) {
         let (n, s, h) = (self.n, self.s, self.h);
         p1.fill(0.0);
-        let nodes = std::mem::take(&mut self.lagrangian_nodes);
-        for i in 0..nodes.nodes.len() {
-            let (cq, cv) = (h * nodes.weights[i] * nodes.phi[i][s], nodes.weights[i] * nodes.dphi[i][s]);
-            self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+        let nodes = &self.lagrangian_nodes;
+        for i in 0..nodes.len() {
+            let (phi, dphi) = nodes.row(i);
+            let (cq, cv) = (h * nodes.weights[i] * phi[s], nodes.weights[i] * dphi[s]);
+            eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
             model.lagrangian_gradient(&self.y, &self.w, &mut self.lq, &mut self.lv);
             for k in 0..n {
                 p1[k] += cq * self.lq[k] + cv * self.lv[k];
             }
         }
-        self.lagrangian_nodes = nodes;
         if model.has_force() {
-            let nodes = std::mem::take(&mut self.force_nodes);
-            for i in 0..nodes.nodes.len() {
-                let cq = h * nodes.weights[i] * nodes.phi[i][s];
+            let nodes = &self.force_nodes;
+            for i in 0..nodes.len() {
+                let (phi, dphi) = nodes.row(i);
+                let cq = h * nodes.weights[i] * phi[s];
                 if cq == 0.0 {
                     continue;
                 }
-                self.eval_path(x, &nodes.phi[i], &nodes.dphi[i]);
+                eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
                 model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
                 for k in 0..n {
                     p1[k] += cq * self.f[k];
                 }
             }
-            self.force_nodes = nodes;
         }
+    }
+
+    /// Max-norm of the constraint equations `C_l` at `x` (uses `scratch`, of length
+    /// [`ForcedDiracStep::unknowns`]).
+    pub fn constraint_residual<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &mut self,
+        model: &M,
+        constraints: &C,
+        x: &[f64],
+        scratch: &mut [f64],
+    ) -> f64 {
+        self.residual(model, constraints, x, scratch);
+        scratch[self.constraint_row(1)..]
+            .iter()
+            .fold(0.0_f64, |m, r| m.max(r.abs()))
     }
 
     /// The constraint impulse `Aᵀ(q_k) Λ⁰` of the solved step (what `p_k` gained from constraints).

@@ -116,6 +116,7 @@ pub struct Integrator<M, C> {
     q: Vec<f64>,
     p: Vec<f64>,
     v0: Vec<f64>,
+    t0: f64,
     t: f64,
     k: usize,
     p_next: Vec<f64>,
@@ -215,6 +216,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             q: vec![0.0; n],
             p: vec![0.0; n],
             v0: vec![0.0; n],
+            t0: 0.0,
             t: 0.0,
             k: 0,
             p_next: vec![0.0; n],
@@ -309,6 +311,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.q.copy_from_slice(q);
         self.p.copy_from_slice(p);
         self.v0.fill(0.0);
+        self.t0 = t;
         self.t = t;
         self.k = 0;
         Ok(())
@@ -334,6 +337,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.q.copy_from_slice(q);
         self.p.copy_from_slice(&p);
         self.v0.copy_from_slice(&projected);
+        self.t0 = t;
         self.t = t;
         self.k = 0;
         Ok(())
@@ -346,6 +350,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             stats.accumulate(&self.substep(i)?);
         }
         self.k += 1;
+        // t_k = t₀ + k h, not a running sum (which drifts by ~k·ε·h).
+        self.t = self.t0 + self.k as f64 * self.options.h;
         self.stats.accumulate(&stats);
         Ok(StepReport { newton: stats })
     }
@@ -497,6 +503,24 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     #[must_use]
     pub fn active_constraints(&self) -> &RowSubset<C> {
         &self.constraints
+    }
+
+    /// Max-norm of the discrete constraint equations at the accepted solution of the last step
+    /// (over all substeps): `ωᵃ(q_*)·(q_{k+1} − q_k)` for one-forms, `gᵃ(q_{k+1})` for holonomic
+    /// rows, at every control point. Re-evaluates the step equations (a diagnostic, not free).
+    pub fn last_constraint_residual(&mut self) -> f64 {
+        let mut worst: f64 = 0.0;
+        for stage in &mut self.stages {
+            let mut scratch = std::mem::take(&mut stage.x);
+            worst = worst.max(stage.step.constraint_residual(
+                &self.model,
+                &self.constraints,
+                &stage.x_prev,
+                &mut scratch,
+            ));
+            stage.x = scratch;
+        }
+        worst
     }
 
     /// The unknowns of the last solved substep (increments, then multipliers).

@@ -51,6 +51,10 @@ pub struct NewtonOptions {
     /// Also converged when the last update satisfies `‖Δx‖∞ ≤ update_tol · (1 + ‖x‖∞)` (with an
     /// exact Jacobian the error is then of order `update_tol²`: the residual sits at round-off).
     pub update_tol: f64,
+    /// For systems whose Jacobian is constant (`F` affine), accept the iterate after one update
+    /// without evaluating the residual again: Newton is exact on affine maps, so the check would
+    /// only confirm round-off. The update is still checked for finiteness by the linear solver.
+    pub affine_shortcut: bool,
 }
 
 impl Default for NewtonOptions {
@@ -59,6 +63,7 @@ impl Default for NewtonOptions {
             max_iterations: 25,
             residual_tol: 1e-14,
             update_tol: 1e-11,
+            affine_shortcut: true,
         }
     }
 }
@@ -134,7 +139,7 @@ impl<S: LinearSolver> Newton<S> {
         &self.options
     }
 
-    /// The last residual vector (after a successful solve: the converged residual).
+    /// The last residual evaluated (after an affine shortcut: the residual at the initial guess).
     #[must_use]
     pub fn last_residual(&self) -> &[f64] {
         &self.residual
@@ -198,6 +203,9 @@ impl<S: LinearSolver> Newton<S> {
                 unorm = unorm.max(u.abs());
             }
             last_update = unorm;
+            if reuse && self.options.affine_shortcut {
+                return Ok(stats);
+            }
         }
         unreachable_converged()
     }
@@ -232,7 +240,7 @@ impl<S: LinearSolver> Newton<S> {
             self.row_scale[r] = self.row_scale[r].max(v.abs());
         }
         for (row, s) in self.row_scale.iter_mut().enumerate() {
-            if !(*s > 0.0) {
+            if s.is_nan() || *s <= 0.0 {
                 return Err(LinearSolveError::EmptyRow { row });
             }
             *s = 1.0 / *s;
