@@ -280,11 +280,8 @@ fn solve_small<S: Scalar, const N: usize>(
     mut m: [[S; N]; N],
     mut b: [S; N],
 ) -> Result<[S; N], f64> {
-    let scale = m
-        .iter()
-        .flatten()
-        .fold(0.0_f64, |a, x| a.max(x.re().abs()));
-    if !(scale > 0.0) || !scale.is_finite() {
+    let scale = m.iter().flatten().fold(0.0_f64, |a, x| a.max(x.re().abs()));
+    if scale.is_nan() || scale <= 0.0 || scale.is_infinite() {
         return Err(0.0);
     }
     for k in 0..N {
@@ -297,23 +294,20 @@ fn solve_small<S: Scalar, const N: usize>(
                 piv = i;
             }
         }
-        if !(best > 1e-13 * scale) {
+        if best.is_nan() || best <= 1e-13 * scale {
             return Err(best / scale);
         }
         m.swap(k, piv);
         b.swap(k, piv);
         let inv = m[k][k].recip();
-        for i in k + 1..N {
-            let factor = m[i][k] * inv;
-            if factor.re() == 0.0 && factor == zero::<S>() {
-                continue;
+        let (pivot_row, bk) = (m[k], b[k]);
+        for (row, bi) in m.iter_mut().zip(b.iter_mut()).skip(k + 1) {
+            // No shortcut for a zero real part: dual parts of the factor may still be nonzero.
+            let factor = row[k] * inv;
+            for (x, p) in row.iter_mut().zip(pivot_row.iter()).skip(k) {
+                *x -= *p * factor;
             }
-            for j in k..N {
-                let t = m[k][j] * factor;
-                m[i][j] -= t;
-            }
-            let t = b[k] * factor;
-            b[i] -= t;
+            *bi -= bk * factor;
         }
     }
     let mut x = [zero::<S>(); N];
@@ -354,10 +348,8 @@ fn acceleration<G: GenericModel<N>, S: Scalar, const N: usize>(
     t: f64,
 ) -> Result<[S; N], ShootingError> {
     let (qs, vs) = (svec(q), svec(v));
-    let (_, lq, _, lqv) = partial_hessian(
-        |(a, b)| model.lagrangian(&arr(&a), &arr(&b)),
-        (&qs, &vs),
-    );
+    let (_, lq, _, lqv) =
+        partial_hessian(|(a, b)| model.lagrangian(&arr(&a), &arr(&b)), (&qs, &vs));
     let (_, _, lvv) = hessian(
         |b: SVector<Dual2Vec<S, Const<N>>, N>| {
             let qc: [Dual2Vec<S, Const<N>>; N] = std::array::from_fn(|i| Dual2Vec::from_re(q[i]));
@@ -506,12 +498,10 @@ fn evaluate<G: GenericModel<N>, S: Scalar, const N: usize>(
             let k4q = v4;
             let k4v = acceleration(model, &q4, &v4, t + tau)?;
             let s = tau / 6.0;
-            let qn = std::array::from_fn(|i| {
-                q[i] + (k1q[i] + (k2q[i] + k3q[i]) * 2.0 + k4q[i]) * s
-            });
-            let vn = std::array::from_fn(|i| {
-                v[i] + (k1v[i] + (k2v[i] + k3v[i]) * 2.0 + k4v[i]) * s
-            });
+            let qn =
+                std::array::from_fn(|i| q[i] + (k1q[i] + (k2q[i] + k3q[i]) * 2.0 + k4q[i]) * s);
+            let vn =
+                std::array::from_fn(|i| v[i] + (k1v[i] + (k2v[i] + k3v[i]) * 2.0 + k4v[i]) * s);
             Ok((qn, vn))
         }
     }
@@ -860,7 +850,11 @@ impl<const N: usize> ShootingStep<N> {
 
 /// The momentum `p = ∂L/∂v(q, v)`.
 #[must_use]
-pub fn momentum<G: GenericModel<N>, const N: usize>(model: &G, q: &[f64; N], v: &[f64; N]) -> [f64; N] {
+pub fn momentum<G: GenericModel<N>, const N: usize>(
+    model: &G,
+    q: &[f64; N],
+    v: &[f64; N],
+) -> [f64; N] {
     let vd: [DualSVec<f64, N>; N] =
         std::array::from_fn(|i| DualSVec::<f64, N>::from_re(v[i]).derivative(i));
     let qd: [DualSVec<f64, N>; N] = lift_arr(q);
@@ -898,7 +892,8 @@ pub fn velocity_from_momentum<G: GenericModel<N>, const N: usize>(
         if !unorm.is_finite() {
             return Err(ShootingError::NonFinite);
         }
-        if unorm <= 1e-14 * (1.0 + max_abs(&v)) || (iteration > 0 && unorm >= last && unorm < 1e-11) {
+        if unorm <= 1e-14 * (1.0 + max_abs(&v)) || (iteration > 0 && unorm >= last && unorm < 1e-11)
+        {
             return Ok(v);
         }
         last = unorm;
@@ -924,7 +919,12 @@ mod tests {
         fn has_force(&self) -> bool {
             true
         }
-        fn force<D: DualNum<Primitive = f64> + Copy>(&self, q: &[D; 1], v: &[D; 1], _t: f64) -> [D; 1] {
+        fn force<D: DualNum<Primitive = f64> + Copy>(
+            &self,
+            q: &[D; 1],
+            v: &[D; 1],
+            _t: f64,
+        ) -> [D; 1] {
             [v[0] * (-0.3) - q[0] * q[0] * v[0] * 0.1]
         }
     }
@@ -934,8 +934,7 @@ mod tests {
     impl GenericModel<2> for Coupled {
         fn lagrangian<D: DualNum<Primitive = f64> + Copy>(&self, q: &[D; 2], v: &[D; 2]) -> D {
             let m12 = q[0].cos() * 0.3;
-            (v[0] * v[0] * 2.0 + v[1] * v[1] + m12 * v[0] * v[1] * 2.0) * 0.5
-                + q[1] * v[0] * 0.2
+            (v[0] * v[0] * 2.0 + v[1] * v[1] + m12 * v[0] * v[1] * 2.0) * 0.5 + q[1] * v[0] * 0.2
                 - q[0] * q[0] * 0.5
                 - (q[1] - q[0]).powi(2) * 0.7
                 - q[1].powi(4) * 0.1
@@ -943,8 +942,16 @@ mod tests {
         fn has_force(&self) -> bool {
             true
         }
-        fn force<D: DualNum<Primitive = f64> + Copy>(&self, q: &[D; 2], v: &[D; 2], t: f64) -> [D; 2] {
-            [v[0] * (-0.2) + q[1] * 0.1, v[1] * (-0.1) * q[0] + (t * 0.5).sin() * 0.05]
+        fn force<D: DualNum<Primitive = f64> + Copy>(
+            &self,
+            q: &[D; 2],
+            v: &[D; 2],
+            t: f64,
+        ) -> [D; 2] {
+            [
+                v[0] * (-0.2) + q[1] * 0.1,
+                v[1] * (-0.1) * q[0] + (t * 0.5).sin() * 0.05,
+            ]
         }
     }
 
@@ -979,7 +986,8 @@ mod tests {
         let (q, v): (f64, f64) = (0.7, -1.3);
         let a = acceleration(&Nonlinear, &[q], &[v], 0.0).unwrap()[0];
         let f = -0.3 * v - 0.1 * q * q * v;
-        let expected = (0.1 * q * v * v - q - 0.8 * q.powi(3) - 0.2 * q * v * v + f) / (1.0 + 0.1 * q * q);
+        let expected =
+            (0.1 * q * v * v - q - 0.8 * q.powi(3) - 0.2 * q * v * v + f) / (1.0 + 0.1 * q * q);
         assert!((a - expected).abs() < 1e-14, "{a} vs {expected}");
     }
 
@@ -987,7 +995,9 @@ mod tests {
     #[test]
     fn taylor_coefficients_match_the_flow() {
         let (q0, v0) = ([0.4, -0.2], [0.3, 0.5]);
-        let Prepared::Taylor { c, .. } = prepare(OneStepMap::Taylor4System, &Coupled, &q0, &v0, 0.3).unwrap() else {
+        let Prepared::Taylor { c, .. } =
+            prepare(OneStepMap::Taylor4System, &Coupled, &q0, &v0, 0.3).unwrap()
+        else {
             panic!("expected Taylor coefficients");
         };
         // Reference derivatives of a(t) by central differences of the accurate flow.
@@ -1005,7 +1015,8 @@ mod tests {
             acceleration(&Frozen(&Coupled), &q, &v, 0.3).unwrap()
         };
         let e = 2e-2;
-        let (am2, am1, a0, ap1, ap2) = (flow(-2.0 * e), flow(-e), flow(0.0), flow(e), flow(2.0 * e));
+        let (am2, am1, a0, ap1, ap2) =
+            (flow(-2.0 * e), flow(-e), flow(0.0), flow(e), flow(2.0 * e));
         for i in 0..2 {
             let d1 = (ap1[i] - am1[i]) / (2.0 * e);
             let d2 = (ap1[i] - 2.0 * a0[i] + am1[i]) / (e * e);
@@ -1026,7 +1037,12 @@ mod tests {
         fn has_force(&self) -> bool {
             true
         }
-        fn force<D: DualNum<Primitive = f64> + Copy>(&self, q: &[D; 2], v: &[D; 2], _t: f64) -> [D; 2] {
+        fn force<D: DualNum<Primitive = f64> + Copy>(
+            &self,
+            q: &[D; 2],
+            v: &[D; 2],
+            _t: f64,
+        ) -> [D; 2] {
             self.0.force(q, v, 0.3)
         }
     }
@@ -1038,7 +1054,10 @@ mod tests {
             step.set_start(&[0.4, -0.2], &[0.0, 0.0], 0.0);
             let q1 = [0.43, -0.17];
             let (q, _) = step.path_point(&Coupled, &q1, 0.1).unwrap();
-            assert!((q[0] - q1[0]).abs() < 1e-14 && (q[1] - q1[1]).abs() < 1e-14, "{d}");
+            assert!(
+                (q[0] - q1[0]).abs() < 1e-14 && (q[1] - q1[1]).abs() < 1e-14,
+                "{d}"
+            );
         }
     }
 
@@ -1073,7 +1092,10 @@ mod tests {
                 };
                 let d1 = (ld_at(e, false) - ld_at(-e, false)) / (2.0 * e);
                 let d2 = (ld_at(e, true) - ld_at(-e, true)) / (2.0 * e);
-                assert!((r[i] - (p0[i] + d1 + fm[i])).abs() < 1e-8, "{d}: residual {i}");
+                assert!(
+                    (r[i] - (p0[i] + d1 + fm[i])).abs() < 1e-8,
+                    "{d}: residual {i}"
+                );
                 assert!((p1[i] - (d2 + fp[i])).abs() < 1e-8, "{d}: momentum {i}");
                 for j in 0..2 {
                     let mut qp = q1;
@@ -1084,7 +1106,11 @@ mod tests {
                         - step.residual(&Coupled, &qm).unwrap()[i])
                         / (2.0 * e);
                     let tol = 1e-6 * (1.0 + fd.abs());
-                    assert!((jac[i][j] - fd).abs() < tol, "{d}: J[{i}][{j}] = {} vs {fd}", jac[i][j]);
+                    assert!(
+                        (jac[i][j] - fd).abs() < tol,
+                        "{d}: J[{i}][{j}] = {} vs {fd}",
+                        jac[i][j]
+                    );
                 }
             }
         }
@@ -1138,10 +1164,14 @@ mod tests {
 
     #[test]
     fn degenerate_lagrangian_is_a_typed_error() {
-        let mut step = ShootingStep::<1>::new(ShootingDiscretisation::trapezoid_taylor2(), 0.1).unwrap();
+        let mut step =
+            ShootingStep::<1>::new(ShootingDiscretisation::trapezoid_taylor2(), 0.1).unwrap();
         step.set_start(&[1.0], &[0.0], 0.0);
         let err = step.residual(&Degenerate, &[1.0]).unwrap_err();
-        assert!(matches!(err, ShootingError::DegenerateLagrangian { .. }), "{err}");
+        assert!(
+            matches!(err, ShootingError::DegenerateLagrangian { .. }),
+            "{err}"
+        );
         assert!(matches!(
             ShootingStep::<1>::new(ShootingDiscretisation::trapezoid_taylor2(), -1.0),
             Err(ShootingError::StepSize(_))

@@ -12,19 +12,19 @@ use crate::path::NodeTable;
 #[inline]
 fn eval_path(y: &mut [f64], w: &mut [f64], q0: &[f64], x: &[f64], phi: &[f64], dphi: &[f64], h: f64) {
     let n = q0.len();
-    y.copy_from_slice(q0);
-    w.fill(0.0);
-    for l in 1..phi.len() {
-        let z = &x[(l - 1) * n..l * n];
-        let (a, b) = (phi[l], dphi[l]);
-        for k in 0..n {
-            y[k] += a * z[k];
-            w[k] += b * z[k];
-        }
-    }
     let inv_h = 1.0 / h;
-    for wk in w.iter_mut() {
-        *wk *= inv_h;
+    // The first control point initialises (no memcpy/memset calls on tiny slices).
+    let (a, b) = (phi[1], dphi[1] * inv_h);
+    for (((yk, wk), q), z) in y.iter_mut().zip(w.iter_mut()).zip(q0).zip(&x[..n]) {
+        *yk = q + a * z;
+        *wk = b * z;
+    }
+    for l in 2..phi.len() {
+        let (a, b) = (phi[l], dphi[l] * inv_h);
+        for ((yk, wk), z) in y.iter_mut().zip(w.iter_mut()).zip(&x[(l - 1) * n..l * n]) {
+            *yk += a * z;
+            *wk += b * z;
+        }
     }
 }
 

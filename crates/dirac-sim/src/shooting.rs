@@ -4,7 +4,9 @@ use dirac_core::{
     GenericModel, ShootingDiscretisation, ShootingError, ShootingStep, momentum,
     velocity_from_momentum,
 };
-use dirac_solve::{DenseLu, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Triplets};
+use dirac_solve::{
+    DenseLu, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Triplets,
+};
 
 use crate::error::SimError;
 use crate::integrator::StepReport;
@@ -251,7 +253,8 @@ fn likely_cause(error: &NewtonError, shooting: Option<&ShootingError>) -> String
             "the model returned NaN or infinity: the state left the model's domain".into()
         }
         NewtonError::Linear { .. } => {
-            "singular step Jacobian ∂²H/∂q0∂q1: the step size is too large or L_d is degenerate".into()
+            "singular step Jacobian ∂²H/∂q0∂q1: the step size is too large or L_d is degenerate"
+                .into()
         }
     }
 }

@@ -14,6 +14,7 @@ pub struct DenseLu {
     cols: Vec<usize>,
     a: Vec<f64>,
     perm: Vec<usize>,
+    work: Vec<f64>,
 }
 
 impl DenseLu {
@@ -38,6 +39,7 @@ impl LinearSolver for DenseLu {
         self.cols = cols.to_vec();
         self.a = vec![0.0; n * n];
         self.perm = (0..n).collect();
+        self.work = vec![0.0; n];
         Ok(())
     }
 
@@ -89,56 +91,34 @@ impl LinearSolver for DenseLu {
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<(), LinearSolveError> {
         let n = self.n;
         let a = &self.a;
-        // Apply the row permutation in place by following its cycles (no scratch allocation):
-        // y[k] = rhs[perm[k]]. `perm` records the swaps in order, so replay them.
-        // Swaps were applied to rows k and piv at step k; replay with the final perm instead.
-        permute_in_place(rhs, &self.perm);
+        // y = P b through the preallocated buffer.
+        for (yk, &pk) in self.work.iter_mut().zip(&self.perm) {
+            *yk = rhs[pk];
+        }
+        rhs.copy_from_slice(&self.work);
+        // Forward substitution with the unit lower factor, column by column.
         for k in 0..n {
             let yk = rhs[k];
             if yk != 0.0 {
-                for i in k + 1..n {
-                    rhs[i] -= a[k * n + i] * yk;
+                for (r, l) in rhs[k + 1..].iter_mut().zip(&a[k * n + k + 1..(k + 1) * n]) {
+                    *r -= l * yk;
                 }
             }
         }
+        // Backward substitution with the upper factor.
         for k in (0..n).rev() {
-            rhs[k] /= a[k * n + k];
+            let col = &a[k * n..k * n + k + 1];
+            rhs[k] /= col[k];
             let xk = rhs[k];
             if xk != 0.0 {
-                for i in 0..k {
-                    rhs[i] -= a[k * n + i] * xk;
+                for (r, u) in rhs[..k].iter_mut().zip(&col[..k]) {
+                    *r -= u * xk;
                 }
             }
         }
         match rhs.iter().position(|v| !v.is_finite()) {
             Some(index) => Err(LinearSolveError::NonFinite { index }),
             None => Ok(()),
-        }
-    }
-}
-
-/// Replaces `x` by `y` with `y[k] = x[perm[k]]`, in place, by walking the permutation's cycles.
-fn permute_in_place(x: &mut [f64], perm: &[usize]) {
-    let n = perm.len();
-    for start in 0..n {
-        // Visit each cycle once, from its smallest index.
-        let mut k = perm[start];
-        while k > start {
-            k = perm[k];
-        }
-        if k < start {
-            continue;
-        }
-        let first = x[start];
-        let mut cur = start;
-        loop {
-            let next = perm[cur];
-            if next == start {
-                x[cur] = first;
-                break;
-            }
-            x[cur] = x[next];
-            cur = next;
         }
     }
 }
@@ -183,12 +163,5 @@ mod tests {
         let mut lu = DenseLu::new();
         lu.analyse(2, &r, &c).unwrap();
         assert_eq!(lu.factor(&vals), Err(LinearSolveError::NumericallySingular { index: 1 }));
-    }
-
-    #[test]
-    fn permutation_cycles() {
-        let mut x = [10.0, 11.0, 12.0, 13.0];
-        permute_in_place(&mut x, &[2, 0, 3, 1]);
-        assert_eq!(x, [12.0, 10.0, 13.0, 11.0]);
     }
 }

@@ -166,17 +166,20 @@ impl<S: LinearSolver> Newton<S> {
             system.residual(x, &mut self.residual);
             stats.residual_evaluations += 1;
             let (rnorm, worst) = max_norm(&self.residual);
-            if let Some(equation) = self.residual.iter().position(|v| !v.is_finite()) {
+            if !rnorm.is_finite() {
                 return Err(NewtonError::NonFiniteResidual {
-                    equation,
+                    equation: worst,
                     iterations: iteration,
                 });
             }
-            let xnorm = x.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
-            if rnorm <= tol
-                || (iteration > 0 && last_update <= self.options.update_tol * (1.0 + xnorm))
-            {
+            if rnorm <= tol {
                 return Ok(stats);
+            }
+            if iteration > 0 {
+                let xnorm = x.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                if last_update <= self.options.update_tol * (1.0 + xnorm) {
+                    return Ok(stats);
+                }
             }
             if iteration == self.options.max_iterations {
                 return Err(NewtonError::NotConverged {
@@ -268,6 +271,7 @@ fn unreachable_converged() -> Result<NewtonStats, NewtonError> {
     })
 }
 
+/// Max-norm and the index where it is attained; a NaN or infinity wins (and is returned).
 fn max_norm(v: &[f64]) -> (f64, usize) {
     let mut best = 0.0;
     let mut at = 0;
@@ -276,6 +280,9 @@ fn max_norm(v: &[f64]) -> (f64, usize) {
         if a > best || a.is_nan() {
             best = a;
             at = i;
+            if !a.is_finite() {
+                break;
+            }
         }
     }
     (best, at)
