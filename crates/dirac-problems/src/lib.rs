@@ -12,4 +12,4 @@ mod rlc;
 pub use mechanics::{CircleConstraint, FreeMasses, RollingDiskForms};
 pub use oscillator::{ArtificialPotential, DampedOscillator, SplitOscillator};
 pub use pendulum::{QuarticPendulums, QuarticPendulumsGeneric};
-pub use rlc::{LcTank, RlcLoop, rlc_exact};
+pub use rlc::{LadderSection, LcTank, RlcLoop, rlc_exact};

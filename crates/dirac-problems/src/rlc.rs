@@ -132,3 +132,51 @@ impl Model for LcTank {
         ["qC", "qL"][i].to_string()
     }
 }
+
+/// One section of an RLC ladder on `q = (q_s, q_c)`: a series resistor and inductor carrying the
+/// branch charge `q_s`, and a shunt capacitor to ground with charge `q_c`.
+/// `L = ½ L v_s² − q_c²/(2C)`, `f = (−R v_s, 0)`. Ports: `series` (`q_s`) and `shunt` (`q_c`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LadderSection {
+    /// Series resistance.
+    pub r: f64,
+    /// Series inductance.
+    pub l: f64,
+    /// Shunt capacitance.
+    pub c: f64,
+}
+
+impl Model for LadderSection {
+    fn dim(&self) -> usize {
+        2
+    }
+    fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64 {
+        0.5 * self.l * v[0] * v[0] - q[1] * q[1] / (2.0 * self.c)
+    }
+    fn lagrangian_gradient(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+        lq[0] = 0.0;
+        lq[1] = -q[1] / self.c;
+        lv[0] = self.l * v[0];
+        lv[1] = 0.0;
+    }
+    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
+        h.qq.add(1, 1, -1.0 / self.c);
+        h.vv.add(0, 0, self.l);
+    }
+    fn has_force(&self) -> bool {
+        true
+    }
+    fn force(&self, _q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
+        f[0] = -self.r * v[0];
+        f[1] = 0.0;
+    }
+    fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, j: &mut ForceJacobian) {
+        j.v.add(0, 0, -self.r);
+    }
+    fn is_linear(&self) -> bool {
+        true
+    }
+    fn coordinate_name(&self, i: usize) -> String {
+        ["qs", "qc"][i].to_string()
+    }
+}

@@ -42,6 +42,9 @@ pub enum SimError {
         /// The model dimension.
         expected: usize,
     },
+    /// The interconnection could not be assembled.
+    #[error(transparent)]
+    Graph(#[from] dirac_graph::GraphError),
     /// A non-positive or non-finite step size.
     #[error("step size must be positive and finite, got {0}")]
     StepSize(f64),

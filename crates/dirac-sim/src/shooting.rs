@@ -247,7 +247,7 @@ fn likely_cause(error: &NewtonError, shooting: Option<&ShootingError>) -> String
     }
     match error {
         NewtonError::NotConverged { .. } => {
-            "Newton on q_{k+1} did not converge: step too large for the nonlinearity".into()
+            "Newton on q_{k+1} did not converge: the step may have no solution (a fold of the forced discrete Legendre transform) or be too large for the nonlinearity".into()
         }
         NewtonError::NonFiniteResidual { .. } => {
             "the model returned NaN or infinity: the state left the model's domain".into()

@@ -16,6 +16,8 @@ pub struct Triplets {
     cursor: usize,
     frozen: bool,
     mismatch: Option<usize>,
+    row_offset: usize,
+    col_offset: usize,
 }
 
 /// The `(row, col)` sequence of a refill pass differed from the recorded pattern.
@@ -37,6 +39,8 @@ impl Triplets {
     pub fn begin(&mut self) {
         self.cursor = 0;
         self.mismatch = None;
+        self.row_offset = 0;
+        self.col_offset = 0;
         if !self.frozen {
             self.rows.clear();
             self.cols.clear();
@@ -55,9 +59,17 @@ impl Triplets {
         self.frozen
     }
 
+    /// Shifts every subsequent `add` by `(row_offset, col_offset)`, so a part can stamp its local
+    /// derivatives straight into a global matrix. Reset to `(0, 0)` by [`Triplets::begin`].
+    pub fn set_offset(&mut self, row_offset: usize, col_offset: usize) {
+        self.row_offset = row_offset;
+        self.col_offset = col_offset;
+    }
+
     /// Adds one entry (recording) or refreshes the value of the next entry (frozen).
     #[inline]
     pub fn add(&mut self, row: usize, col: usize, value: f64) {
+        let (row, col) = (row + self.row_offset, col + self.col_offset);
         if self.frozen {
             let c = self.cursor;
             if c < self.rows.len() && self.rows[c] == row && self.cols[c] == col {

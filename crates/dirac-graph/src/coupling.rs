@@ -1,0 +1,99 @@
+//! Coupling elements: a potential and/or a force of two port coordinates.
+
+/// An element between two ports `a` and `b`, acting through their coordinates `x_a`, `x_b` and
+/// flows `v_a`, `v_b`: a potential `V(x_a, x_b)` and/or a non-potential force `(f_a, f_b)`.
+///
+/// In the monolithic and constraint representations `V` sits inside the Lagrangian; in the
+/// interaction-force representation it acts as the forces `−∂V/∂x_a`, `−∂V/∂x_b`.
+pub trait CouplingElement: Send + Sync {
+    /// Whether the element has a potential.
+    fn has_potential(&self) -> bool {
+        false
+    }
+    /// `V(x_a, x_b)`.
+    fn potential(&self, _xa: f64, _xb: f64) -> f64 {
+        0.0
+    }
+    /// `(∂V/∂x_a, ∂V/∂x_b)`.
+    fn potential_gradient(&self, _xa: f64, _xb: f64) -> [f64; 2] {
+        [0.0; 2]
+    }
+    /// Hessian of `V` in `(x_a, x_b)`.
+    fn potential_hessian(&self, _xa: f64, _xb: f64) -> [[f64; 2]; 2] {
+        [[0.0; 2]; 2]
+    }
+    /// Whether the element has a non-potential force.
+    fn has_force(&self) -> bool {
+        false
+    }
+    /// `(f_a, f_b)`.
+    fn force(&self, _x: [f64; 2], _v: [f64; 2], _t: f64) -> [f64; 2] {
+        [0.0; 2]
+    }
+    /// `(∂f/∂x, ∂f/∂v)`, each 2×2 with rows `(f_a, f_b)`.
+    fn force_jacobian(&self, _x: [f64; 2], _v: [f64; 2], _t: f64) -> [[[f64; 2]; 2]; 2] {
+        [[[0.0; 2]; 2]; 2]
+    }
+    /// True when `V` is quadratic and the force affine.
+    fn is_linear(&self) -> bool;
+    /// A short description for diagnostics.
+    fn describe(&self) -> String;
+}
+
+/// Linear spring `V = ½k(x_a − x_b − ℓ)²`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearSpring {
+    /// Stiffness.
+    pub k: f64,
+    /// Rest offset `ℓ`.
+    pub rest: f64,
+}
+
+impl CouplingElement for LinearSpring {
+    fn has_potential(&self) -> bool {
+        true
+    }
+    fn potential(&self, xa: f64, xb: f64) -> f64 {
+        let d = xa - xb - self.rest;
+        0.5 * self.k * d * d
+    }
+    fn potential_gradient(&self, xa: f64, xb: f64) -> [f64; 2] {
+        let g = self.k * (xa - xb - self.rest);
+        [g, -g]
+    }
+    fn potential_hessian(&self, _xa: f64, _xb: f64) -> [[f64; 2]; 2] {
+        [[self.k, -self.k], [-self.k, self.k]]
+    }
+    fn is_linear(&self) -> bool {
+        true
+    }
+    fn describe(&self) -> String {
+        format!("spring k = {}", self.k)
+    }
+}
+
+/// Linear damper `f_a = −c(v_a − v_b) = −f_b`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearDamper {
+    /// Damping coefficient.
+    pub c: f64,
+}
+
+impl CouplingElement for LinearDamper {
+    fn has_force(&self) -> bool {
+        true
+    }
+    fn force(&self, _x: [f64; 2], v: [f64; 2], _t: f64) -> [f64; 2] {
+        let f = -self.c * (v[0] - v[1]);
+        [f, -f]
+    }
+    fn force_jacobian(&self, _x: [f64; 2], _v: [f64; 2], _t: f64) -> [[[f64; 2]; 2]; 2] {
+        [[[0.0; 2]; 2], [[-self.c, self.c], [self.c, -self.c]]]
+    }
+    fn is_linear(&self) -> bool {
+        true
+    }
+    fn describe(&self) -> String {
+        format!("damper c = {}", self.c)
+    }
+}

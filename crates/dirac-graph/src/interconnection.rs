@@ -1,0 +1,233 @@
+//! The interconnection graph: subsystems and connections between their ports (petgraph).
+
+use std::collections::HashMap;
+use std::sync::Arc;
+
+use petgraph::graph::{NodeIndex, UnGraph};
+
+use crate::coupling::CouplingElement;
+use crate::error::GraphError;
+use crate::subsystem::Subsystem;
+
+/// Handle of a subsystem in an [`Interconnection`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SubsystemId(pub usize);
+
+/// Handle of a connection in an [`Interconnection`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct ConnectionId(pub usize);
+
+/// A port of a subsystem, resolved to indices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct PortRef {
+    /// The subsystem.
+    pub subsystem: SubsystemId,
+    /// Index into the subsystem's ports.
+    pub port: usize,
+}
+
+/// A connection between ports.
+#[derive(Clone)]
+pub enum Connection {
+    /// An electrical node: `Σ sᵢ flowᵢ = 0` (KCL), `sᵢ = +1` for flow into the node.
+    Node {
+        /// Node name.
+        name: String,
+        /// `(port, sign)` pairs.
+        ports: Vec<(PortRef, f64)>,
+    },
+    /// A rigid joint: `flow_a = flow_b`.
+    Joint {
+        /// Joint name.
+        name: String,
+        /// First port.
+        a: PortRef,
+        /// Second port.
+        b: PortRef,
+    },
+    /// A coupling element acting on the two port coordinates.
+    Coupling {
+        /// Element name.
+        name: String,
+        /// First port.
+        a: PortRef,
+        /// Second port.
+        b: PortRef,
+        /// The element.
+        element: Arc<dyn CouplingElement>,
+    },
+}
+
+impl Connection {
+    /// The connection's name.
+    #[must_use]
+    pub fn name(&self) -> &str {
+        match self {
+            Self::Node { name, .. } | Self::Joint { name, .. } | Self::Coupling { name, .. } => name,
+        }
+    }
+
+    /// The ports it touches.
+    #[must_use]
+    pub fn ports(&self) -> Vec<PortRef> {
+        match self {
+            Self::Node { ports, .. } => ports.iter().map(|(p, _)| *p).collect(),
+            Self::Joint { a, b, .. } | Self::Coupling { a, b, .. } => vec![*a, *b],
+        }
+    }
+}
+
+impl std::fmt::Debug for Connection {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Node { name, ports } => f.debug_struct("Node").field("name", name).field("ports", ports).finish(),
+            Self::Joint { name, a, b } => f.debug_struct("Joint").field("name", name).field("a", a).field("b", b).finish(),
+            Self::Coupling { name, a, b, element } => f
+                .debug_struct("Coupling")
+                .field("name", name)
+                .field("a", a)
+                .field("b", b)
+                .field("element", &element.describe())
+                .finish(),
+        }
+    }
+}
+
+/// Graph vertices: subsystems and connections (a bipartite graph, so a node joining many ports is
+/// one vertex with many edges).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Vertex {
+    Subsystem(SubsystemId),
+    Connection(ConnectionId),
+}
+
+/// Subsystems joined at their ports.
+#[derive(Debug, Clone, Default)]
+pub struct Interconnection {
+    subsystems: Vec<Subsystem>,
+    connections: Vec<Connection>,
+    by_name: HashMap<String, SubsystemId>,
+    graph: UnGraph<Vertex, usize>,
+    vertex_of_subsystem: Vec<NodeIndex>,
+}
+
+impl Interconnection {
+    /// An empty interconnection.
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a subsystem; its name must be unique and its ports must name existing coordinates.
+    pub fn add_subsystem(&mut self, subsystem: Subsystem) -> Result<SubsystemId, GraphError> {
+        if self.by_name.contains_key(&subsystem.name) {
+            return Err(GraphError::DuplicateSubsystem(subsystem.name.clone()));
+        }
+        let dim = subsystem.model.dim();
+        for port in &subsystem.ports {
+            if let Some(&(coordinate, _)) = port.coefficients.iter().find(|(c, _)| *c >= dim) {
+                return Err(GraphError::PortOutOfRange {
+                    subsystem: subsystem.name.clone(),
+                    port: port.name.clone(),
+                    coordinate,
+                    dim,
+                });
+            }
+        }
+        let id = SubsystemId(self.subsystems.len());
+        self.by_name.insert(subsystem.name.clone(), id);
+        self.vertex_of_subsystem.push(self.graph.add_node(Vertex::Subsystem(id)));
+        self.subsystems.push(subsystem);
+        Ok(id)
+    }
+
+    /// Resolves `subsystem.port` names to a [`PortRef`].
+    pub fn port(&self, subsystem: &str, port: &str) -> Result<PortRef, GraphError> {
+        let &id = self
+            .by_name
+            .get(subsystem)
+            .ok_or_else(|| GraphError::UnknownSubsystem(subsystem.to_string()))?;
+        let index = self.subsystems[id.0]
+            .port_index(port)
+            .ok_or_else(|| GraphError::UnknownPort {
+                subsystem: subsystem.to_string(),
+                port: port.to_string(),
+            })?;
+        Ok(PortRef { subsystem: id, port: index })
+    }
+
+    fn add_connection(&mut self, connection: Connection) -> ConnectionId {
+        let id = ConnectionId(self.connections.len());
+        let v = self.graph.add_node(Vertex::Connection(id));
+        for p in connection.ports() {
+            self.graph.add_edge(v, self.vertex_of_subsystem[p.subsystem.0], p.port);
+        }
+        self.connections.push(connection);
+        id
+    }
+
+    /// An electrical node joining ports with signs (`+1`: the port's flow enters the node).
+    pub fn node(&mut self, name: impl Into<String>, ports: Vec<(PortRef, f64)>) -> Result<ConnectionId, GraphError> {
+        let name = name.into();
+        if ports.len() < 2 {
+            return Err(GraphError::TooFewPorts(name));
+        }
+        Ok(self.add_connection(Connection::Node { name, ports }))
+    }
+
+    /// A rigid joint: equal port flows.
+    pub fn joint(&mut self, name: impl Into<String>, a: PortRef, b: PortRef) -> ConnectionId {
+        self.add_connection(Connection::Joint { name: name.into(), a, b })
+    }
+
+    /// A coupling element between two ports.
+    pub fn coupling(
+        &mut self,
+        name: impl Into<String>,
+        a: PortRef,
+        b: PortRef,
+        element: impl CouplingElement + 'static,
+    ) -> ConnectionId {
+        self.add_connection(Connection::Coupling {
+            name: name.into(),
+            a,
+            b,
+            element: Arc::new(element),
+        })
+    }
+
+    /// The subsystems, in insertion order.
+    #[must_use]
+    pub fn subsystems(&self) -> &[Subsystem] {
+        &self.subsystems
+    }
+
+    /// The connections, in insertion order.
+    #[must_use]
+    pub fn connections(&self) -> &[Connection] {
+        &self.connections
+    }
+
+    /// The subsystems adjacent to `id` through some connection.
+    #[must_use]
+    pub fn neighbours(&self, id: SubsystemId) -> Vec<SubsystemId> {
+        let mut out = Vec::new();
+        for c in self.graph.neighbors(self.vertex_of_subsystem[id.0]) {
+            for s in self.graph.neighbors(c) {
+                if let Vertex::Subsystem(other) = self.graph[s]
+                    && other != id
+                    && !out.contains(&other)
+                {
+                    out.push(other);
+                }
+            }
+        }
+        out
+    }
+
+    /// Number of connected components of the graph (isolated subsystems count as components).
+    #[must_use]
+    pub fn component_count(&self) -> usize {
+        petgraph::algo::connected_components(&self.graph)
+    }
+}
