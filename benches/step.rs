@@ -28,9 +28,17 @@ fn discretisation(name: &str) -> Discretisation {
 
 #[divan::bench(args = ["midpoint", "gauss2", "gauss3"])]
 fn oscillator_step(bencher: Bencher, name: &str) {
-    let osc = DampedOscillator { m: 1.0, k: 1.0, c: 0.01 };
-    let mut sim = Integrator::new(osc, NoConstraints, IntegratorOptions::new(discretisation(name), 0.05))
-        .expect("valid options");
+    let osc = DampedOscillator {
+        m: 1.0,
+        k: 1.0,
+        c: 0.01,
+    };
+    let mut sim = Integrator::new(
+        osc,
+        NoConstraints,
+        IntegratorOptions::new(discretisation(name), 0.05),
+    )
+    .expect("valid options");
     sim.set_state(&[1.0], &[0.0], 0.0).expect("state");
     // Warm up: the first step analyses the pattern and sizes every buffer.
     sim.step().expect("step");
@@ -44,8 +52,10 @@ fn oscillator_step(bencher: Bencher, name: &str) {
 fn seed_rlc_run(bencher: Bencher, solver: SolverChoice) {
     bencher.bench_local(|| {
         let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).solver(solver);
-        let mut sim = Integrator::new(RlcLoop::seed(), RlcLoop::kcl(), options).expect("valid options");
-        sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0).expect("consistent");
+        let mut sim =
+            Integrator::new(RlcLoop::seed(), RlcLoop::kcl(), options).expect("valid options");
+        sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0)
+            .expect("consistent");
         for _ in 0..1000 {
             sim.step().expect("step");
         }
@@ -57,7 +67,8 @@ fn seed_rlc_run(bencher: Bencher, solver: SolverChoice) {
 fn seed_rlc_step(bencher: Bencher, solver: SolverChoice) {
     let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).solver(solver);
     let mut sim = Integrator::new(RlcLoop::seed(), RlcLoop::kcl(), options).expect("valid options");
-    sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0).expect("consistent");
+    sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0)
+        .expect("consistent");
     sim.step().expect("step");
     bencher.bench_local(|| {
         sim.step().expect("step");

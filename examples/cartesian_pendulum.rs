@@ -22,10 +22,17 @@ fn main() -> Result<(), Box<dyn Error>> {
         ("position-level", ConstraintKind::Holonomic, Scheme::Plus),
         ("one-form-plus", ConstraintKind::OneForm, Scheme::Plus),
         ("one-form-minus", ConstraintKind::OneForm, Scheme::Minus),
-        ("one-form-symmetric", ConstraintKind::OneForm, Scheme::Symmetric),
+        (
+            "one-form-symmetric",
+            ConstraintKind::OneForm,
+            Scheme::Symmetric,
+        ),
     ];
     let mut out = std::io::stdout().lock();
-    writeln!(out, "variant,max_constraint_drift,final_constraint_drift,max_energy_error")?;
+    writeln!(
+        out,
+        "variant,max_constraint_drift,final_constraint_drift,max_energy_error"
+    )?;
     let mut chart = dirac_plot::LineChart::new("Cartesian pendulum: constraint drift, h = 0.01")
         .x_label("t")
         .y_label("| |q| - 1 |");
@@ -54,9 +61,15 @@ fn main() -> Result<(), Box<dyn Error>> {
         if let Some(e) = failed {
             eprintln!("{name}: stopped at t = {}: {e}", sim.t());
         }
-        writeln!(out, "{name},{drift:e},{:e},{energy_err:e}", circle.drift(sim.q()).abs())?;
+        writeln!(
+            out,
+            "{name},{drift:e},{:e},{energy_err:e}",
+            circle.drift(sim.q()).abs()
+        )?;
         chart.push(dirac_plot::Series::new(name, series));
     }
-    chart.log_y(true).save_svg("docs/figures/cartesian_pendulum_drift.svg")?;
+    chart
+        .log_y(true)
+        .save_svg("docs/figures/cartesian_pendulum_drift.svg")?;
     Ok(())
 }

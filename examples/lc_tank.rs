@@ -15,7 +15,11 @@ use dirac_problems::LcTank;
 fn main() -> Result<(), Box<dyn Error>> {
     let tank = LcTank { l: 1.0, c: 1.0 };
     let steps = 1_000_000;
-    let mut sim = Integrator::new(tank, LcTank::kcl(), IntegratorOptions::new(Discretisation::midpoint(), 0.1))?;
+    let mut sim = Integrator::new(
+        tank,
+        LcTank::kcl(),
+        IntegratorOptions::new(Discretisation::midpoint(), 0.1),
+    )?;
     sim.initialise(&[1.0, 0.0], &[0.0, 0.0], 0.0)?;
     let e0 = tank.energy(sim.q(), sim.p());
     let mut worst: f64 = 0.0;

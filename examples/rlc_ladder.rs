@@ -36,15 +36,24 @@ fn main() -> Result<(), Box<dyn Error>> {
     let start = Instant::now();
     let mut g = Interconnection::new();
     g.add_subsystem(VoltageSource { v: 1.0 }.subsystem("V1"))?;
-    let section = LadderSection { r: 0.1, l: 1.0, c: 1.0 };
-    let prototype = Subsystem::new("S", section).with_port("series", 0).with_port("shunt", 1);
+    let section = LadderSection {
+        r: 0.1,
+        l: 1.0,
+        c: 1.0,
+    };
+    let prototype = Subsystem::new("S", section)
+        .with_port("series", 0)
+        .with_port("shunt", 1);
     for k in 1..=sections {
         g.add_subsystem(prototype.renamed(format!("S{k}")))?;
     }
     let src = g.port("V1", "i")?;
     g.node("n0", vec![(src, 1.0), (g.port("S1", "series")?, -1.0)])?;
     for k in 1..=sections {
-        let mut ports = vec![(g.port(&format!("S{k}"), "series")?, 1.0), (g.port(&format!("S{k}"), "shunt")?, -1.0)];
+        let mut ports = vec![
+            (g.port(&format!("S{k}"), "series")?, 1.0),
+            (g.port(&format!("S{k}"), "shunt")?, -1.0),
+        ];
         if k < sections {
             ports.push((g.port(&format!("S{}", k + 1), "series")?, -1.0));
         }

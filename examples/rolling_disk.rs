@@ -21,7 +21,11 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut chart = dirac_plot::LineChart::new("Rolling disk: energy, midpoint, h = 0.05")
         .x_label("t")
         .y_label("energy");
-    for (name, scheme) in [("plus", Scheme::Plus), ("minus", Scheme::Minus), ("symmetric", Scheme::Symmetric)] {
+    for (name, scheme) in [
+        ("plus", Scheme::Plus),
+        ("minus", Scheme::Minus),
+        ("symmetric", Scheme::Symmetric),
+    ] {
         let model = RollingDiskForms::model(1.0, 1.0, 1.0);
         let options = IntegratorOptions::new(Discretisation::midpoint(), h).scheme(scheme);
         let mut sim = Integrator::new(model.clone(), RollingDiskForms { radius: 1.0 }, options)?;
@@ -33,7 +37,14 @@ fn main() -> Result<(), Box<dyn Error>> {
             worst_residual = worst_residual.max(sim.last_constraint_residual());
             if k % every == 0 {
                 let e = model.energy(sim.q(), sim.p());
-                writeln!(out, "{name},{},{:e},{},{}", sim.t(), sim.last_constraint_residual(), sim.p()[3], e)?;
+                writeln!(
+                    out,
+                    "{name},{},{:e},{},{}",
+                    sim.t(),
+                    sim.last_constraint_residual(),
+                    sim.p()[3],
+                    e
+                )?;
                 energy.push((sim.t(), e));
             }
         }
@@ -45,6 +56,8 @@ fn main() -> Result<(), Box<dyn Error>> {
         );
         chart.push(dirac_plot::Series::new(name, energy));
     }
-    chart.log_y(true).save_svg("docs/figures/rolling_disk_energy.svg")?;
+    chart
+        .log_y(true)
+        .save_svg("docs/figures/rolling_disk_energy.svg")?;
     Ok(())
 }

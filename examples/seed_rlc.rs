@@ -21,7 +21,9 @@ fn parse_flavour() -> Result<Flavour, String> {
         Some(i) => match args.get(i + 1).map(String::as_str) {
             Some("plus" | "+") => Ok(Flavour::Plus),
             Some("minus" | "-") => Ok(Flavour::Minus),
-            other => Err(format!("--flavour expects `plus` or `minus`, got {other:?}")),
+            other => Err(format!(
+                "--flavour expects `plus` or `minus`, got {other:?}"
+            )),
         },
     }
 }
@@ -56,11 +58,15 @@ fn main() -> Result<(), Box<dyn Error>> {
     let simulated: Vec<(f64, f64)> = rows.iter().map(|r| (r.0, r.1)).collect();
     let path = format!("docs/figures/seed_rlc_{name}");
     let sign = if name == "plus" { "+" } else { "−" };
-    let chart = dirac_plot::LineChart::new(format!("Seed RLC loop, ({sign}) Dirac, midpoint, h = 0.05"))
-        .x_label("t")
-        .y_label("q_C")
-        .with_series(dirac_plot::Series::new("exact", exact))
-        .with_series(dirac_plot::Series::new("simulated", simulated).style(dirac_plot::LineStyle::Dotted));
+    let chart =
+        dirac_plot::LineChart::new(format!("Seed RLC loop, ({sign}) Dirac, midpoint, h = 0.05"))
+            .x_label("t")
+            .y_label("q_C")
+            .with_series(dirac_plot::Series::new("exact", exact))
+            .with_series(
+                dirac_plot::Series::new("simulated", simulated)
+                    .style(dirac_plot::LineStyle::Dotted),
+            );
     chart.save_svg(format!("{path}.svg"))?;
     chart.save_png(format!("{path}.png"))?;
     eprintln!("figures: {path}.svg, {path}.png");

@@ -18,18 +18,41 @@ use dirac_components::Mass;
 
 fn graph() -> Result<Interconnection, Box<dyn Error>> {
     let mut g = Interconnection::new();
-    g.add_subsystem(Mass { m: 1.0, k: 1.0, c: 0.0 }.subsystem("A"))?;
-    g.add_subsystem(Mass { m: 1.0, k: 1.0, c: 0.0 }.subsystem("B"))?;
+    g.add_subsystem(
+        Mass {
+            m: 1.0,
+            k: 1.0,
+            c: 0.0,
+        }
+        .subsystem("A"),
+    )?;
+    g.add_subsystem(
+        Mass {
+            m: 1.0,
+            k: 1.0,
+            c: 0.0,
+        }
+        .subsystem("B"),
+    )?;
     let (a, b) = (g.port("A", "x")?, g.port("B", "x")?);
     g.coupling("spring", a, b, LinearSpring { k: 1.0, rest: 0.0 });
     Ok(g)
 }
 
-fn assembled(g: &Interconnection, rep: Representation, options: &IntegratorOptions, steps: usize) -> Result<Vec<Vec<f64>>, Box<dyn Error>> {
+fn assembled(
+    g: &Interconnection,
+    rep: Representation,
+    options: &IntegratorOptions,
+    steps: usize,
+) -> Result<Vec<Vec<f64>>, Box<dyn Error>> {
     let system = Assembler::assemble(g, rep)?;
     let names = vec!["A".to_string(), "B".to_string()];
     let q = system.global_vector(&[vec![1.0], vec![0.0]], &names)?;
-    let mut sim = Integrator::new(system.model.clone(), system.constraints.clone(), options.clone())?;
+    let mut sim = Integrator::new(
+        system.model.clone(),
+        system.constraints.clone(),
+        options.clone(),
+    )?;
     sim.initialise(&q, &vec![0.0; q.len()], 0.0)?;
     let mut out = vec![system.subsystem_positions(sim.q()).to_vec()];
     for _ in 0..steps {
@@ -39,7 +62,12 @@ fn assembled(g: &Interconnection, rep: Representation, options: &IntegratorOptio
     Ok(out)
 }
 
-fn staggered(g: &Interconnection, splitting: Splitting, options: &IntegratorOptions, steps: usize) -> Result<Vec<Vec<f64>>, Box<dyn Error>> {
+fn staggered(
+    g: &Interconnection,
+    splitting: Splitting,
+    options: &IntegratorOptions,
+    steps: usize,
+) -> Result<Vec<Vec<f64>>, Box<dyn Error>> {
     let mut sim = Staggered::new(g, options, splitting)?;
     sim.initialise(&[vec![1.0], vec![0.0]], &[vec![0.0], vec![0.0]], 0.0)?;
     let mut out = vec![sim.positions()];
@@ -56,21 +84,38 @@ fn main() -> Result<(), Box<dyn Error>> {
     let options = IntegratorOptions::new(Discretisation::midpoint(), h).flavour(Flavour::Plus);
     let mono = assembled(&g, Representation::Monolithic, &options, steps)?;
     let runs = [
-        ("constraint", assembled(&g, Representation::Constraint, &options, steps)?),
-        ("force", assembled(&g, Representation::InteractionForce, &options, steps)?),
-        ("staggered-gs", staggered(&g, Splitting::GaussSeidel, &options, steps)?),
-        ("staggered-jacobi", staggered(&g, Splitting::Jacobi, &options, steps)?),
+        (
+            "constraint",
+            assembled(&g, Representation::Constraint, &options, steps)?,
+        ),
+        (
+            "force",
+            assembled(&g, Representation::InteractionForce, &options, steps)?,
+        ),
+        (
+            "staggered-gs",
+            staggered(&g, Splitting::GaussSeidel, &options, steps)?,
+        ),
+        (
+            "staggered-jacobi",
+            staggered(&g, Splitting::Jacobi, &options, steps)?,
+        ),
     ];
     println!("representation,max_dev");
-    let mut chart = dirac_plot::LineChart::new("Two-mass split: deviation of x1 from monolithic, h = 0.1")
-        .x_label("t")
-        .y_label("|x - x_monolithic|")
-        .log_y(true);
+    let mut chart =
+        dirac_plot::LineChart::new("Two-mass split: deviation of x1 from monolithic, h = 0.1")
+            .x_label("t")
+            .y_label("|x - x_monolithic|")
+            .log_y(true);
     for (name, run) in &runs {
         let dev = run
             .iter()
             .zip(&mono)
-            .map(|(a, b)| a.iter().zip(b).fold(0.0_f64, |m, (x, y)| m.max((x - y).abs())))
+            .map(|(a, b)| {
+                a.iter()
+                    .zip(b)
+                    .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+            })
             .fold(0.0_f64, f64::max);
         println!("{name},{dev:e}");
         let series: Vec<(f64, f64)> = run

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{max_diff, trajectory};
+use common::{max_diff, options, trajectory};
 use dirac::core::{
     ConstraintKind, Constraints, Discretisation, Flavour, LagrangianHessian, LinearForms, Model,
     NoConstraints,
@@ -37,12 +37,16 @@ fn reference_newton(mut x: Vec<f64>, f: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f64>
         }
         // Gaussian elimination with partial pivoting.
         for k in 0..n {
-            let p = (k..n).max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs())).unwrap();
+            let p = (k..n)
+                .max_by(|&i, &j| a[i][k].abs().total_cmp(&a[j][k].abs()))
+                .unwrap();
             a.swap(k, p);
-            for i in k + 1..n {
-                let factor = a[i][k] / a[k][k];
-                for j in k..=n {
-                    a[i][j] -= factor * a[k][j];
+            let (top, bottom) = a.split_at_mut(k + 1);
+            let pivot_row = &top[k];
+            for row in bottom.iter_mut() {
+                let factor = row[k] / pivot_row[k];
+                for (x, p) in row[k..].iter_mut().zip(&pivot_row[k..]) {
+                    *x -= factor * p;
                 }
             }
         }
@@ -63,7 +67,12 @@ fn reference_newton(mut x: Vec<f64>, f: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f64>
 /// evaluated at (q̄, v̄).
 #[test]
 fn without_constraints_both_flavours_are_the_forced_hamiltonian_map() {
-    let model = QuarticPendulums { g: 2.0, kappa: 0.7, eps: 0.3, c: 0.15 };
+    let model = QuarticPendulums {
+        g: 2.0,
+        kappa: 0.7,
+        eps: 0.3,
+        c: 0.15,
+    };
     let h = 0.05;
     let steps = 200;
     let halves = |q0: &[f64], q1: &[f64]| {
@@ -73,7 +82,10 @@ fn without_constraints_both_flavours_are_the_forced_hamiltonian_map() {
         model.lagrangian_gradient(&qb, &vb, &mut lq, &mut lv);
         model.force(&qb, &vb, 0.0, &mut f);
         let kick = [0.5 * h * (lq[0] + f[0]), 0.5 * h * (lq[1] + f[1])];
-        ([lv[0] - kick[0], lv[1] - kick[1]], [lv[0] + kick[0], lv[1] + kick[1]])
+        (
+            [lv[0] - kick[0], lv[1] - kick[1]],
+            [lv[0] + kick[0], lv[1] + kick[1]],
+        )
     };
     let (mut q, mut p) = (vec![0.4, -0.3], vec![0.2, 0.5]);
     let mut reference = vec![(q.clone(), p.clone())];
@@ -87,7 +99,14 @@ fn without_constraints_both_flavours_are_the_forced_hamiltonian_map() {
         reference.push((q.clone(), p.clone()));
     }
     for flavour in [Flavour::Plus, Flavour::Minus] {
-        let run = trajectory(model, NoConstraints, Discretisation::midpoint(), flavour, h, &[0.4, -0.3], &[0.2, 0.5], steps);
+        let run = trajectory(
+            model,
+            NoConstraints,
+            options(Discretisation::midpoint(), flavour, h),
+            &[0.4, -0.3],
+            &[0.2, 0.5],
+            steps,
+        );
         let dev = run
             .iter()
             .zip(&reference)
@@ -107,7 +126,10 @@ struct DiskReference {
 impl DiskReference {
     fn omega(&self, q: &[f64]) -> [[f64; 4]; 2] {
         let r = self.forms.radius;
-        [[1.0, 0.0, -r * q[3].cos(), 0.0], [0.0, 1.0, -r * q[3].sin(), 0.0]]
+        [
+            [1.0, 0.0, -r * q[3].cos(), 0.0],
+            [0.0, 1.0, -r * q[3].sin(), 0.0],
+        ]
     }
     /// D2 L_d(q0, q1) = M(q1 − q0)/h = −D1 L_d(q0, q1).
     fn d2(&self, q0: &[f64], q1: &[f64]) -> [f64; 4] {
@@ -121,7 +143,11 @@ impl DiskReference {
 /// D2L_d(q_{k−1}, q_k) + μ·ω(q_k) + D1L_d(q_k, q_{k+1}) = 0, ω(q_{k+1})(q_{k+1} − q_k) = 0.
 #[test]
 fn without_forces_both_flavours_are_leok_ohsawa() {
-    let disk = DiskReference { mass: [1.0, 1.0, 1.0, 1.0], forms: RollingDiskForms { radius: 1.0 }, h: 0.05 };
+    let disk = DiskReference {
+        mass: [1.0, 1.0, 1.0, 1.0],
+        forms: RollingDiskForms { radius: 1.0 },
+        h: 0.05,
+    };
     let q0 = vec![0.0, 0.0, 0.0, 0.0];
     let v0 = [1.0, 0.0, 1.0, 0.5];
     let p0: Vec<f64> = (0..4).map(|i| disk.mass[i] * v0[i]).collect();
@@ -134,7 +160,9 @@ fn without_forces_both_flavours_are_leok_ohsawa() {
         let w = disk.omega(&q);
         let x = reference_newton([q.clone(), vec![0.0, 0.0]].concat(), |x| {
             let d2 = disk.d2(&q, &x[..4]);
-            let mut r: Vec<f64> = (0..4).map(|i| d2[i] + w[0][i] * x[4] + w[1][i] * x[5] - p[i]).collect();
+            let mut r: Vec<f64> = (0..4)
+                .map(|i| d2[i] + w[0][i] * x[4] + w[1][i] * x[5] - p[i])
+                .collect();
             for row in &w {
                 r.push((0..4).map(|i| row[i] * (x[i] - q[i])).sum());
             }
@@ -152,8 +180,9 @@ fn without_forces_both_flavours_are_leok_ohsawa() {
         let w = disk.omega(&q);
         let x = reference_newton([q.clone(), vec![0.0, 0.0]].concat(), |x| {
             let d2 = disk.d2(&q, &x[..4]);
-            let mut r: Vec<f64> =
-                (0..4).map(|i| prev_momentum[i] + w[0][i] * x[4] + w[1][i] * x[5] - d2[i]).collect();
+            let mut r: Vec<f64> = (0..4)
+                .map(|i| prev_momentum[i] + w[0][i] * x[4] + w[1][i] * x[5] - d2[i])
+                .collect();
             let w1 = disk.omega(&x[..4]);
             for row in &w1 {
                 r.push((0..4).map(|i| row[i] * (x[i] - q[i])).sum());
@@ -169,18 +198,24 @@ fn without_forces_both_flavours_are_leok_ohsawa() {
         let run = trajectory(
             RollingDiskForms::model(1.0, 1.0, 1.0),
             RollingDiskForms { radius: 1.0 },
-            Discretisation::midpoint(),
-            flavour,
-            0.05,
+            options(Discretisation::midpoint(), flavour, 0.05),
             &q0,
             &p0,
             steps,
         );
-        let dev = run.iter().zip(reference).map(|(a, b)| max_diff(&a.0, b)).fold(0.0, f64::max);
+        let dev = run
+            .iter()
+            .zip(reference)
+            .map(|(a, b)| max_diff(&a.0, b))
+            .fold(0.0, f64::max);
         assert!(dev <= 1e-12, "{flavour:?}: deviation {dev:e}");
     }
     // The two flavours differ on this q-dependent constraint (negative control).
-    let dev = plus.iter().zip(&minus).map(|(a, b)| max_diff(a, b)).fold(0.0, f64::max);
+    let dev = plus
+        .iter()
+        .zip(&minus)
+        .map(|(a, b)| max_diff(a, b))
+        .fold(0.0, f64::max);
     assert!(dev > 1e-6);
 }
 
@@ -225,7 +260,10 @@ fn seed_rlc_discrete_power_balance() {
             let (e0, e1) = (rlc.energy(&w[0].0, &w[0].1), rlc.energy(&w[1].0, &w[1].1));
             let vr = (w[1].0[2] - w[0].0[2]) / h;
             let defect = (e1 - e0 + h * rlc.r * vr * vr).abs();
-            assert!(defect <= 1e-12 * e0, "{flavour:?}: defect {defect:e} at E = {e0:e}");
+            assert!(
+                defect <= 1e-12 * e0,
+                "{flavour:?}: defect {defect:e} at E = {e0:e}"
+            );
         }
     }
     // Negative control: with p_L alone in the energy the balance fails by far more.
@@ -238,17 +276,28 @@ fn seed_rlc_discrete_power_balance() {
             (raw(&w[1].0, &w[1].1) - raw(&w[0].0, &w[0].1) + h * rlc.r * vr * vr).abs()
         })
         .fold(0.0, f64::max);
-    assert!(worst > 1e-6, "raw p_L balance unexpectedly exact: {worst:e}");
+    assert!(
+        worst > 1e-6,
+        "raw p_L balance unexpectedly exact: {worst:e}"
+    );
 }
 
 /// (+) and (−) give the same charges on the RLC loop (its constraint forms are constant).
 #[test]
 fn seed_rlc_flavours_agree_on_charges() {
     let (a, b) = (seed_run(Flavour::Plus), seed_run(Flavour::Minus));
-    let dev = a.iter().zip(&b).map(|(x, y)| max_diff(&x.0, &y.0)).fold(0.0, f64::max);
+    let dev = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| max_diff(&x.0, &y.0))
+        .fold(0.0, f64::max);
     assert!(dev <= 1e-13, "charge deviation {dev:e}");
     let loop_p = |p: &[f64]| p[0] + p[1] + p[2];
-    let dev = a.iter().zip(&b).map(|(x, y)| (loop_p(&x.1) - loop_p(&y.1)).abs()).fold(0.0, f64::max);
+    let dev = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (loop_p(&x.1) - loop_p(&y.1)).abs())
+        .fold(0.0, f64::max);
     assert!(dev <= 1e-13, "loop momentum deviation {dev:e}");
 }
 
@@ -276,7 +325,8 @@ fn constraint_residuals_are_round_off() {
         IntegratorOptions::new(Discretisation::midpoint(), 0.05),
     )
     .unwrap();
-    sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0).unwrap();
+    sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0)
+        .unwrap();
     for _ in 0..2000 {
         let q0 = sim.q().to_vec();
         sim.step().unwrap();
@@ -286,13 +336,26 @@ fn constraint_residuals_are_round_off() {
         assert!(r.iter().all(|x| x.abs() <= 1e-13), "{r:?}");
     }
 
-    let circle = CircleConstraint { length: 1.0, kind: ConstraintKind::Holonomic };
-    let mut sim = Integrator::new(CircleConstraint::model(1.0, 9.81), circle, IntegratorOptions::new(Discretisation::midpoint(), 0.01)).unwrap();
+    let circle = CircleConstraint {
+        length: 1.0,
+        kind: ConstraintKind::Holonomic,
+    };
+    let mut sim = Integrator::new(
+        CircleConstraint::model(1.0, 9.81),
+        circle,
+        IntegratorOptions::new(Discretisation::midpoint(), 0.01),
+    )
+    .unwrap();
     let a = 60f64.to_radians();
-    sim.initialise(&[a.sin(), -a.cos()], &[0.0, 0.0], 0.0).unwrap();
+    sim.initialise(&[a.sin(), -a.cos()], &[0.0, 0.0], 0.0)
+        .unwrap();
     for _ in 0..5000 {
         sim.step().unwrap();
-        assert!(circle.drift(sim.q()).abs() <= 1e-13, "drift {}", circle.drift(sim.q()));
+        assert!(
+            circle.drift(sim.q()).abs() <= 1e-13,
+            "drift {}",
+            circle.drift(sim.q())
+        );
     }
 }
 
@@ -302,8 +365,10 @@ fn constraint_residuals_are_round_off() {
 fn rolling_disk(scheme: Scheme, steps: usize) -> (f64, f64, f64, f64) {
     let model = RollingDiskForms::model(1.0, 1.0, 1.0);
     let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).scheme(scheme);
-    let mut sim = Integrator::new(model.clone(), RollingDiskForms { radius: 1.0 }, options).unwrap();
-    sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0).unwrap();
+    let mut sim =
+        Integrator::new(model.clone(), RollingDiskForms { radius: 1.0 }, options).unwrap();
+    sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0)
+        .unwrap();
     let p_phi = sim.p()[3];
     // Energy after the first step: the first constraint impulse projects the initial momentum
     // once; what matters is what happens after.
@@ -333,22 +398,36 @@ fn rolling_disk_invariants() {
     let steps = 100_000;
     let (dp, first, last, _) = rolling_disk(Scheme::Symmetric, steps);
     assert!(dp <= 1e-12, "symmetric: p_phi drift {dp:e}");
-    assert!(first <= 1e-12 && last <= 1e-12, "symmetric: energy error {first:e} then {last:e}");
+    assert!(
+        first <= 1e-12 && last <= 1e-12,
+        "symmetric: energy error {first:e} then {last:e}"
+    );
     // Measured (docs/results.md): (+) ends with ~1/9 of its energy (only the φ spin survives),
     // (−) with many times its initial energy.
     let (dp, _, _, plus_ratio) = rolling_disk(Scheme::Plus, steps);
     assert!(dp <= 1e-12, "(+): p_phi drift {dp:e}");
-    assert!(plus_ratio < 0.5, "(+) should dissipate: E_end/E_1 = {plus_ratio}");
+    assert!(
+        plus_ratio < 0.5,
+        "(+) should dissipate: E_end/E_1 = {plus_ratio}"
+    );
     let (dp, _, _, minus_ratio) = rolling_disk(Scheme::Minus, steps);
     assert!(dp <= 1e-12, "(−): p_phi drift {dp:e}");
-    assert!(minus_ratio > 2.0, "(−) should gain: E_end/E_1 = {minus_ratio}");
+    assert!(
+        minus_ratio > 2.0,
+        "(−) should gain: E_end/E_1 = {minus_ratio}"
+    );
 }
 
 /// LC tank (degenerate Lagrangian): energy with the loop momentum conserved to round-off.
 #[test]
 fn lc_tank_conserves_energy() {
     let tank = LcTank { l: 1.0, c: 1.0 };
-    let mut sim = Integrator::new(tank, LcTank::kcl(), IntegratorOptions::new(Discretisation::midpoint(), 0.1)).unwrap();
+    let mut sim = Integrator::new(
+        tank,
+        LcTank::kcl(),
+        IntegratorOptions::new(Discretisation::midpoint(), 0.1),
+    )
+    .unwrap();
     sim.initialise(&[1.0, 0.0], &[0.0, 0.0], 0.0).unwrap();
     let e0 = tank.energy(sim.q(), sim.p());
     for _ in 0..100_000 {
@@ -363,12 +442,18 @@ fn lc_tank_conserves_energy() {
 #[test]
 fn constrained_galerkin_keeps_its_order() {
     let rlc = RlcLoop::seed();
-    for (d, order) in [(Discretisation::midpoint(), 2.0), (Discretisation::gauss(2), 4.0), (Discretisation::gauss(3), 6.0), (Discretisation::lobatto(2), 4.0)] {
+    for (d, order) in [
+        (Discretisation::midpoint(), 2.0),
+        (Discretisation::gauss(2), 4.0),
+        (Discretisation::gauss(3), 6.0),
+        (Discretisation::lobatto(2), 4.0),
+    ] {
         let mut hs = Vec::new();
         let mut errs = Vec::new();
         for steps in [20usize, 40, 80, 160] {
             let h = 10.0 / steps as f64;
-            let mut sim = Integrator::new(rlc, RlcLoop::kcl(), IntegratorOptions::new(d.clone(), h)).unwrap();
+            let mut sim =
+                Integrator::new(rlc, RlcLoop::kcl(), IntegratorOptions::new(d.clone(), h)).unwrap();
             sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0).unwrap();
             for _ in 0..steps {
                 sim.step().unwrap();
@@ -377,7 +462,10 @@ fn constrained_galerkin_keeps_its_order() {
             errs.push((sim.q()[0] - rlc_exact(&rlc, 1.0, 10.0)).abs());
         }
         let slope = common::fitted_slope(&hs, &errs);
-        assert!((slope - order).abs() <= 0.2, "{d}: slope {slope}, errors {errs:?}");
+        assert!(
+            (slope - order).abs() <= 0.2,
+            "{d}: slope {slope}, errors {errs:?}"
+        );
     }
 }
 
@@ -386,7 +474,12 @@ fn constrained_galerkin_keeps_its_order() {
 fn empty_constraint_row_is_a_typed_error() {
     let mut forms = RlcLoop::kcl();
     forms.push("dangling", &[]);
-    let mut sim = Integrator::new(RlcLoop::seed(), forms, IntegratorOptions::new(Discretisation::midpoint(), 0.05)).unwrap();
+    let mut sim = Integrator::new(
+        RlcLoop::seed(),
+        forms,
+        IntegratorOptions::new(Discretisation::midpoint(), 0.05),
+    )
+    .unwrap();
     match sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0) {
         Err(SimError::EmptyConstraint { constraint }) => assert_eq!(constraint, "dangling"),
         other => panic!("expected EmptyConstraint, got {other:?}"),
@@ -402,13 +495,28 @@ fn undetermined_coordinate_is_a_typed_error() {
     forms.push("kcl(L,C)", &[(1, 1.0), (0, -1.0)]);
     struct NoResistor(RlcLoop);
     impl Model for NoResistor {
-        fn dim(&self) -> usize { 3 }
-        fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64 { self.0.lagrangian(q, v) }
-        fn lagrangian_gradient(&self, q: &[f64], v: &[f64], a: &mut [f64], b: &mut [f64]) { self.0.lagrangian_gradient(q, v, a, b) }
-        fn lagrangian_hessian(&self, q: &[f64], v: &[f64], h: &mut LagrangianHessian) { self.0.lagrangian_hessian(q, v, h) }
-        fn coordinate_name(&self, i: usize) -> String { self.0.coordinate_name(i) }
+        fn dim(&self) -> usize {
+            3
+        }
+        fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64 {
+            self.0.lagrangian(q, v)
+        }
+        fn lagrangian_gradient(&self, q: &[f64], v: &[f64], a: &mut [f64], b: &mut [f64]) {
+            self.0.lagrangian_gradient(q, v, a, b)
+        }
+        fn lagrangian_hessian(&self, q: &[f64], v: &[f64], h: &mut LagrangianHessian) {
+            self.0.lagrangian_hessian(q, v, h)
+        }
+        fn coordinate_name(&self, i: usize) -> String {
+            self.0.coordinate_name(i)
+        }
     }
-    let mut sim = Integrator::new(NoResistor(RlcLoop::seed()), forms, IntegratorOptions::new(Discretisation::midpoint(), 0.05)).unwrap();
+    let mut sim = Integrator::new(
+        NoResistor(RlcLoop::seed()),
+        forms,
+        IntegratorOptions::new(Discretisation::midpoint(), 0.05),
+    )
+    .unwrap();
     sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0).unwrap();
     let err = sim.step().unwrap_err();
     let text = err.to_string();
@@ -422,16 +530,37 @@ fn undetermined_coordinate_is_a_typed_error() {
 fn contradicting_constraints_are_a_typed_error() {
     struct Pins;
     impl Constraints for Pins {
-        fn count(&self) -> usize { 2 }
-        fn kind(&self, _a: usize) -> ConstraintKind { ConstraintKind::Holonomic }
-        fn forms(&self, _q: &[f64], out: &mut dirac::core::Triplets) { out.add(0, 0, 1.0); out.add(1, 0, 1.0); }
-        fn values(&self, q: &[f64], out: &mut [f64]) { out[0] = q[0] - 1.0; out[1] = q[0] - 2.0; }
-        fn is_constant(&self) -> bool { true }
-        fn name(&self, a: usize) -> String { ["x=1", "x=2"][a].to_string() }
+        fn count(&self) -> usize {
+            2
+        }
+        fn kind(&self, _a: usize) -> ConstraintKind {
+            ConstraintKind::Holonomic
+        }
+        fn forms(&self, _q: &[f64], out: &mut dirac::core::Triplets) {
+            out.add(0, 0, 1.0);
+            out.add(1, 0, 1.0);
+        }
+        fn values(&self, q: &[f64], out: &mut [f64]) {
+            out[0] = q[0] - 1.0;
+            out[1] = q[0] - 2.0;
+        }
+        fn is_constant(&self) -> bool {
+            true
+        }
+        fn name(&self, a: usize) -> String {
+            ["x=1", "x=2"][a].to_string()
+        }
     }
-    let mut sim = Integrator::new(CircleConstraint::model(1.0, 0.0), Pins, IntegratorOptions::new(Discretisation::midpoint(), 0.05)).unwrap();
+    let mut sim = Integrator::new(
+        CircleConstraint::model(1.0, 0.0),
+        Pins,
+        IntegratorOptions::new(Discretisation::midpoint(), 0.05),
+    )
+    .unwrap();
     match sim.initialise(&[1.0, 0.0], &[0.0, 0.0], 0.0) {
-        Err(SimError::InconsistentInitialCondition { constraint, .. }) => assert_eq!(constraint, "x=2"),
+        Err(SimError::InconsistentInitialCondition { constraint, .. }) => {
+            assert_eq!(constraint, "x=2")
+        }
         other => panic!("expected InconsistentInitialCondition, got {other:?}"),
     }
 }
@@ -442,10 +571,19 @@ fn contradicting_constraints_are_a_typed_error() {
 fn redundant_constraint_is_dropped_with_a_warning() {
     let mut forms = RlcLoop::kcl();
     forms.push("kcl(C,L)", &[(0, 1.0), (1, -1.0)]);
-    let mut sim = Integrator::new(RlcLoop::seed(), forms, IntegratorOptions::new(Discretisation::midpoint(), 0.05)).unwrap();
+    let mut sim = Integrator::new(
+        RlcLoop::seed(),
+        forms,
+        IntegratorOptions::new(Discretisation::midpoint(), 0.05),
+    )
+    .unwrap();
     sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0).unwrap();
     assert_eq!(sim.warnings().len(), 1);
-    assert!(sim.warnings()[0].contains("kcl(C,L)"), "{:?}", sim.warnings());
+    assert!(
+        sim.warnings()[0].contains("kcl(C,L)"),
+        "{:?}",
+        sim.warnings()
+    );
     let reference = seed_run(Flavour::Plus);
     for (k, state) in reference.iter().enumerate().skip(1) {
         sim.step().unwrap();

@@ -2,12 +2,14 @@
 
 mod common;
 
-use common::{fitted_slope, max_diff, trajectory};
+use common::{fitted_slope, max_diff, options, trajectory};
 use dirac::core::{
     AutoDiff, Discretisation, Flavour, ForceJacobian, LagrangianHessian, Model, NoConstraints,
     QuadratureRule,
 };
-use dirac_problems::{DampedOscillator, QuarticPendulums, QuarticPendulumsGeneric, SplitOscillator};
+use dirac_problems::{
+    DampedOscillator, QuarticPendulums, QuarticPendulumsGeneric, SplitOscillator,
+};
 
 /// Round-off allowance for quantities of order one accumulated over a few thousand steps.
 const ROUND_OFF: f64 = 1e-12;
@@ -28,10 +30,21 @@ fn every_discretisation() -> Vec<Discretisation> {
 
 /// Error in (q, p) at t = 4 on the damped oscillator m = k = 1, c = 0.2, for `steps` steps.
 fn oscillator_error(d: &Discretisation, steps: usize) -> f64 {
-    let osc = DampedOscillator { m: 1.0, k: 1.0, c: 0.2 };
+    let osc = DampedOscillator {
+        m: 1.0,
+        k: 1.0,
+        c: 0.2,
+    };
     let t_end = 4.0;
     let h = t_end / steps as f64;
-    let run = trajectory(osc, NoConstraints, d.clone(), Flavour::Plus, h, &[1.0], &[0.0], steps);
+    let run = trajectory(
+        osc,
+        NoConstraints,
+        options(d.clone(), Flavour::Plus, h),
+        &[1.0],
+        &[0.0],
+        steps,
+    );
     let (q, p) = &run[steps];
     let (qe, pe) = osc.exact(1.0, 0.0, t_end);
     (q[0] - qe).abs().max((p[0] - pe).abs())
@@ -51,7 +64,10 @@ fn observed_order_matches_theory() {
             _ => vec![4, 5, 6, 8, 10],
         };
         let errs: Vec<f64> = steps.iter().map(|&n| oscillator_error(&d, n)).collect();
-        assert!(errs.iter().all(|e| *e > 1e-13), "{d}: errors reach round-off {errs:?}");
+        assert!(
+            errs.iter().all(|e| *e > 1e-13),
+            "{d}: errors reach round-off {errs:?}"
+        );
         let hs: Vec<f64> = steps.iter().map(|&n| 4.0 / n as f64).collect();
         let slope = fitted_slope(&hs, &errs);
         println!("{d}: order {r}, slope {slope:.3}");
@@ -70,9 +86,7 @@ fn alpha_sweep_is_invariant_for_equivalence_preserving_discretisations() {
         let reference = trajectory(
             SplitOscillator { alpha: 0.0 },
             NoConstraints,
-            d.clone(),
-            Flavour::Plus,
-            0.05,
+            options(d.clone(), Flavour::Plus, 0.05),
             &[1.0],
             &[0.0],
             2000,
@@ -83,9 +97,7 @@ fn alpha_sweep_is_invariant_for_equivalence_preserving_discretisations() {
             let run = trajectory(
                 SplitOscillator { alpha },
                 NoConstraints,
-                d.clone(),
-                Flavour::Plus,
-                0.05,
+                options(d.clone(), Flavour::Plus, 0.05),
                 &[1.0],
                 &[0.0],
                 2000,
@@ -114,9 +126,7 @@ fn non_preserving_mix_depends_on_alpha() {
         trajectory(
             SplitOscillator { alpha },
             NoConstraints,
-            mix.clone(),
-            Flavour::Plus,
-            0.05,
+            options(mix.clone(), Flavour::Plus, 0.05),
             &[1.0],
             &[0.0],
             2000,
@@ -135,42 +145,87 @@ fn non_preserving_mix_depends_on_alpha() {
 /// E_{k+1} − E_k = −h c v̄_k² with v̄_k = (q_{k+1} − q_k)/h.
 #[test]
 fn midpoint_power_balance_is_exact() {
-    let osc = DampedOscillator { m: 1.3, k: 0.7, c: 0.05 };
+    let osc = DampedOscillator {
+        m: 1.3,
+        k: 0.7,
+        c: 0.05,
+    };
     let h = 0.1;
-    let run = trajectory(osc, NoConstraints, Discretisation::midpoint(), Flavour::Plus, h, &[1.0], &[0.2], 5000);
+    let run = trajectory(
+        osc,
+        NoConstraints,
+        options(Discretisation::midpoint(), Flavour::Plus, h),
+        &[1.0],
+        &[0.2],
+        5000,
+    );
     for w in run.windows(2) {
-        let (e0, e1) = (osc.energy(w[0].0[0], w[0].1[0]), osc.energy(w[1].0[0], w[1].1[0]));
+        let (e0, e1) = (
+            osc.energy(w[0].0[0], w[0].1[0]),
+            osc.energy(w[1].0[0], w[1].1[0]),
+        );
         let vbar = (w[1].0[0] - w[0].0[0]) / h;
         let defect = (e1 - e0 + h * osc.c * vbar * vbar).abs();
-        assert!(defect <= 1e-13 * e0.max(1e-300), "defect {defect:e} at E = {e0:e}");
+        assert!(
+            defect <= 1e-13 * e0.max(1e-300),
+            "defect {defect:e} at E = {e0:e}"
+        );
     }
 }
 
 /// Negative control for the power balance: the trapezoid rule does not satisfy it exactly.
 #[test]
 fn trapezoid_power_balance_is_not_exact() {
-    let osc = DampedOscillator { m: 1.3, k: 0.7, c: 0.05 };
+    let osc = DampedOscillator {
+        m: 1.3,
+        k: 0.7,
+        c: 0.05,
+    };
     let h = 0.1;
-    let run = trajectory(osc, NoConstraints, Discretisation::trapezoid(), Flavour::Plus, h, &[1.0], &[0.2], 200);
+    let run = trajectory(
+        osc,
+        NoConstraints,
+        options(Discretisation::trapezoid(), Flavour::Plus, h),
+        &[1.0],
+        &[0.2],
+        200,
+    );
     let worst = run
         .windows(2)
         .map(|w| {
-            let (e0, e1) = (osc.energy(w[0].0[0], w[0].1[0]), osc.energy(w[1].0[0], w[1].1[0]));
+            let (e0, e1) = (
+                osc.energy(w[0].0[0], w[0].1[0]),
+                osc.energy(w[1].0[0], w[1].1[0]),
+            );
             let vbar = (w[1].0[0] - w[0].0[0]) / h;
             (e1 - e0 + h * osc.c * vbar * vbar).abs() / e0
         })
         .fold(0.0, f64::max);
-    assert!(worst > 1e-8, "trapezoid defect {worst:e} unexpectedly exact");
+    assert!(
+        worst > 1e-8,
+        "trapezoid defect {worst:e} unexpectedly exact"
+    );
 }
 
 /// Midpoint on an undamped linear system conserves ½p²/m + ½kq² to round-off, and the phase
 /// advances by θ with tan(θ/2) = ωh/2 per step.
 #[test]
 fn midpoint_conserves_quadratic_energy_and_has_exact_phase() {
-    let osc = DampedOscillator { m: 1.0, k: 4.0, c: 0.0 };
+    let osc = DampedOscillator {
+        m: 1.0,
+        k: 4.0,
+        c: 0.0,
+    };
     let h = 0.1;
     let steps = 100_000;
-    let run = trajectory(osc, NoConstraints, Discretisation::midpoint(), Flavour::Plus, h, &[1.0], &[0.0], steps);
+    let run = trajectory(
+        osc,
+        NoConstraints,
+        options(Discretisation::midpoint(), Flavour::Plus, h),
+        &[1.0],
+        &[0.0],
+        steps,
+    );
     let e0 = osc.energy(1.0, 0.0);
     let drift = run
         .iter()
@@ -180,13 +235,29 @@ fn midpoint_conserves_quadratic_energy_and_has_exact_phase() {
     let theta = 2.0 * (2.0 * h / 2.0_f64).atan();
     let k = 1000;
     let expected = (theta * k as f64).cos();
-    assert!((run[k].0[0] - expected).abs() <= 1e-12, "{} vs {expected}", run[k].0[0]);
+    assert!(
+        (run[k].0[0] - expected).abs() <= 1e-12,
+        "{} vs {expected}",
+        run[k].0[0]
+    );
 }
 
 /// Step map of the unforced nonlinear model, as a function of (q0, p0).
 fn step_map(d: &Discretisation, z: &[f64; 4]) -> [f64; 4] {
-    let model = QuarticPendulums { g: 2.0, kappa: 0.5, eps: 0.3, c: 0.0 };
-    let run = trajectory(model, NoConstraints, d.clone(), Flavour::Plus, 0.1, &z[..2], &z[2..], 1);
+    let model = QuarticPendulums {
+        g: 2.0,
+        kappa: 0.5,
+        eps: 0.3,
+        c: 0.0,
+    };
+    let run = trajectory(
+        model,
+        NoConstraints,
+        options(d.clone(), Flavour::Plus, 0.1),
+        &z[..2],
+        &z[2..],
+        1,
+    );
     let (q, p) = &run[1];
     [q[0], q[1], p[0], p[1]]
 }
@@ -197,7 +268,12 @@ fn step_map(d: &Discretisation, z: &[f64; 4]) -> [f64; 4] {
 fn unforced_step_maps_are_symplectic() {
     let z0 = [0.4, -0.3, 0.2, 0.5];
     let delta = 1e-3;
-    for d in [Discretisation::midpoint(), Discretisation::trapezoid(), Discretisation::gauss(2), Discretisation::lobatto(2)] {
+    for d in [
+        Discretisation::midpoint(),
+        Discretisation::trapezoid(),
+        Discretisation::gauss(2),
+        Discretisation::lobatto(2),
+    ] {
         let mut jac = [[0.0; 4]; 4];
         for col in 0..4 {
             let shifted = |s: f64| {
@@ -205,7 +281,12 @@ fn unforced_step_maps_are_symplectic() {
                 z[col] += s;
                 step_map(&d, &z)
             };
-            let (p1, m1, p2, m2) = (shifted(delta), shifted(-delta), shifted(2.0 * delta), shifted(-2.0 * delta));
+            let (p1, m1, p2, m2) = (
+                shifted(delta),
+                shifted(-delta),
+                shifted(2.0 * delta),
+                shifted(-2.0 * delta),
+            );
             for row in 0..4 {
                 jac[row][col] = (8.0 * (p1[row] - m1[row]) - (p2[row] - m2[row])) / (12.0 * delta);
             }
@@ -237,9 +318,21 @@ fn unforced_step_maps_are_symplectic() {
 /// Negative control: with damping the step map contracts volume, so the same check fails.
 #[test]
 fn forced_step_map_is_not_symplectic() {
-    let model = QuarticPendulums { g: 2.0, kappa: 0.5, eps: 0.3, c: 0.5 };
+    let model = QuarticPendulums {
+        g: 2.0,
+        kappa: 0.5,
+        eps: 0.3,
+        c: 0.5,
+    };
     let map = |z: [f64; 4]| {
-        let run = trajectory(model, NoConstraints, Discretisation::midpoint(), Flavour::Plus, 0.1, &z[..2], &z[2..], 1);
+        let run = trajectory(
+            model,
+            NoConstraints,
+            options(Discretisation::midpoint(), Flavour::Plus, 0.1),
+            &z[..2],
+            &z[2..],
+            1,
+        );
         [run[1].0[0], run[1].0[1], run[1].1[0], run[1].1[1]]
     };
     let z0 = [0.4, -0.3, 0.2, 0.5];
@@ -260,9 +353,18 @@ fn forced_step_map_is_not_symplectic() {
 /// Automatic (dual-number) and hand-written derivatives agree to 1e-12 on a nonlinear model.
 #[test]
 fn automatic_and_hand_written_derivatives_agree() {
-    let hand = QuarticPendulums { g: 9.81, kappa: 3.0, eps: 0.4, c: 0.2 };
+    let hand = QuarticPendulums {
+        g: 9.81,
+        kappa: 3.0,
+        eps: 0.4,
+        c: 0.2,
+    };
     let auto = AutoDiff::new(QuarticPendulumsGeneric(hand));
-    let points = [([0.3, -1.2], [0.5, 2.0]), ([2.0, 0.1], [-1.5, 0.3]), ([-0.7, 0.9], [0.0, -2.2])];
+    let points = [
+        ([0.3, -1.2], [0.5, 2.0]),
+        ([2.0, 0.1], [-1.5, 0.3]),
+        ([-0.7, 0.9], [0.0, -2.2]),
+    ];
     let dense = |t: &dirac::core::Triplets| {
         let mut m = [[0.0; 2]; 2];
         for (r, c, v) in t.iter() {
@@ -299,17 +401,54 @@ fn automatic_and_hand_written_derivatives_agree() {
         }
     }
     // And whole trajectories agree.
-    let a = trajectory(hand, NoConstraints, Discretisation::gauss(2), Flavour::Plus, 0.05, &[0.3, -0.2], &[0.0, 0.4], 400);
-    let b = trajectory(auto, NoConstraints, Discretisation::gauss(2), Flavour::Plus, 0.05, &[0.3, -0.2], &[0.0, 0.4], 400);
-    let dev = a.iter().zip(&b).map(|(x, y)| max_diff(&x.0, &y.0).max(max_diff(&x.1, &y.1))).fold(0.0, f64::max);
+    let a = trajectory(
+        hand,
+        NoConstraints,
+        options(Discretisation::gauss(2), Flavour::Plus, 0.05),
+        &[0.3, -0.2],
+        &[0.0, 0.4],
+        400,
+    );
+    let b = trajectory(
+        auto,
+        NoConstraints,
+        options(Discretisation::gauss(2), Flavour::Plus, 0.05),
+        &[0.3, -0.2],
+        &[0.0, 0.4],
+        400,
+    );
+    let dev = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| max_diff(&x.0, &y.0).max(max_diff(&x.1, &y.1)))
+        .fold(0.0, f64::max);
     assert!(dev <= 1e-12, "trajectory deviation {dev:e}");
 }
 
 /// Gauss with one node and degree one is the midpoint rule, to a few ulps.
 #[test]
 fn gauss_one_is_midpoint() {
-    let model = QuarticPendulums { g: 2.0, kappa: 0.5, eps: 0.3, c: 0.1 };
-    let a = trajectory(model, NoConstraints, Discretisation::gauss(1), Flavour::Plus, 0.1, &[0.4, -0.3], &[0.2, 0.5], 100);
-    let b = trajectory(model, NoConstraints, Discretisation::midpoint(), Flavour::Plus, 0.1, &[0.4, -0.3], &[0.2, 0.5], 100);
+    let model = QuarticPendulums {
+        g: 2.0,
+        kappa: 0.5,
+        eps: 0.3,
+        c: 0.1,
+    };
+    let a = trajectory(
+        model,
+        NoConstraints,
+        options(Discretisation::gauss(1), Flavour::Plus, 0.1),
+        &[0.4, -0.3],
+        &[0.2, 0.5],
+        100,
+    );
+    let b = trajectory(
+        model,
+        NoConstraints,
+        options(Discretisation::midpoint(), Flavour::Plus, 0.1),
+        &[0.4, -0.3],
+        &[0.2, 0.5],
+        100,
+    );
     assert_eq!(a, b);
 }

@@ -23,20 +23,42 @@ fn run(
     steps: usize,
 ) -> Run {
     let system = Assembler::assemble(graph, representation).expect("assembles");
-    let names: Vec<String> = graph.subsystems().iter().map(|s| s.name().to_string()).collect();
+    let names: Vec<String> = graph
+        .subsystems()
+        .iter()
+        .map(|s| s.name().to_string())
+        .collect();
     let q = system.global_vector(q0, &names).expect("q0");
     let v = system.global_vector(v0, &names).expect("v0");
-    let mut sim = Integrator::new(system.model.clone(), system.constraints.clone(), options.clone()).expect("options");
+    let mut sim = Integrator::new(
+        system.model.clone(),
+        system.constraints.clone(),
+        options.clone(),
+    )
+    .expect("options");
     sim.initialise(&q, &v, 0.0).expect("consistent");
-    let mut out = vec![(system.subsystem_positions(sim.q()).to_vec(), system.subsystem_momenta(sim.p()))];
+    let mut out = vec![(
+        system.subsystem_positions(sim.q()).to_vec(),
+        system.subsystem_momenta(sim.p()),
+    )];
     for _ in 0..steps {
         sim.step().expect("step");
-        out.push((system.subsystem_positions(sim.q()).to_vec(), system.subsystem_momenta(sim.p())));
+        out.push((
+            system.subsystem_positions(sim.q()).to_vec(),
+            system.subsystem_momenta(sim.p()),
+        ));
     }
     out
 }
 
-fn staggered_run(graph: &Interconnection, options: &IntegratorOptions, splitting: Splitting, q0: &[Vec<f64>], v0: &[Vec<f64>], steps: usize) -> Vec<Vec<f64>> {
+fn staggered_run(
+    graph: &Interconnection,
+    options: &IntegratorOptions,
+    splitting: Splitting,
+    q0: &[Vec<f64>],
+    v0: &[Vec<f64>],
+    steps: usize,
+) -> Vec<Vec<f64>> {
     let mut sim = Staggered::new(graph, options, splitting).expect("couplings only");
     sim.initialise(q0, v0, 0.0).expect("consistent");
     let mut out = vec![sim.positions()];
@@ -49,14 +71,32 @@ fn staggered_run(graph: &Interconnection, options: &IntegratorOptions, splitting
 
 /// Max over steps of the position and momentum deviations.
 fn deviation(a: &Run, b: &Run) -> (f64, f64) {
-    a.iter().zip(b).fold((0.0, 0.0), |(dq, dp), (x, y)| (dq.max(max_diff(&x.0, &y.0)), dp.max(max_diff(&x.1, &y.1))))
+    a.iter().zip(b).fold((0.0, 0.0), |(dq, dp), (x, y)| {
+        (dq.max(max_diff(&x.0, &y.0)), dp.max(max_diff(&x.1, &y.1)))
+    })
 }
 
 /// Masses m₁ = m₂ = 1 on walls through k₁ = k₂ = 1, joined by a spring k = 1.
 fn two_masses() -> Interconnection {
     let mut g = Interconnection::new();
-    g.add_subsystem(Mass { m: 1.0, k: 1.0, c: 0.0 }.subsystem("A")).unwrap();
-    g.add_subsystem(Mass { m: 1.0, k: 1.0, c: 0.0 }.subsystem("B")).unwrap();
+    g.add_subsystem(
+        Mass {
+            m: 1.0,
+            k: 1.0,
+            c: 0.0,
+        }
+        .subsystem("A"),
+    )
+    .unwrap();
+    g.add_subsystem(
+        Mass {
+            m: 1.0,
+            k: 1.0,
+            c: 0.0,
+        }
+        .subsystem("B"),
+    )
+    .unwrap();
     let (a, b) = (g.port("A", "x").unwrap(), g.port("B", "x").unwrap());
     g.coupling("spring", a, b, LinearSpring { k: 1.0, rest: 0.0 });
     g
@@ -77,13 +117,23 @@ fn two_mass_split_representations_agree() {
     for rep in [Representation::Constraint, Representation::InteractionForce] {
         let (dq, dp) = deviation(&mono, &run(&g, rep, &options, &q0, &v0, 1000));
         println!("{rep}: max position deviation {dq:.2e}, momentum {dp:.2e}");
-        assert!(dq <= EQUIVALENT && dp <= EQUIVALENT, "{rep}: dq {dq:e}, dp {dp:e}");
+        assert!(
+            dq <= EQUIVALENT && dp <= EQUIVALENT,
+            "{rep}: dq {dq:e}, dp {dp:e}"
+        );
     }
     for splitting in [Splitting::GaussSeidel, Splitting::Jacobi] {
         let st = staggered_run(&g, &options, splitting, &q0, &v0, 1000);
-        let dq = st.iter().zip(&mono).map(|(a, b)| max_diff(a, &b.0)).fold(0.0, f64::max);
+        let dq = st
+            .iter()
+            .zip(&mono)
+            .map(|(a, b)| max_diff(a, &b.0))
+            .fold(0.0, f64::max);
         println!("staggered {splitting:?}: max position deviation {dq:.2e}");
-        assert!(dq > 1e-6, "{splitting:?}: deviation {dq:e} too small to tell");
+        assert!(
+            dq > 1e-6,
+            "{splitting:?}: deviation {dq:e} too small to tell"
+        );
     }
 }
 
@@ -96,8 +146,15 @@ fn endpoint_tracks_partner_port() {
     let system = Assembler::assemble(&g, Representation::Constraint).unwrap();
     assert_eq!(system.coordinates(), 3);
     let names = vec!["A".to_string(), "B".to_string()];
-    let q = system.global_vector(&[vec![1.0], vec![0.25]], &names).unwrap();
-    let mut sim = Integrator::new(system.model.clone(), system.constraints.clone(), IntegratorOptions::new(Discretisation::midpoint(), 0.1)).unwrap();
+    let q = system
+        .global_vector(&[vec![1.0], vec![0.25]], &names)
+        .unwrap();
+    let mut sim = Integrator::new(
+        system.model.clone(),
+        system.constraints.clone(),
+        IntegratorOptions::new(Discretisation::midpoint(), 0.1),
+    )
+    .unwrap();
     sim.initialise(&q, &[0.0; 3], 0.0).unwrap();
     for _ in 0..100 {
         sim.step().unwrap();
@@ -110,21 +167,34 @@ fn endpoint_tracks_partner_port() {
 #[test]
 fn seed_rlc_from_three_subsystems() {
     let mut g = Interconnection::new();
-    g.add_subsystem(Capacitor { c: 3.0 }.subsystem("C")).unwrap();
-    g.add_subsystem(Inductor { l: 0.75 }.subsystem("L")).unwrap();
+    g.add_subsystem(Capacitor { c: 3.0 }.subsystem("C"))
+        .unwrap();
+    g.add_subsystem(Inductor { l: 0.75 }.subsystem("L"))
+        .unwrap();
     g.add_subsystem(Resistor { r: 0.1 }.subsystem("R")).unwrap();
-    let (c, l, r) = (g.port("C", "i").unwrap(), g.port("L", "i").unwrap(), g.port("R", "i").unwrap());
+    let (c, l, r) = (
+        g.port("C", "i").unwrap(),
+        g.port("L", "i").unwrap(),
+        g.port("R", "i").unwrap(),
+    );
     g.node("n1", vec![(l, 1.0), (r, -1.0)]).unwrap();
     g.node("n2", vec![(r, 1.0), (c, -1.0)]).unwrap();
     g.node("n3", vec![(c, 1.0), (l, -1.0)]).unwrap();
     let system = Assembler::assemble(&g, Representation::Monolithic).unwrap();
     let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05);
-    let mut sim = Integrator::new(system.model.clone(), system.constraints.clone(), options.clone()).unwrap();
+    let mut sim = Integrator::new(
+        system.model.clone(),
+        system.constraints.clone(),
+        options.clone(),
+    )
+    .unwrap();
     sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0).unwrap();
     assert_eq!(sim.warnings().len(), 1, "{:?}", sim.warnings());
     assert!(sim.warnings()[0].contains("n3"));
     let mut reference = Integrator::new(RlcLoop::seed(), RlcLoop::kcl(), options).unwrap();
-    reference.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0).unwrap();
+    reference
+        .initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0)
+        .unwrap();
     for _ in 0..1000 {
         sim.step().unwrap();
         reference.step().unwrap();
@@ -138,11 +208,22 @@ fn seed_rlc_from_three_subsystems() {
 #[test]
 fn non_preserving_discretisation_breaks_force_representation() {
     let g = two_masses();
-    let mix = Discretisation::non_equivalence_preserving(1, QuadratureRule::trapezoid(), QuadratureRule::midpoint());
+    let mix = Discretisation::non_equivalence_preserving(
+        1,
+        QuadratureRule::trapezoid(),
+        QuadratureRule::midpoint(),
+    );
     let options = IntegratorOptions::new(mix, 0.1);
     let (q0, v0) = (vec![vec![1.0], vec![0.0]], vec![vec![0.0], vec![0.0]]);
     let mono = run(&g, Representation::Monolithic, &options, &q0, &v0, 1000);
-    let force = run(&g, Representation::InteractionForce, &options, &q0, &v0, 1000);
+    let force = run(
+        &g,
+        Representation::InteractionForce,
+        &options,
+        &q0,
+        &v0,
+        1000,
+    );
     let (dq, _) = deviation(&mono, &force);
     println!("non-preserving force vs monolithic: {dq:.2e}");
     assert!(dq > 1e-8, "deviation {dq:e}");
@@ -155,7 +236,15 @@ fn non_preserving_discretisation_breaks_force_representation() {
 fn interaction_forces_cancel() {
     let mut g = Interconnection::new();
     for (i, m) in [1.0, 2.0, 0.5, 1.5].iter().enumerate() {
-        g.add_subsystem(Mass { m: *m, k: 0.0, c: 0.0 }.subsystem(format!("m{i}"))).unwrap();
+        g.add_subsystem(
+            Mass {
+                m: *m,
+                k: 0.0,
+                c: 0.0,
+            }
+            .subsystem(format!("m{i}")),
+        )
+        .unwrap();
     }
     let p = |g: &Interconnection, i: usize| g.port(&format!("m{i}"), "x").unwrap();
     let (p0, p1, p2, p3) = (p(&g, 0), p(&g, 1), p(&g, 2), p(&g, 3));
@@ -166,11 +255,25 @@ fn interaction_forces_cancel() {
     let q0 = vec![vec![0.0], vec![1.0], vec![2.2], vec![3.0]];
     let v0 = vec![vec![1.0], vec![-0.5], vec![0.3], vec![0.3]];
     let total = |p: &[f64]| p.iter().sum::<f64>();
-    for rep in [Representation::Monolithic, Representation::Constraint, Representation::InteractionForce] {
-        let r = run(&g, rep, &IntegratorOptions::new(Discretisation::gauss(2), 0.05), &q0, &v0, 400);
+    for rep in [
+        Representation::Monolithic,
+        Representation::Constraint,
+        Representation::InteractionForce,
+    ] {
+        let r = run(
+            &g,
+            rep,
+            &IntegratorOptions::new(Discretisation::gauss(2), 0.05),
+            &q0,
+            &v0,
+            400,
+        );
         let p_start = total(&r[0].1);
         for (k, (_, p)) in r.iter().enumerate() {
-            assert!((total(p) - p_start).abs() <= 1e-12, "{rep}: momentum drift at step {k}");
+            assert!(
+                (total(p) - p_start).abs() <= 1e-12,
+                "{rep}: momentum drift at step {k}"
+            );
         }
     }
     // Joint impulses: the multiplier of joint j23 acts with +1 on m2 and −1 on m3.
@@ -180,7 +283,11 @@ fn interaction_forces_cancel() {
     forms.begin();
     use dirac::core::Constraints;
     system.constraints.forms(&[0.0; 6], &mut forms);
-    let sum: f64 = forms.iter().filter(|(a, _, _)| *a == row).map(|(_, _, c)| c).sum();
+    let sum: f64 = forms
+        .iter()
+        .filter(|(a, _, _)| *a == row)
+        .map(|(_, _, c)| c)
+        .sum();
     assert_eq!(sum, 0.0);
 }
 
@@ -202,15 +309,23 @@ fn random_chain() -> impl Strategy<Value = RandomChain> {
         let q0 = prop::collection::vec(-1.0f64..1.0, n);
         let v = prop::collection::vec(-1.0f64..1.0, n);
         (masses, tree, extra, q0, v).prop_map(move |(masses, tree, extra, q0, v)| {
-            let mut edges: Vec<(usize, usize, u8, f64)> =
-                tree.into_iter().enumerate().map(|(i, (j, kind, p))| (i + 1, j % (i + 1), kind, p)).collect();
+            let mut edges: Vec<(usize, usize, u8, f64)> = tree
+                .into_iter()
+                .enumerate()
+                .map(|(i, (j, kind, p))| (i + 1, j % (i + 1), kind, p))
+                .collect();
             for (a, b, kind, p) in extra {
                 let (a, b) = (a % n, b % n);
                 if a != b {
                     edges.push((a, b, kind, p));
                 }
             }
-            RandomChain { masses, edges, q0, v_cluster: v }
+            RandomChain {
+                masses,
+                edges,
+                q0,
+                v_cluster: v,
+            }
         })
     })
 }
@@ -219,10 +334,14 @@ impl RandomChain {
     fn graph(&self) -> Interconnection {
         let mut g = Interconnection::new();
         for (i, &(m, k)) in self.masses.iter().enumerate() {
-            g.add_subsystem(Mass { m, k, c: 0.0 }.subsystem(format!("m{i}"))).unwrap();
+            g.add_subsystem(Mass { m, k, c: 0.0 }.subsystem(format!("m{i}")))
+                .unwrap();
         }
         for (e, &(a, b, kind, p)) in self.edges.iter().enumerate() {
-            let (pa, pb) = (g.port(&format!("m{a}"), "x").unwrap(), g.port(&format!("m{b}"), "x").unwrap());
+            let (pa, pb) = (
+                g.port(&format!("m{a}"), "x").unwrap(),
+                g.port(&format!("m{b}"), "x").unwrap(),
+            );
             match kind {
                 0 | 3 => {
                     g.coupling(format!("s{e}"), pa, pb, LinearSpring { k: p, rest: 0.1 });
@@ -242,7 +361,7 @@ impl RandomChain {
     fn velocities(&self) -> Vec<Vec<f64>> {
         let n = self.masses.len();
         let mut parent: Vec<usize> = (0..n).collect();
-        fn find(p: &mut Vec<usize>, i: usize) -> usize {
+        fn find(p: &mut [usize], i: usize) -> usize {
             let mut r = i;
             while p[r] != r {
                 r = p[r];
@@ -256,7 +375,9 @@ impl RandomChain {
                 parent[ra] = rb;
             }
         }
-        (0..n).map(|i| vec![self.v_cluster[find(&mut parent, i)]]).collect()
+        (0..n)
+            .map(|i| vec![self.v_cluster[find(&mut parent, i)]])
+            .collect()
     }
 }
 

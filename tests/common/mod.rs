@@ -4,18 +4,20 @@
 use dirac::core::{Constraints, Discretisation, Flavour, Model};
 use dirac::sim::{Integrator, IntegratorOptions};
 
+/// Integrator options for `discretisation`, `flavour` and step `h`.
+pub fn options(discretisation: Discretisation, flavour: Flavour, h: f64) -> IntegratorOptions {
+    IntegratorOptions::new(discretisation, h).flavour(flavour)
+}
+
 /// Runs `steps` steps from `(q0, p0)` and returns every state `(q_k, p_k)`, k = 0..=steps.
 pub fn trajectory<M: Model, C: Constraints>(
     model: M,
     constraints: C,
-    discretisation: Discretisation,
-    flavour: Flavour,
-    h: f64,
+    options: IntegratorOptions,
     q0: &[f64],
     p0: &[f64],
     steps: usize,
 ) -> Vec<(Vec<f64>, Vec<f64>)> {
-    let options = IntegratorOptions::new(discretisation, h).flavour(flavour);
     let mut sim = Integrator::new(model, constraints, options).expect("valid options");
     sim.set_state(q0, p0, 0.0).expect("consistent state");
     let mut out = vec![(q0.to_vec(), p0.to_vec())];

@@ -41,7 +41,12 @@ pub trait GenericModel<const N: usize> {
     }
 
     /// `f(q, v, t)`; zero unless overridden.
-    fn force<D: DualNum<Primitive = f64> + Copy>(&self, _q: &[D; N], _v: &[D; N], _t: f64) -> [D; N] {
+    fn force<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        _q: &[D; N],
+        _v: &[D; N],
+        _t: f64,
+    ) -> [D; N] {
         [D::from(0.0); N]
     }
 

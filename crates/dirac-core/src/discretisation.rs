@@ -172,7 +172,10 @@ mod tests {
         assert_eq!(Discretisation::simpson().order(), 2);
         assert_eq!(Discretisation::gauss(3).order(), 6);
         assert_eq!(Discretisation::lobatto(2).order(), 4);
-        assert_eq!(Discretisation::galerkin(3, QuadratureRule::lobatto(3)).order(), 4);
+        assert_eq!(
+            Discretisation::galerkin(3, QuadratureRule::lobatto(3)).order(),
+            4
+        );
         assert_eq!(Discretisation::gauss(2).to_string(), "gauss2");
         let mix = Discretisation::non_equivalence_preserving(
             1,

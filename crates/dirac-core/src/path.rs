@@ -117,7 +117,10 @@ impl NodeTable {
     /// Basis values and derivatives at node `i`.
     pub fn row(&self, i: usize) -> (&[f64], &[f64]) {
         let o = i * self.stride;
-        (&self.phi[o..o + self.stride], &self.dphi[o..o + self.stride])
+        (
+            &self.phi[o..o + self.stride],
+            &self.dphi[o..o + self.stride],
+        )
     }
 }
 
@@ -138,8 +141,15 @@ mod tests {
                     let dp: f64 = (0..=s)
                         .map(|j| path.basis_derivative(sigma, j) * d[j].powi(deg))
                         .sum();
-                    let exact = if deg == 0 { 0.0 } else { f64::from(deg) * sigma.powi(deg - 1) };
-                    assert!((dp - exact).abs() < 1e-10, "s={s} deg={deg}: {dp} vs {exact}");
+                    let exact = if deg == 0 {
+                        0.0
+                    } else {
+                        f64::from(deg) * sigma.powi(deg - 1)
+                    };
+                    assert!(
+                        (dp - exact).abs() < 1e-10,
+                        "s={s} deg={deg}: {dp} vs {exact}"
+                    );
                 }
             }
         }

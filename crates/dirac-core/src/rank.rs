@@ -150,7 +150,6 @@ impl<C: Constraints> RowSubset<C> {
         &self.inner
     }
 
-
     /// Indices (in the full set) of the rows kept.
     pub fn kept(&self) -> &[usize] {
         &self.kept
@@ -244,7 +243,11 @@ mod tests {
     #[test]
     fn kcl_at_every_node_has_one_dependent_row() {
         // Branch currents i0: n0→n1, i1: n1→n2, i2: n2→n0.
-        let t = stamp(&[&[(0, -1.0), (2, 1.0)], &[(0, 1.0), (1, -1.0)], &[(1, 1.0), (2, -1.0)]]);
+        let t = stamp(&[
+            &[(0, -1.0), (2, 1.0)],
+            &[(0, 1.0), (1, -1.0)],
+            &[(1, 1.0), (2, -1.0)],
+        ]);
         let r = analyse_rows(3, 3, &t, 1e-10);
         assert_eq!(r.dependent, vec![2]);
         assert!(r.empty.is_empty());
@@ -252,12 +255,21 @@ mod tests {
 
     #[test]
     fn independent_rows_are_kept_and_empty_rows_reported() {
-        let t = stamp(&[&[(0, 1.0), (1, 2.0)], &[], &[(1, 3.0), (2, 1.0)], &[(0, 1.0), (2, 1.0)]]);
+        let t = stamp(&[
+            &[(0, 1.0), (1, 2.0)],
+            &[],
+            &[(1, 3.0), (2, 1.0)],
+            &[(0, 1.0), (2, 1.0)],
+        ]);
         let r = analyse_rows(4, 3, &t, 1e-10);
         assert_eq!(r.empty, vec![1]);
         assert!(r.dependent.is_empty());
         // Row 3 = row 0 − (2/3)·row 2 + ... : make a genuinely dependent one.
-        let t = stamp(&[&[(0, 1.0), (1, 2.0)], &[(1, 3.0), (2, 1.0)], &[(0, 2.0), (1, 7.0), (2, 1.0)]]);
+        let t = stamp(&[
+            &[(0, 1.0), (1, 2.0)],
+            &[(1, 3.0), (2, 1.0)],
+            &[(0, 2.0), (1, 7.0), (2, 1.0)],
+        ]);
         let r = analyse_rows(3, 3, &t, 1e-10);
         assert_eq!(r.dependent, vec![2]);
     }

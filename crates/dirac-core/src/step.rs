@@ -10,7 +10,15 @@ use crate::path::NodeTable;
 /// Fills the path value `y = q_k + Σ ℓ_l Z^l` and velocity `w = Σ ℓ_l' Z^l / h` at a node with
 /// basis row (`phi`, `dphi`) (the basis sums to one and its derivative to zero).
 #[inline]
-fn eval_path(y: &mut [f64], w: &mut [f64], q0: &[f64], x: &[f64], phi: &[f64], dphi: &[f64], h: f64) {
+fn eval_path(
+    y: &mut [f64],
+    w: &mut [f64],
+    q0: &[f64],
+    x: &[f64],
+    phi: &[f64],
+    dphi: &[f64],
+    h: f64,
+) {
     let n = q0.len();
     let inv_h = 1.0 / h;
     // The first control point initialises (no memcpy/memset calls on tiny slices).
@@ -25,6 +33,22 @@ fn eval_path(y: &mut [f64], w: &mut [f64], q0: &[f64], x: &[f64], phi: &[f64], d
             *yk += a * z;
             *wk += b * z;
         }
+    }
+}
+
+/// `y += a·x`.
+#[inline]
+fn axpy(y: &mut [f64], a: f64, x: &[f64]) {
+    for (yk, xk) in y.iter_mut().zip(x) {
+        *yk += a * xk;
+    }
+}
+
+/// `y += a·x + b·z`.
+#[inline]
+fn axpy2(y: &mut [f64], a: f64, x: &[f64], b: f64, z: &[f64]) {
+    for ((yk, xk), zk) in y.iter_mut().zip(x).zip(z) {
+        *yk += a * xk + b * zk;
     }
 }
 
@@ -109,7 +133,10 @@ impl ForcedDiracStep {
             s: discretisation.path().degree(),
             h,
             flavour,
-            lagrangian_nodes: NodeTable::new(discretisation.path(), discretisation.lagrangian_rule()),
+            lagrangian_nodes: NodeTable::new(
+                discretisation.path(),
+                discretisation.lagrangian_rule(),
+            ),
             force_nodes: NodeTable::new(discretisation.path(), discretisation.force_rule()),
             kinds,
             has_holonomic,
@@ -304,10 +331,7 @@ impl ForcedDiracStep {
             let b = nodes.weights[i];
             for j in 0..s {
                 let (cq, cv) = (h * b * phi[j], b * dphi[j]);
-                let row = &mut r[j * n..(j + 1) * n];
-                for k in 0..n {
-                    row[k] += cq * self.lq[k] + cv * self.lv[k];
-                }
+                axpy2(&mut r[j * n..(j + 1) * n], cq, &self.lq, cv, &self.lv);
             }
         }
         if model.has_force() {
@@ -321,10 +345,7 @@ impl ForcedDiracStep {
                 for j in 0..s {
                     let cq = h * b * phi[j];
                     if cq != 0.0 {
-                        let row = &mut r[j * n..(j + 1) * n];
-                        for k in 0..n {
-                            row[k] += cq * self.f[k];
-                        }
+                        axpy(&mut r[j * n..(j + 1) * n], cq, &self.f);
                     }
                 }
             }
@@ -333,7 +354,11 @@ impl ForcedDiracStep {
             return;
         }
         for i in 0..self.constraint_point_count() {
-            let p = if i == 0 { Point::Start } else { Point::Control(i) };
+            let p = if i == 0 {
+                Point::Start
+            } else {
+                Point::Control(i)
+            };
             self.eval_forms(constraints, x, p);
             for (a, col, val) in self.forms.iter() {
                 let kind = self.kinds[a];
@@ -387,7 +412,8 @@ impl ForcedDiracStep {
                 for l in 1..=s {
                     let (pl, dl) = (phi[l], dphi[l]);
                     let (er, uc) = (j * n, (l - 1) * n);
-                    let (aqq, aqv, avq, avv) = (h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h);
+                    let (aqq, aqv, avq, avv) =
+                        (h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h);
                     if aqq != 0.0 {
                         for (r, c, v) in hess.qq.iter() {
                             jac.add(er + r, uc + c, aqq * v);
@@ -452,7 +478,11 @@ impl ForcedDiracStep {
         }
         let constant = constraints.is_constant();
         for i in 0..self.constraint_point_count() {
-            let p = if i == 0 { Point::Start } else { Point::Control(i) };
+            let p = if i == 0 {
+                Point::Start
+            } else {
+                Point::Control(i)
+            };
             self.eval_forms(constraints, x, p);
             for (a, col, val) in self.forms.iter() {
                 let kind = self.kinds[a];
@@ -527,7 +557,7 @@ impl ForcedDiracStep {
 
     /// `p_{k+1} = S_s = D₂L_d + f_d⁺` at the solution `x`.
     pub fn end_momentum<M: Model + ?Sized>(&mut self, model: &M, x: &[f64], p1: &mut [f64]) {
-        let (n, s, h) = (self.n, self.s, self.h);
+        let (s, h) = (self.s, self.h);
         p1.fill(0.0);
         let nodes = &self.lagrangian_nodes;
         for i in 0..nodes.len() {
@@ -535,9 +565,7 @@ impl ForcedDiracStep {
             let (cq, cv) = (h * nodes.weights[i] * phi[s], nodes.weights[i] * dphi[s]);
             eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
             model.lagrangian_gradient(&self.y, &self.w, &mut self.lq, &mut self.lv);
-            for k in 0..n {
-                p1[k] += cq * self.lq[k] + cv * self.lv[k];
-            }
+            axpy2(p1, cq, &self.lq, cv, &self.lv);
         }
         if model.has_force() {
             let nodes = &self.force_nodes;
@@ -549,9 +577,7 @@ impl ForcedDiracStep {
                 }
                 eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
                 model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
-                for k in 0..n {
-                    p1[k] += cq * self.f[k];
-                }
+                axpy(p1, cq, &self.f);
             }
         }
     }
@@ -592,10 +618,9 @@ impl ForcedDiracStep {
     /// An initial guess: control points on the straight line `q_k + dⱼ h v`, multipliers zero.
     pub fn straight_guess(&self, control_nodes: &[f64], velocity: &[f64], x: &mut [f64]) {
         let n = self.n;
-        for l in 1..=self.s {
-            let o = (l - 1) * n;
-            for k in 0..n {
-                x[o + k] = control_nodes[l] * self.h * velocity[k];
+        for (l, &d) in control_nodes.iter().enumerate().skip(1).take(self.s) {
+            for (xk, vk) in x[(l - 1) * n..l * n].iter_mut().zip(velocity) {
+                *xk = d * self.h * vk;
             }
         }
         x[self.s * n..].fill(0.0);

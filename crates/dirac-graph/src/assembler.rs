@@ -4,9 +4,7 @@ use std::cell::Cell;
 use std::fmt;
 use std::sync::Arc;
 
-use dirac_core::{
-    ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets,
-};
+use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
 
 use crate::coupling::CouplingElement;
 use crate::error::GraphError;
@@ -132,7 +130,11 @@ impl Model for AssembledModel {
             let r = p.offset..p.offset + p.dim;
             l += p.model.lagrangian(&q[r.clone()], &v[r]);
         }
-        for c in self.couplings.iter().filter(|c| c.potential_in_lagrangian && c.element.has_potential()) {
+        for c in self
+            .couplings
+            .iter()
+            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
+        {
             l -= c.element.potential(combine(q, &c.a), combine(q, &c.b));
         }
         l
@@ -144,10 +146,21 @@ impl Model for AssembledModel {
         lv[covered..].fill(0.0);
         for p in &self.parts {
             let r = p.offset..p.offset + p.dim;
-            p.model.lagrangian_gradient(&q[r.clone()], &v[r.clone()], &mut lq[r.clone()], &mut lv[r]);
+            p.model.lagrangian_gradient(
+                &q[r.clone()],
+                &v[r.clone()],
+                &mut lq[r.clone()],
+                &mut lv[r],
+            );
         }
-        for c in self.couplings.iter().filter(|c| c.potential_in_lagrangian && c.element.has_potential()) {
-            let g = c.element.potential_gradient(combine(q, &c.a), combine(q, &c.b));
+        for c in self
+            .couplings
+            .iter()
+            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
+        {
+            let g = c
+                .element
+                .potential_gradient(combine(q, &c.a), combine(q, &c.b));
             for (side, coefficients) in c.ports().into_iter().enumerate() {
                 for &(i, k) in coefficients {
                     lq[i] -= k * g[side];
@@ -167,8 +180,14 @@ impl Model for AssembledModel {
         h.qq.set_offset(0, 0);
         h.qv.set_offset(0, 0);
         h.vv.set_offset(0, 0);
-        for c in self.couplings.iter().filter(|c| c.potential_in_lagrangian && c.element.has_potential()) {
-            let hess = c.element.potential_hessian(combine(q, &c.a), combine(q, &c.b));
+        for c in self
+            .couplings
+            .iter()
+            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
+        {
+            let hess = c
+                .element
+                .potential_hessian(combine(q, &c.a), combine(q, &c.b));
             let ports = c.ports();
             for (sa, ca) in ports.iter().enumerate() {
                 for (sb, cb) in ports.iter().enumerate() {
@@ -282,7 +301,9 @@ impl AssembledConstraints {
             return None;
         }
         let i = self.parts.partition_point(|p| p.row_offset + p.rows <= a);
-        self.parts.get(i).filter(|p| a >= p.row_offset && a < p.row_offset + p.rows)
+        self.parts
+            .get(i)
+            .filter(|p| a >= p.row_offset && a < p.row_offset + p.rows)
     }
 }
 
@@ -326,7 +347,11 @@ impl Constraints for AssembledConstraints {
     }
 
     fn multiplier_hessian(&self, q: &[f64], lambda: &[f64], out: &mut Triplets) {
-        for p in self.parts.iter().filter(|p| p.rows > 0 && !p.constraints.is_constant()) {
+        for p in self
+            .parts
+            .iter()
+            .filter(|p| p.rows > 0 && !p.constraints.is_constant())
+        {
             out.set_offset(p.offset, p.offset);
             p.constraints.multiplier_hessian(
                 &q[p.offset..p.offset + p.dim],
@@ -338,7 +363,11 @@ impl Constraints for AssembledConstraints {
     }
 
     fn contracted_derivative(&self, q: &[f64], w: &[f64], out: &mut Triplets) {
-        for p in self.parts.iter().filter(|p| p.rows > 0 && !p.constraints.is_constant()) {
+        for p in self
+            .parts
+            .iter()
+            .filter(|p| p.rows > 0 && !p.constraints.is_constant())
+        {
             out.set_offset(p.row_offset, p.offset);
             p.constraints.contracted_derivative(
                 &q[p.offset..p.offset + p.dim],
@@ -394,7 +423,9 @@ impl AssembledSystem {
     /// Number of subsystem coordinates (endpoints excluded).
     #[must_use]
     pub fn subsystem_coordinates(&self) -> usize {
-        self.offsets.last().map_or(0, |o| o + self.dims[self.dims.len() - 1])
+        self.offsets
+            .last()
+            .map_or(0, |o| o + self.dims[self.dims.len() - 1])
     }
 
     /// Number of global coordinates (endpoints included).
@@ -417,7 +448,11 @@ impl AssembledSystem {
 
     /// Global vector from per-subsystem vectors; endpoint entries take the partner port's value
     /// (positions for `q`, flows for `v`), which makes the initial state consistent.
-    pub fn global_vector(&self, per_subsystem: &[Vec<f64>], names: &[String]) -> Result<Vec<f64>, GraphError> {
+    pub fn global_vector(
+        &self,
+        per_subsystem: &[Vec<f64>],
+        names: &[String],
+    ) -> Result<Vec<f64>, GraphError> {
         let mut out = vec![0.0; self.coordinates()];
         for (s, values) in per_subsystem.iter().enumerate() {
             if values.len() != self.dims[s] {
@@ -461,7 +496,10 @@ pub struct Assembler;
 
 impl Assembler {
     /// Assembles `graph` in `representation`.
-    pub fn assemble(graph: &Interconnection, representation: Representation) -> Result<AssembledSystem, GraphError> {
+    pub fn assemble(
+        graph: &Interconnection,
+        representation: Representation,
+    ) -> Result<AssembledSystem, GraphError> {
         let subsystems = graph.subsystems();
         let mut offsets = Vec::with_capacity(subsystems.len());
         let mut dims = Vec::with_capacity(subsystems.len());
@@ -503,15 +541,30 @@ impl Assembler {
                         }
                     }
                     connection_rows.push(Some(internal_rows + rows.len()));
-                    rows.push(ConnectionRow { name: format!("node `{name}` (KCL)"), entries });
+                    rows.push(ConnectionRow {
+                        name: format!("node `{name}` (KCL)"),
+                        entries,
+                    });
                 }
                 Connection::Joint { name, a, b } => {
                     let mut entries = port_coefficients(graph, &offsets, *a);
-                    entries.extend(port_coefficients(graph, &offsets, *b).into_iter().map(|(i, c)| (i, -c)));
+                    entries.extend(
+                        port_coefficients(graph, &offsets, *b)
+                            .into_iter()
+                            .map(|(i, c)| (i, -c)),
+                    );
                     connection_rows.push(Some(internal_rows + rows.len()));
-                    rows.push(ConnectionRow { name: format!("joint `{name}`"), entries });
+                    rows.push(ConnectionRow {
+                        name: format!("joint `{name}`"),
+                        entries,
+                    });
                 }
-                Connection::Coupling { name, a, b, element } => {
+                Connection::Coupling {
+                    name,
+                    a,
+                    b,
+                    element,
+                } => {
                     let ca = port_coefficients(graph, &offsets, *a);
                     let cb = port_coefficients(graph, &offsets, *b);
                     match representation {
@@ -521,16 +574,23 @@ impl Assembler {
                                 element: element.clone(),
                                 a: ca,
                                 b: cb,
-                                potential_in_lagrangian: representation == Representation::Monolithic,
+                                potential_in_lagrangian: representation
+                                    == Representation::Monolithic,
                             });
                         }
                         Representation::Constraint => {
                             let e = offset + endpoints.len();
-                            names.push(format!("{}.endpoint({name})", subsystems[a.subsystem.0].name));
+                            names.push(format!(
+                                "{}.endpoint({name})",
+                                subsystems[a.subsystem.0].name
+                            ));
                             let mut entries = vec![(e, 1.0)];
                             entries.extend(cb.iter().map(|&(i, c)| (i, -c)));
                             connection_rows.push(Some(internal_rows + rows.len()));
-                            rows.push(ConnectionRow { name: format!("joint `{name}` (endpoint)"), entries });
+                            rows.push(ConnectionRow {
+                                name: format!("joint `{name}` (endpoint)"),
+                                entries,
+                            });
                             endpoints.push((e, cb));
                             couplings.push(GlobalCoupling {
                                 element: element.clone(),
@@ -545,11 +605,14 @@ impl Assembler {
         }
         let dim = offset + endpoints.len();
         let has_force = parts.iter().any(|p| p.model.has_force())
-            || couplings
-                .iter()
-                .any(|c| c.element.has_force() || (c.element.has_potential() && !c.potential_in_lagrangian));
-        let linear = parts.iter().all(|p| p.model.is_linear()) && couplings.iter().all(|c| c.element.is_linear());
-        let constant = parts.iter().all(|p| p.rows == 0 || p.constraints.is_constant());
+            || couplings.iter().any(|c| {
+                c.element.has_force() || (c.element.has_potential() && !c.potential_in_lagrangian)
+            });
+        let linear = parts.iter().all(|p| p.model.is_linear())
+            && couplings.iter().all(|c| c.element.is_linear());
+        let constant = parts
+            .iter()
+            .all(|p| p.rows == 0 || p.constraints.is_constant());
         let model = AssembledModel {
             parts: parts
                 .iter()
@@ -590,15 +653,21 @@ impl Assembler {
         let mut links: Vec<Vec<StaggeredLink>> = vec![Vec::new(); subsystems.len()];
         for connection in graph.connections() {
             let Connection::Coupling { a, b, element, .. } = connection else {
-                return Err(GraphError::StaggeredNeedsCouplings(connection.name().to_string()));
+                return Err(GraphError::StaggeredNeedsCouplings(
+                    connection.name().to_string(),
+                ));
             };
             for (side, (me, partner)) in [(*a, *b), (*b, *a)].into_iter().enumerate() {
                 links[me.subsystem.0].push(StaggeredLink {
                     element: element.clone(),
                     side,
-                    mine: subsystems[me.subsystem.0].ports()[me.port].coefficients.clone(),
+                    mine: subsystems[me.subsystem.0].ports()[me.port]
+                        .coefficients
+                        .clone(),
                     partner: partner.subsystem,
-                    partner_port: subsystems[partner.subsystem.0].ports()[partner.port].coefficients.clone(),
+                    partner_port: subsystems[partner.subsystem.0].ports()[partner.port]
+                        .coefficients
+                        .clone(),
                     frozen: Cell::new((0.0, 0.0)),
                 });
             }
@@ -658,7 +727,11 @@ impl FrozenCouplingModel {
     fn pair(&self, link: &StaggeredLink, q: &[f64], v: &[f64]) -> ([f64; 2], [f64; 2]) {
         let (xp, vp) = link.frozen.get();
         let (xm, vm) = (combine(q, &link.mine), combine(v, &link.mine));
-        if link.side == 0 { ([xm, xp], [vm, vp]) } else { ([xp, xm], [vp, vm]) }
+        if link.side == 0 {
+            ([xm, xp], [vm, vp])
+        } else {
+            ([xp, xm], [vp, vm])
+        }
     }
 }
 
@@ -706,8 +779,16 @@ impl Model for FrozenCouplingModel {
             let (x, w) = self.pair(link, q, v);
             let s = link.side;
             let dq = -link.element.potential_hessian(x[0], x[1])[s][s]
-                + if link.element.has_force() { link.element.force_jacobian(x, w, t)[0][s][s] } else { 0.0 };
-            let dv = if link.element.has_force() { link.element.force_jacobian(x, w, t)[1][s][s] } else { 0.0 };
+                + if link.element.has_force() {
+                    link.element.force_jacobian(x, w, t)[0][s][s]
+                } else {
+                    0.0
+                };
+            let dv = if link.element.has_force() {
+                link.element.force_jacobian(x, w, t)[1][s][s]
+            } else {
+                0.0
+            };
             for &(i, ci) in &link.mine {
                 for &(j, cj) in &link.mine {
                     jac.q.add(i, j, ci * cj * dq);

@@ -63,7 +63,9 @@ impl Connection {
     #[must_use]
     pub fn name(&self) -> &str {
         match self {
-            Self::Node { name, .. } | Self::Joint { name, .. } | Self::Coupling { name, .. } => name,
+            Self::Node { name, .. } | Self::Joint { name, .. } | Self::Coupling { name, .. } => {
+                name
+            }
         }
     }
 
@@ -80,9 +82,23 @@ impl Connection {
 impl std::fmt::Debug for Connection {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            Self::Node { name, ports } => f.debug_struct("Node").field("name", name).field("ports", ports).finish(),
-            Self::Joint { name, a, b } => f.debug_struct("Joint").field("name", name).field("a", a).field("b", b).finish(),
-            Self::Coupling { name, a, b, element } => f
+            Self::Node { name, ports } => f
+                .debug_struct("Node")
+                .field("name", name)
+                .field("ports", ports)
+                .finish(),
+            Self::Joint { name, a, b } => f
+                .debug_struct("Joint")
+                .field("name", name)
+                .field("a", a)
+                .field("b", b)
+                .finish(),
+            Self::Coupling {
+                name,
+                a,
+                b,
+                element,
+            } => f
                 .debug_struct("Coupling")
                 .field("name", name)
                 .field("a", a)
@@ -136,7 +152,8 @@ impl Interconnection {
         }
         let id = SubsystemId(self.subsystems.len());
         self.by_name.insert(subsystem.name.clone(), id);
-        self.vertex_of_subsystem.push(self.graph.add_node(Vertex::Subsystem(id)));
+        self.vertex_of_subsystem
+            .push(self.graph.add_node(Vertex::Subsystem(id)));
         self.subsystems.push(subsystem);
         Ok(id)
     }
@@ -147,27 +164,36 @@ impl Interconnection {
             .by_name
             .get(subsystem)
             .ok_or_else(|| GraphError::UnknownSubsystem(subsystem.to_string()))?;
-        let index = self.subsystems[id.0]
-            .port_index(port)
-            .ok_or_else(|| GraphError::UnknownPort {
-                subsystem: subsystem.to_string(),
-                port: port.to_string(),
-            })?;
-        Ok(PortRef { subsystem: id, port: index })
+        let index =
+            self.subsystems[id.0]
+                .port_index(port)
+                .ok_or_else(|| GraphError::UnknownPort {
+                    subsystem: subsystem.to_string(),
+                    port: port.to_string(),
+                })?;
+        Ok(PortRef {
+            subsystem: id,
+            port: index,
+        })
     }
 
     fn add_connection(&mut self, connection: Connection) -> ConnectionId {
         let id = ConnectionId(self.connections.len());
         let v = self.graph.add_node(Vertex::Connection(id));
         for p in connection.ports() {
-            self.graph.add_edge(v, self.vertex_of_subsystem[p.subsystem.0], p.port);
+            self.graph
+                .add_edge(v, self.vertex_of_subsystem[p.subsystem.0], p.port);
         }
         self.connections.push(connection);
         id
     }
 
     /// An electrical node joining ports with signs (`+1`: the port's flow enters the node).
-    pub fn node(&mut self, name: impl Into<String>, ports: Vec<(PortRef, f64)>) -> Result<ConnectionId, GraphError> {
+    pub fn node(
+        &mut self,
+        name: impl Into<String>,
+        ports: Vec<(PortRef, f64)>,
+    ) -> Result<ConnectionId, GraphError> {
         let name = name.into();
         if ports.len() < 2 {
             return Err(GraphError::TooFewPorts(name));
@@ -177,7 +203,11 @@ impl Interconnection {
 
     /// A rigid joint: equal port flows.
     pub fn joint(&mut self, name: impl Into<String>, a: PortRef, b: PortRef) -> ConnectionId {
-        self.add_connection(Connection::Joint { name: name.into(), a, b })
+        self.add_connection(Connection::Joint {
+            name: name.into(),
+            a,
+            b,
+        })
     }
 
     /// A coupling element between two ports.

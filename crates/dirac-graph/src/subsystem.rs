@@ -50,7 +50,10 @@ impl Subsystem {
 
     /// Sets the internal constraints (their rows act on the subsystem's own coordinates).
     #[must_use]
-    pub fn with_constraints(mut self, constraints: impl Constraints + Send + Sync + 'static) -> Self {
+    pub fn with_constraints(
+        mut self,
+        constraints: impl Constraints + Send + Sync + 'static,
+    ) -> Self {
         self.constraints = Arc::new(constraints);
         self
     }
@@ -63,7 +66,11 @@ impl Subsystem {
 
     /// Adds a port that is a linear combination of coordinates.
     #[must_use]
-    pub fn with_combination_port(mut self, name: impl Into<String>, coefficients: Vec<(usize, f64)>) -> Self {
+    pub fn with_combination_port(
+        mut self,
+        name: impl Into<String>,
+        coefficients: Vec<(usize, f64)>,
+    ) -> Self {
         self.ports.push(Port {
             name: name.into(),
             coefficients,

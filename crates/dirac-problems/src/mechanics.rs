@@ -56,7 +56,9 @@ impl Model for FreeMasses {
         true
     }
     fn coordinate_name(&self, i: usize) -> String {
-        self.names.get(i).map_or_else(|| format!("q{i}"), |s| (*s).to_string())
+        self.names
+            .get(i)
+            .map_or_else(|| format!("q{i}"), |s| (*s).to_string())
     }
 }
 

@@ -118,7 +118,12 @@ impl GenericModel<1> for SplitOscillator {
     fn has_force(&self) -> bool {
         true
     }
-    fn force<D: DualNum<Primitive = f64> + Copy>(&self, q: &[D; 1], _v: &[D; 1], _t: f64) -> [D; 1] {
+    fn force<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        q: &[D; 1],
+        _v: &[D; 1],
+        _t: f64,
+    ) -> [D; 1] {
         [q[0] * (-self.alpha)]
     }
     fn is_linear(&self) -> bool {
@@ -167,7 +172,12 @@ impl GenericModel<1> for ArtificialPotential {
     fn has_force(&self) -> bool {
         true
     }
-    fn force<D: DualNum<Primitive = f64> + Copy>(&self, q: &[D; 1], _v: &[D; 1], _t: f64) -> [D; 1] {
+    fn force<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        q: &[D; 1],
+        _v: &[D; 1],
+        _t: f64,
+    ) -> [D; 1] {
         [q[0].powi(4) * (5.0 * self.a)]
     }
 }
@@ -179,7 +189,12 @@ impl GenericModel<1> for DampedOscillator {
     fn has_force(&self) -> bool {
         self.c != 0.0
     }
-    fn force<D: DualNum<Primitive = f64> + Copy>(&self, _q: &[D; 1], v: &[D; 1], _t: f64) -> [D; 1] {
+    fn force<D: DualNum<Primitive = f64> + Copy>(
+        &self,
+        _q: &[D; 1],
+        v: &[D; 1],
+        _t: f64,
+    ) -> [D; 1] {
         [v[0] * (-self.c)]
     }
     fn is_linear(&self) -> bool {

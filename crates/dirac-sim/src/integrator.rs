@@ -141,8 +141,7 @@ impl Stage {
         flavour: Flavour,
         h: f64,
     ) -> Self {
-        let step =
-            ForcedDiracStep::new(model, constraints, &options.discretisation, flavour, h);
+        let step = ForcedDiracStep::new(model, constraints, &options.discretisation, flavour, h);
         let unknowns = step.unknowns();
         Self {
             newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
@@ -333,7 +332,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         };
         let mut lq = vec![0.0; n];
         let mut p = vec![0.0; n];
-        self.model.lagrangian_gradient(q, &projected, &mut lq, &mut p);
+        self.model
+            .lagrangian_gradient(q, &projected, &mut lq, &mut p);
         self.q.copy_from_slice(q);
         self.p.copy_from_slice(&p);
         self.v0.copy_from_slice(&projected);
@@ -360,7 +360,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
         if self.k == 0 {
-            stage.step.straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
+            stage
+                .step
+                .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
         } else {
             // Constant-velocity extrapolation: reuse the previous increments and multipliers.
             stage.x.copy_from_slice(&stage.x_prev);
@@ -369,7 +371,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let mut system = StepSystem {
             model: &self.model,
             constraints: &self.constraints,
-            constant: stage.step.jacobian_is_constant(&self.model, &self.constraints),
+            constant: stage
+                .step
+                .jacobian_is_constant(&self.model, &self.constraints),
             step: &mut stage.step,
             scale,
         };
@@ -385,7 +389,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 });
             }
         };
-        stage.step.end_momentum(&self.model, &stage.x, &mut self.p_next);
+        stage
+            .step
+            .end_momentum(&self.model, &stage.x, &mut self.p_next);
         stage.step.end_position(&stage.x, &mut self.q);
         std::mem::swap(&mut self.p, &mut self.p_next);
         std::mem::swap(&mut stage.x, &mut stage.x_prev);
@@ -420,7 +426,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             format!("coordinate `{}`", self.model.coordinate_name(col % n))
         } else {
             let m = self.constraints.count().max(1);
-            format!("multiplier of constraint `{}`", self.constraints.name((col - s * n) % m))
+            format!(
+                "multiplier of constraint `{}`",
+                self.constraints.name((col - s * n) % m)
+            )
         }
     }
 
@@ -439,10 +448,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 | LinearSolveError::StructurallySingular { index }
                 | LinearSolveError::NonFinite { index } => format!(
                     "singular Newton matrix near {}: a coordinate no equation determines, or redundant or contradicting constraints",
-                    self.describe_unknown((*index).min(self.stages[0].step.unknowns().saturating_sub(1)))
+                    self.describe_unknown(
+                        (*index).min(self.stages[0].step.unknowns().saturating_sub(1))
+                    )
                 ),
                 LinearSolveError::Pattern(_) => {
-                    "a model or constraint emitted a different derivative pattern between calls".into()
+                    "a model or constraint emitted a different derivative pattern between calls"
+                        .into()
                 }
                 LinearSolveError::Backend(_) => "the sparse solver failed".into(),
             },

@@ -8,12 +8,12 @@
 mod error;
 mod integrator;
 mod linear;
-mod staggered;
 mod shooting;
+mod staggered;
 
 pub use dirac_core::{Discretisation, Flavour};
 pub use error::SimError;
 pub use integrator::{Integrator, IntegratorOptions, Scheme, StepReport};
 pub use linear::{AutoLu, SolverChoice};
-pub use staggered::{Splitting, Staggered};
 pub use shooting::ShootingIntegrator;
+pub use staggered::{Splitting, Staggered};

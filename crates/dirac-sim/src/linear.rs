@@ -19,8 +19,8 @@ pub enum SolverChoice {
 pub enum AutoLu {
     /// Dense partial-pivoting LU.
     Dense(DenseLu),
-    /// Sparse LU on faer.
-    Sparse(SparseLu),
+    /// Sparse LU on faer (boxed: its workspace is large).
+    Sparse(Box<SparseLu>),
 }
 
 impl AutoLu {
@@ -29,15 +29,20 @@ impl AutoLu {
     pub fn for_size(choice: SolverChoice, n: usize) -> Self {
         match choice {
             SolverChoice::Dense => Self::Dense(DenseLu::new()),
-            SolverChoice::Sparse => Self::Sparse(SparseLu::default()),
+            SolverChoice::Sparse => Self::Sparse(Box::default()),
             SolverChoice::Auto if n <= DenseLu::AUTO_LIMIT => Self::Dense(DenseLu::new()),
-            SolverChoice::Auto => Self::Sparse(SparseLu::default()),
+            SolverChoice::Auto => Self::Sparse(Box::default()),
         }
     }
 }
 
 impl LinearSolver for AutoLu {
-    fn analyse(&mut self, n: usize, rows: &[usize], cols: &[usize]) -> Result<(), LinearSolveError> {
+    fn analyse(
+        &mut self,
+        n: usize,
+        rows: &[usize],
+        cols: &[usize],
+    ) -> Result<(), LinearSolveError> {
         match self {
             Self::Dense(s) => s.analyse(n, rows, cols),
             Self::Sparse(s) => s.analyse(n, rows, cols),

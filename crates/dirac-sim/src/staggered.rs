@@ -32,7 +32,11 @@ pub struct Staggered {
 
 impl Staggered {
     /// Builds the per-subsystem integrators.
-    pub fn new(graph: &Interconnection, options: &IntegratorOptions, splitting: Splitting) -> Result<Self, SimError> {
+    pub fn new(
+        graph: &Interconnection,
+        options: &IntegratorOptions,
+        splitting: Splitting,
+    ) -> Result<Self, SimError> {
         let plan = Assembler::staggered(graph)?;
         let mut parts = Vec::with_capacity(plan.models.len());
         for model in plan.models {
@@ -96,12 +100,18 @@ impl Staggered {
     /// Positions of every subsystem, concatenated in graph order.
     #[must_use]
     pub fn positions(&self) -> Vec<f64> {
-        self.parts.iter().flat_map(|p| p.q().iter().copied()).collect()
+        self.parts
+            .iter()
+            .flat_map(|p| p.q().iter().copied())
+            .collect()
     }
 
     /// Momenta of every subsystem, concatenated in graph order.
     #[must_use]
     pub fn momenta(&self) -> Vec<f64> {
-        self.parts.iter().flat_map(|p| p.p().iter().copied()).collect()
+        self.parts
+            .iter()
+            .flat_map(|p| p.p().iter().copied())
+            .collect()
     }
 }

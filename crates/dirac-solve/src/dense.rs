@@ -33,7 +33,12 @@ impl DenseLu {
 }
 
 impl LinearSolver for DenseLu {
-    fn analyse(&mut self, n: usize, rows: &[usize], cols: &[usize]) -> Result<(), LinearSolveError> {
+    fn analyse(
+        &mut self,
+        n: usize,
+        rows: &[usize],
+        cols: &[usize],
+    ) -> Result<(), LinearSolveError> {
         self.n = n;
         self.rows = rows.to_vec();
         self.cols = cols.to_vec();
@@ -146,7 +151,9 @@ mod tests {
         let x = [1.0, -2.0, 3.0];
         let (r, c) = pattern(3);
         let vals: Vec<f64> = r.iter().zip(&c).map(|(&i, &j)| a[i][j]).collect();
-        let mut b: Vec<f64> = (0..3).map(|i| (0..3).map(|j| a[i][j] * x[j]).sum()).collect();
+        let mut b: Vec<f64> = (0..3)
+            .map(|i| (0..3).map(|j| a[i][j] * x[j]).sum())
+            .collect();
         let mut lu = DenseLu::new();
         lu.analyse(3, &r, &c).unwrap();
         lu.factor(&vals).unwrap();
@@ -162,6 +169,9 @@ mod tests {
         let vals = [1.0, 2.0, 2.0, 4.0];
         let mut lu = DenseLu::new();
         lu.analyse(2, &r, &c).unwrap();
-        assert_eq!(lu.factor(&vals), Err(LinearSolveError::NumericallySingular { index: 1 }));
+        assert_eq!(
+            lu.factor(&vals),
+            Err(LinearSolveError::NumericallySingular { index: 1 })
+        );
     }
 }

@@ -34,7 +34,8 @@ pub trait NonlinearSystem {
 /// A linear solver that factorises a matrix given as triplets (duplicates summed).
 pub trait LinearSolver {
     /// Analyses the pattern: called once per pattern, may allocate.
-    fn analyse(&mut self, n: usize, rows: &[usize], cols: &[usize]) -> Result<(), LinearSolveError>;
+    fn analyse(&mut self, n: usize, rows: &[usize], cols: &[usize])
+    -> Result<(), LinearSolveError>;
     /// Numeric factorisation from values in the order of the analysed pattern. Must not allocate.
     fn factor(&mut self, values: &[f64]) -> Result<(), LinearSolveError>;
     /// Solves `A x = b` in place. Must not allocate.
@@ -190,15 +191,26 @@ impl<S: LinearSolver> Newton<S> {
             }
             if !(reuse && self.factored) {
                 self.factorise(system, x)
-                    .map_err(|source| NewtonError::Linear { source, residual: rnorm })?;
+                    .map_err(|source| NewtonError::Linear {
+                        source,
+                        residual: rnorm,
+                    })?;
                 stats.factorisations += 1;
             }
-            for ((u, r), s) in self.update.iter_mut().zip(&self.residual).zip(&self.row_scale) {
+            for ((u, r), s) in self
+                .update
+                .iter_mut()
+                .zip(&self.residual)
+                .zip(&self.row_scale)
+            {
                 *u = r * s;
             }
             self.solver
                 .solve_in_place(&mut self.update)
-                .map_err(|source| NewtonError::Linear { source, residual: rnorm })?;
+                .map_err(|source| NewtonError::Linear {
+                    source,
+                    residual: rnorm,
+                })?;
             stats.iterations += 1;
             let mut unorm = 0.0_f64;
             for (xi, u) in x.iter_mut().zip(&self.update) {
@@ -345,7 +357,10 @@ mod tests {
         let err = newton.solve(&mut Redundant, &mut x).unwrap_err();
         assert!(matches!(
             err,
-            NewtonError::Linear { source: LinearSolveError::NumericallySingular { .. }, .. }
+            NewtonError::Linear {
+                source: LinearSolveError::NumericallySingular { .. },
+                ..
+            }
         ));
     }
 }

@@ -22,7 +22,9 @@ pub struct Triplets {
 
 /// The `(row, col)` sequence of a refill pass differed from the recorded pattern.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Error)]
-#[error("entry {index} of the derivative pattern changed between evaluations (patterns must be fixed)")]
+#[error(
+    "entry {index} of the derivative pattern changed between evaluations (patterns must be fixed)"
+)]
 pub struct PatternMismatch {
     /// Index of the first entry that differed (or the recorded length if the count differed).
     pub index: usize,
