@@ -51,6 +51,7 @@ fn combine(q: &[f64], coefficients: &[(usize, f64)]) -> f64 {
 /// A coupling placed on global coordinates.
 #[derive(Clone)]
 struct GlobalCoupling {
+    connection: usize,
     element: Arc<dyn CouplingElement>,
     a: Coefficients,
     b: Coefficients,
@@ -470,6 +471,52 @@ impl AssembledSystem {
         Ok(out)
     }
 
+    /// Interaction impulses of the connection rows: for each connection with a constraint row
+    /// (node, joint, or coupling endpoint in the constraint form), `(connection index, global
+    /// coordinate, impulse Λ·c)` for every coordinate the row touches. `multipliers` holds one
+    /// value per constraint row (see `Integrator::last_multipliers_full`). Divided by `h` these
+    /// are the interaction forces; for a joint they act equal and opposite on its two ports.
+    #[must_use]
+    pub fn interaction_impulses(&self, multipliers: &[f64]) -> Vec<(usize, usize, f64)> {
+        let mut out = Vec::new();
+        for (c, row) in self.connection_rows.iter().enumerate() {
+            let Some(row) = row else { continue };
+            let entries = &self.constraints.rows[row - self.constraints.internal_rows].entries;
+            for &(i, k) in entries {
+                out.push((c, i, multipliers[*row] * k));
+            }
+        }
+        out
+    }
+
+    /// Interaction forces of the couplings that act as forces at the state `(q, v, t)` (every
+    /// coupling in the force representation; dampers in all representations):
+    /// `(connection index, [f_a, f_b])` on the two port coordinates.
+    #[must_use]
+    pub fn coupling_forces(&self, q: &[f64], v: &[f64], t: f64) -> Vec<(usize, [f64; 2])> {
+        let mut out = Vec::new();
+        let force_carrying = self
+            .model
+            .couplings
+            .iter()
+            .filter(|c| c.element.has_force() || (c.element.has_potential() && !c.potential_in_lagrangian));
+        for coupling in force_carrying {
+            let x = [combine(q, &coupling.a), combine(q, &coupling.b)];
+            let w = [combine(v, &coupling.a), combine(v, &coupling.b)];
+            let mut f = [0.0; 2];
+            if coupling.element.has_potential() && !coupling.potential_in_lagrangian {
+                let g = coupling.element.potential_gradient(x[0], x[1]);
+                f = [-g[0], -g[1]];
+            }
+            if coupling.element.has_force() {
+                let g = coupling.element.force(x, w, t);
+                f = [f[0] + g[0], f[1] + g[1]];
+            }
+            out.push((coupling.connection, f));
+        }
+        out
+    }
+
     /// Subsystem positions (endpoints dropped).
     #[must_use]
     pub fn subsystem_positions<'a>(&self, q: &'a [f64]) -> &'a [f64] {
@@ -531,7 +578,7 @@ impl Assembler {
         let mut rows = Vec::new();
         let mut endpoints = Vec::new();
         let mut connection_rows = Vec::with_capacity(graph.connections().len());
-        for connection in graph.connections() {
+        for (index, connection) in graph.connections().iter().enumerate() {
             match connection {
                 Connection::Node { name, ports } => {
                     let mut entries = Vec::new();
@@ -571,6 +618,7 @@ impl Assembler {
                         Representation::Monolithic | Representation::InteractionForce => {
                             connection_rows.push(None);
                             couplings.push(GlobalCoupling {
+                                connection: index,
                                 element: element.clone(),
                                 a: ca,
                                 b: cb,
@@ -593,6 +641,7 @@ impl Assembler {
                             });
                             endpoints.push((e, cb));
                             couplings.push(GlobalCoupling {
+                                connection: index,
                                 element: element.clone(),
                                 a: ca,
                                 b: vec![(e, 1.0)],

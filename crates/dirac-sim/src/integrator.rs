@@ -517,6 +517,29 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         &self.constraints
     }
 
+    /// Unknowns of one Newton solve (largest over substeps): `s(n + m)`.
+    #[must_use]
+    pub fn unknowns(&self) -> usize {
+        self.stages.iter().map(|s| s.step.unknowns()).max().unwrap_or(0)
+    }
+
+    /// Jacobian entries stamped per evaluation (largest over substeps; 0 before the first step).
+    #[must_use]
+    pub fn jacobian_entries(&self) -> usize {
+        self.stages.iter().map(|s| s.newton.pattern_len()).max().unwrap_or(0)
+    }
+
+    /// Multipliers `Λ⁰` of the last step for every row of the constraint set as given
+    /// (zero for rows dropped as redundant): the impulses `Λ⁰ₐ Aᵃ(q_k)` the constraints applied.
+    #[must_use]
+    pub fn last_multipliers_full(&self) -> Vec<f64> {
+        let mut full = vec![0.0; self.constraints.inner().count()];
+        for (&a, &l) in self.constraints.kept().iter().zip(self.last_multipliers()) {
+            full[a] = l;
+        }
+        full
+    }
+
     /// Max-norm of the discrete constraint equations at the accepted solution of the last step
     /// (over all substeps): `ωᵃ(q_*)·(q_{k+1} − q_k)` for one-forms, `gᵃ(q_{k+1})` for holonomic
     /// rows, at every control point. Re-evaluates the step equations (a diagnostic, not free).

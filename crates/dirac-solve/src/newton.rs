@@ -134,6 +134,13 @@ impl<S: LinearSolver> Newton<S> {
         self.factored = false;
     }
 
+    /// Number of Jacobian entries stamped per evaluation (0 before the first factorisation);
+    /// duplicates count once per stamp.
+    #[must_use]
+    pub fn pattern_len(&self) -> usize {
+        self.jacobian.len()
+    }
+
     /// The options in use.
     #[must_use]
     pub fn options(&self) -> &NewtonOptions {
