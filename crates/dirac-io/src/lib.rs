@@ -1,0 +1,27 @@
+//! Input formats for dirac.
+//!
+//! [`netlist`] is a SPICE-subset netlist front end: [`parse_netlist`] reads netlist text (`R L C V
+//! I K D X` cards, `.param` arithmetic, `.subckt`, `.model D`, `.tran`, `.ic`) into a flat
+//! [`Netlist`] with evaluated values, or a [`NetlistError`] that names the file, line and column.
+//! This crate only parses; turning a netlist into a model is done elsewhere.
+//!
+//! ```
+//! use dirac_io::{Element, parse_netlist};
+//!
+//! let net = parse_netlist(
+//!     "RC low-pass\n.param r0=1k\nV1 in 0 PULSE(0 1 0 1u 1u 1m 2m)\nR1 in out {r0}\nC1 out 0 10uF\n.tran 10u 5m uic\n",
+//!     "rc.cir",
+//! )
+//! .unwrap();
+//! assert_eq!(net.nodes(), ["in", "out"]);
+//! assert!(matches!(net.element("R1"), Some(Element::R { value, .. }) if *value == 1000.0));
+//! ```
+
+#![warn(missing_docs)]
+
+pub mod netlist;
+
+pub use netlist::{
+    DiodeModel, Element, ErrorKind, Netlist, NetlistError, Origin, Pos, SourceSpec, Tran, Warning,
+    parse_netlist, parse_spice_number,
+};

@@ -1,0 +1,211 @@
+//! Independent source waveforms with ngspice's definitions.
+//!
+//! The formulas follow ngspice's `vsrcload.c`/`isrcload.c` (ngspice 39–44):
+//!
+//! - `SIN(VO VA FREQ TD THETA PHASE)`: with `τ = t − TD`, `VO + VA·sin(PHASE·π/180)` for `τ ≤ 0`,
+//!   else `VO + VA·sin(2π·FREQ·τ + PHASE·π/180)·exp(−τ·THETA)`. `FREQ` absent or 0 means
+//!   `1/TSTOP`.
+//! - `PULSE(V1 V2 TD TR TF PW PER)`: with `τ = t − TD`, if `τ > PER` then `τ −= PER·⌊τ/PER⌋`;
+//!   `V1` for `τ ≤ 0` or `τ ≥ TR+PW+TF`, `V2` for `TR ≤ τ ≤ TR+PW`, linear ramps in between.
+//!   `TR`, `TF` absent or 0 mean `TSTEP`; `PW`, `PER` absent or 0 mean `TSTOP`.
+//! - `PWL(t1 v1 t2 v2 ...)`: `v1` before `t1`, the last value after the last time, linear
+//!   interpolation in between (at a time point, the segment ending there is used).
+//!
+//! A [`SourceSpec`] in a [`Netlist`](super::Netlist) that has a `.tran` card has these defaults
+//! already resolved (see [`SourceSpec::resolved`]), so [`SourceSpec::value`] is then exactly
+//! ngspice's waveform. Without `.tran`, unresolved zeros are taken literally, except that a zero
+//! `PER` means "no repetition".
+
+use std::f64::consts::PI;
+
+/// The waveform of an independent voltage or current source.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SourceSpec {
+    /// A constant value (`5`, `DC 5`).
+    Dc(f64),
+    /// `SIN(VO VA [FREQ [TD [THETA [PHASE]]]])`.
+    Sin {
+        /// Offset.
+        vo: f64,
+        /// Amplitude.
+        va: f64,
+        /// Frequency in Hz (0 = default `1/TSTOP`, until resolved).
+        freq: f64,
+        /// Delay in seconds.
+        td: f64,
+        /// Damping factor in 1/s.
+        theta: f64,
+        /// Phase in degrees.
+        phase: f64,
+    },
+    /// `PULSE(V1 V2 [TD [TR [TF [PW [PER]]]]])`.
+    Pulse {
+        /// Initial value.
+        v1: f64,
+        /// Pulsed value.
+        v2: f64,
+        /// Delay.
+        td: f64,
+        /// Rise time (0 = default `TSTEP`, until resolved).
+        tr: f64,
+        /// Fall time (0 = default `TSTEP`, until resolved).
+        tf: f64,
+        /// Pulse width (0 = default `TSTOP`, until resolved).
+        pw: f64,
+        /// Period (0 = default `TSTOP`, until resolved; an unresolved 0 means no repetition).
+        per: f64,
+    },
+    /// `PWL(t1 v1 t2 v2 ...)`: time–value points with non-decreasing times.
+    Pwl(Vec<(f64, f64)>),
+}
+
+/// Value and slope of a waveform at one time.
+fn eval(spec: &SourceSpec, t: f64) -> (f64, f64) {
+    match spec {
+        SourceSpec::Dc(v) => (*v, 0.0),
+        SourceSpec::Sin {
+            vo,
+            va,
+            freq,
+            td,
+            theta,
+            phase,
+        } => {
+            let phase = phase * PI / 180.0;
+            let time = t - td;
+            if time <= 0.0 {
+                (vo + va * phase.sin(), 0.0)
+            } else {
+                let arg = freq * time * 2.0 * PI + phase;
+                let damp = (-time * theta).exp();
+                let value = vo + va * arg.sin() * damp;
+                let slope = va * damp * (2.0 * PI * freq * arg.cos() - theta * arg.sin());
+                (value, slope)
+            }
+        }
+        SourceSpec::Pulse {
+            v1,
+            v2,
+            td,
+            tr,
+            tf,
+            pw,
+            per,
+        } => {
+            let (v1, v2, tr, tf, pw, per) = (*v1, *v2, *tr, *tf, *pw, *per);
+            let mut time = t - td;
+            if per > 0.0 && time > per {
+                let base = per * (time / per).floor();
+                time -= base;
+            }
+            if time <= 0.0 || time >= tr + pw + tf {
+                (v1, 0.0)
+            } else if time >= tr && time <= tr + pw {
+                (v2, 0.0)
+            } else if time > 0.0 && time < tr {
+                (v1 + (v2 - v1) * time / tr, (v2 - v1) / tr)
+            } else {
+                (v2 + (v1 - v2) * (time - (tr + pw)) / tf, (v1 - v2) / tf)
+            }
+        }
+        SourceSpec::Pwl(points) => {
+            let (Some(&(t0, v0)), Some(&(t_end, v_end))) = (points.first(), points.last()) else {
+                return (0.0, 0.0);
+            };
+            if t < t0 {
+                return (v0, 0.0);
+            }
+            if t > t_end {
+                return (v_end, 0.0);
+            }
+            for w in points.windows(2) {
+                let ((ta, va), (tb, vb)) = (w[0], w[1]);
+                if tb >= t {
+                    let dt = tb - ta;
+                    if dt <= 0.0 {
+                        return (va, 0.0);
+                    }
+                    let slope = (vb - va) / dt;
+                    return (va + (t - ta) / dt * (vb - va), slope);
+                }
+            }
+            (v_end, 0.0)
+        }
+    }
+}
+
+impl SourceSpec {
+    /// The waveform's value at time `t` (seconds), by ngspice's definitions. See the module docs
+    /// for how unresolved defaults are treated.
+    pub fn value(&self, t: f64) -> f64 {
+        eval(self, t).0
+    }
+
+    /// The waveform's time derivative at `t`. At a corner of a piecewise-linear waveform it is the
+    /// slope of the piece that [`value`](Self::value) uses there (for `PULSE` and `PWL` the piece
+    /// ending at `t`); it is 0 where the waveform is constant and before a `SIN`'s delay.
+    pub fn derivative(&self, t: f64) -> f64 {
+        eval(self, t).1
+    }
+
+    /// The waveform with ngspice's transient defaults filled in from `.tran TSTEP TSTOP`: a zero
+    /// `SIN` frequency becomes `1/tstop`; zero `PULSE` rise and fall times become `tstep`; zero
+    /// pulse width and period become `tstop`. Other waveforms are returned unchanged.
+    pub fn resolved(&self, tstep: f64, tstop: f64) -> SourceSpec {
+        let or = |x: f64, default: f64| if x == 0.0 { default } else { x };
+        match self {
+            SourceSpec::Sin {
+                vo,
+                va,
+                freq,
+                td,
+                theta,
+                phase,
+            } => SourceSpec::Sin {
+                vo: *vo,
+                va: *va,
+                freq: or(*freq, 1.0 / tstop),
+                td: *td,
+                theta: *theta,
+                phase: *phase,
+            },
+            SourceSpec::Pulse {
+                v1,
+                v2,
+                td,
+                tr,
+                tf,
+                pw,
+                per,
+            } => SourceSpec::Pulse {
+                v1: *v1,
+                v2: *v2,
+                td: *td,
+                tr: or(*tr, tstep),
+                tf: or(*tf, tstep),
+                pw: or(*pw, tstop),
+                per: or(*per, tstop),
+            },
+            other => other.clone(),
+        }
+    }
+
+    /// [`value`](Self::value) of the waveform [`resolved`](Self::resolved) with `tstep`, `tstop`.
+    pub fn value_with_defaults(&self, t: f64, tstep: f64, tstop: f64) -> f64 {
+        match self {
+            SourceSpec::Dc(v) => *v,
+            SourceSpec::Pwl(_) => self.value(t),
+            _ => self.resolved(tstep, tstop).value(t),
+        }
+    }
+
+    /// [`derivative`](Self::derivative) of the waveform [`resolved`](Self::resolved) with `tstep`,
+    /// `tstop`.
+    pub fn derivative_with_defaults(&self, t: f64, tstep: f64, tstop: f64) -> f64 {
+        match self {
+            SourceSpec::Dc(_) => 0.0,
+            SourceSpec::Pwl(_) => self.derivative(t),
+            _ => self.resolved(tstep, tstop).derivative(t),
+        }
+    }
+}
