@@ -35,7 +35,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     }
     let start = Instant::now();
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource { v: 1.0 }.subsystem("V1"))?;
+    g.add_subsystem(VoltageSource::dc(1.0).subsystem("V1"))?;
     let section = LadderSection {
         r: 0.1,
         l: 1.0,
@@ -47,8 +47,10 @@ fn main() -> Result<(), Box<dyn Error>> {
     for k in 1..=sections {
         g.add_subsystem(prototype.renamed(format!("S{k}")))?;
     }
+    // n0 is the source's + terminal: its branch current (SPICE orientation, + to − through the
+    // source) leaves n0.
     let src = g.port("V1", "i")?;
-    g.node("n0", vec![(src, 1.0), (g.port("S1", "series")?, -1.0)])?;
+    g.node("n0", vec![(src, -1.0), (g.port("S1", "series")?, -1.0)])?;
     for k in 1..=sections {
         let mut ports = vec![
             (g.port(&format!("S{k}"), "series")?, 1.0),

@@ -298,7 +298,15 @@ fn interaction_forces_cancel() {
 fn reported_interaction_forces_cancel_every_step() {
     let mut g = Interconnection::new();
     for (i, m) in [1.0, 2.0, 0.5].iter().enumerate() {
-        g.add_subsystem(Mass { m: *m, k: 0.5, c: 0.0 }.subsystem(format!("m{i}"))).unwrap();
+        g.add_subsystem(
+            Mass {
+                m: *m,
+                k: 0.5,
+                c: 0.0,
+            }
+            .subsystem(format!("m{i}")),
+        )
+        .unwrap();
     }
     let p = |g: &Interconnection, i: usize| g.port(&format!("m{i}"), "x").unwrap();
     let (p0, p1, p2) = (p(&g, 0), p(&g, 1), p(&g, 2));
@@ -313,7 +321,12 @@ fn reported_interaction_forces_cancel_every_step() {
         let system = Assembler::assemble(&g, rep).unwrap();
         let q = system.global_vector(&q0, &names).unwrap();
         let v = system.global_vector(&v0, &names).unwrap();
-        let mut sim = Integrator::new(system.model.clone(), system.constraints.clone(), IntegratorOptions::new(Discretisation::midpoint(), h)).unwrap();
+        let mut sim = Integrator::new(
+            system.model.clone(),
+            system.constraints.clone(),
+            IntegratorOptions::new(Discretisation::midpoint(), h),
+        )
+        .unwrap();
         sim.initialise(&q, &v, 0.0).unwrap();
         let mut reported = 0;
         for _ in 0..200 {
@@ -321,15 +334,36 @@ fn reported_interaction_forces_cancel_every_step() {
             sim.step().unwrap();
             let impulses = system.interaction_impulses(&sim.last_multipliers_full());
             for c in 0..g.connections().len() {
-                let total: f64 = impulses.iter().filter(|(k, _, _)| *k == c).map(|(_, _, f)| f).sum();
-                let size = impulses.iter().filter(|(k, _, _)| *k == c).fold(0.0_f64, |m, (_, _, f)| m.max(f.abs()));
-                assert!(total.abs() <= 1e-15 * size.max(1.0), "{rep}: connection {c} impulses sum to {total:e}");
+                let total: f64 = impulses
+                    .iter()
+                    .filter(|(k, _, _)| *k == c)
+                    .map(|(_, _, f)| f)
+                    .sum();
+                let size = impulses
+                    .iter()
+                    .filter(|(k, _, _)| *k == c)
+                    .fold(0.0_f64, |m, (_, _, f)| m.max(f.abs()));
+                assert!(
+                    total.abs() <= 1e-15 * size.max(1.0),
+                    "{rep}: connection {c} impulses sum to {total:e}"
+                );
                 reported += usize::from(size > 0.0);
             }
-            let mid: Vec<f64> = before.iter().zip(sim.q()).map(|(a, b)| 0.5 * (a + b)).collect();
-            let vel: Vec<f64> = before.iter().zip(sim.q()).map(|(a, b)| (b - a) / h).collect();
+            let mid: Vec<f64> = before
+                .iter()
+                .zip(sim.q())
+                .map(|(a, b)| 0.5 * (a + b))
+                .collect();
+            let vel: Vec<f64> = before
+                .iter()
+                .zip(sim.q())
+                .map(|(a, b)| (b - a) / h)
+                .collect();
             for (_, [fa, fb]) in system.coupling_forces(&mid, &vel, sim.t()) {
-                assert!((fa + fb).abs() <= 1e-15 * fa.abs().max(1.0), "{rep}: {fa} + {fb}");
+                assert!(
+                    (fa + fb).abs() <= 1e-15 * fa.abs().max(1.0),
+                    "{rep}: {fa} + {fb}"
+                );
                 reported += usize::from(fa != 0.0);
             }
         }

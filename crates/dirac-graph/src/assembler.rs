@@ -495,11 +495,9 @@ impl AssembledSystem {
     #[must_use]
     pub fn coupling_forces(&self, q: &[f64], v: &[f64], t: f64) -> Vec<(usize, [f64; 2])> {
         let mut out = Vec::new();
-        let force_carrying = self
-            .model
-            .couplings
-            .iter()
-            .filter(|c| c.element.has_force() || (c.element.has_potential() && !c.potential_in_lagrangian));
+        let force_carrying = self.model.couplings.iter().filter(|c| {
+            c.element.has_force() || (c.element.has_potential() && !c.potential_in_lagrangian)
+        });
         for coupling in force_carrying {
             let x = [combine(q, &coupling.a), combine(q, &coupling.b)];
             let w = [combine(v, &coupling.a), combine(v, &coupling.b)];

@@ -3,7 +3,7 @@
 //! [`netlist`] is a SPICE-subset netlist front end: [`parse_netlist`] reads netlist text (`R L C V
 //! I K D X` cards, `.param` arithmetic, `.subckt`, `.model D`, `.tran`, `.ic`) into a flat
 //! [`Netlist`] with evaluated values, or a [`NetlistError`] that names the file, line and column.
-//! This crate only parses; turning a netlist into a model is done elsewhere.
+//! [`circuit`] turns a parsed netlist into an interconnection of stock parts ([`build_circuit`]).
 //!
 //! ```
 //! use dirac_io::{Element, parse_netlist};
@@ -19,9 +19,13 @@
 
 #![warn(missing_docs)]
 
+pub mod circuit;
 pub mod netlist;
+pub mod run;
 
+pub use circuit::{Circuit, CircuitError, Signal, SignalKind, build_circuit, waveform};
 pub use netlist::{
     DiodeModel, Element, ErrorKind, Netlist, NetlistError, Origin, Pos, SourceSpec, Tran, Warning,
     parse_netlist, parse_spice_number,
 };
+pub use run::{RunError, RunSettings, RunSummary, run_circuit};

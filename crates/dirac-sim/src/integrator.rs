@@ -520,13 +520,21 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// Unknowns of one Newton solve (largest over substeps): `s(n + m)`.
     #[must_use]
     pub fn unknowns(&self) -> usize {
-        self.stages.iter().map(|s| s.step.unknowns()).max().unwrap_or(0)
+        self.stages
+            .iter()
+            .map(|s| s.step.unknowns())
+            .max()
+            .unwrap_or(0)
     }
 
     /// Jacobian entries stamped per evaluation (largest over substeps; 0 before the first step).
     #[must_use]
     pub fn jacobian_entries(&self) -> usize {
-        self.stages.iter().map(|s| s.newton.pattern_len()).max().unwrap_or(0)
+        self.stages
+            .iter()
+            .map(|s| s.newton.pattern_len())
+            .max()
+            .unwrap_or(0)
     }
 
     /// Multipliers `Λ⁰` of the last step for every row of the constraint set as given

@@ -180,7 +180,10 @@ impl<S: LinearSolver> Newton<S> {
                     iterations: iteration,
                 });
             }
-            if rnorm <= tol {
+            // The warm-start guess is accepted only if it is exact: an absolute residual test on
+            // the guess would freeze small-scale systems near steady state (rates off by
+            // tol/(h·coefficient)). Every later iterate follows at least one exact update.
+            if rnorm == 0.0 || (iteration > 0 && rnorm <= tol) {
                 return Ok(stats);
             }
             if iteration > 0 {

@@ -1,0 +1,267 @@
+//! Time functions of independent sources, with ngspice semantics.
+
+use std::f64::consts::PI;
+
+/// The value of an independent source as a function of time.
+///
+/// Semantics follow ngspice's `vsrcload.c`/`isrcload.c` (transient analysis), with every parameter
+/// given explicitly: ngspice substitutes `TSTEP` or `TSTOP` for omitted or zero `TR`, `TF`, `PW`,
+/// `PER`, `FREQ`, which a part cannot know.
+///
+/// - [`Waveform::Dc`]: a constant.
+/// - [`Waveform::Sin`] `SIN(VO VA FREQ TD THETA PHASE)`: with `τ = t − TD`,
+///   `VO + VA·sin(2π·PHASE/360)` for `τ ≤ 0`, else `VO + VA·sin(2π·FREQ·τ + 2π·PHASE/360)·e^{−THETA·τ}`
+///   (continuous at `TD`, as ngspice computes it; the manual's `VO` before `TD` is the `PHASE = 0`
+///   case).
+/// - [`Waveform::Pulse`] `PULSE(V1 V2 TD TR TF PW PER)`: with `τ = t − TD` reduced modulo `PER` when
+///   `τ > PER`: `V1` for `τ ≤ 0` or `τ ≥ TR + PW + TF`, a linear rise over `(0, TR)`, `V2` on
+///   `[TR, TR + PW]`, a linear fall over `(TR + PW, TR + PW + TF)`. `TR = 0` or `TF = 0` are ideal
+///   edges; `PER = ∞` is a single pulse. (ngspice's optional eighth parameter is not supported.)
+/// - [`Waveform::Pwl`] `PWL(T1 V1 T2 V2 …)`: `V1` for `t ≤ T1`, linear interpolation on
+///   `(Tᵢ₋₁, Tᵢ]`, the last value held for `t > Tₙ`. Equal consecutive times make a step (the value
+///   at the step time is the left one, as in ngspice).
+///
+/// ```
+/// use dirac_components::Waveform;
+/// let w = Waveform::pulse(0.0, 5.0, 1.0, 0.5, 0.5, 2.0, 10.0);
+/// assert_eq!(w.value(1.25), 2.5); // half-way up the rise
+/// assert_eq!(w.value(13.0), 5.0); // second period, on the plateau
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub enum Waveform {
+    /// Constant value.
+    Dc(f64),
+    /// Damped sine `SIN(VO VA FREQ TD THETA PHASE)`.
+    Sin {
+        /// `VO`: offset.
+        offset: f64,
+        /// `VA`: amplitude.
+        amplitude: f64,
+        /// `FREQ` in Hz.
+        frequency: f64,
+        /// `TD`: delay.
+        delay: f64,
+        /// `THETA`: damping factor in 1/s.
+        damping: f64,
+        /// `PHASE` in degrees.
+        phase_deg: f64,
+    },
+    /// Trapezoidal pulse train `PULSE(V1 V2 TD TR TF PW PER)`.
+    Pulse {
+        /// `V1`: initial value.
+        v1: f64,
+        /// `V2`: pulsed value.
+        v2: f64,
+        /// `TD`: delay.
+        delay: f64,
+        /// `TR`: rise time (0: ideal edge).
+        rise: f64,
+        /// `TF`: fall time (0: ideal edge).
+        fall: f64,
+        /// `PW`: pulse width.
+        width: f64,
+        /// `PER`: period (`f64::INFINITY`: one pulse).
+        period: f64,
+    },
+    /// Piecewise linear `PWL(T1 V1 T2 V2 …)`, times non-decreasing (see [`Waveform::pwl`]).
+    Pwl(Vec<(f64, f64)>),
+}
+
+impl Waveform {
+    /// `SIN(VO VA FREQ)` without delay, damping or phase.
+    #[must_use]
+    pub fn sin(offset: f64, amplitude: f64, frequency: f64) -> Self {
+        Self::Sin {
+            offset,
+            amplitude,
+            frequency,
+            delay: 0.0,
+            damping: 0.0,
+            phase_deg: 0.0,
+        }
+    }
+
+    /// `PULSE(V1 V2 TD TR TF PW PER)`.
+    #[must_use]
+    pub fn pulse(
+        v1: f64,
+        v2: f64,
+        delay: f64,
+        rise: f64,
+        fall: f64,
+        width: f64,
+        period: f64,
+    ) -> Self {
+        Self::Pulse {
+            v1,
+            v2,
+            delay,
+            rise,
+            fall,
+            width,
+            period,
+        }
+    }
+
+    /// `PWL(T1 V1 T2 V2 …)` from `(time, value)` points.
+    ///
+    /// # Panics
+    /// If `points` is empty or its times decrease (a malformed source description).
+    #[must_use]
+    pub fn pwl(points: impl Into<Vec<(f64, f64)>>) -> Self {
+        let points = points.into();
+        assert!(!points.is_empty(), "PWL needs at least one point");
+        assert!(
+            points.windows(2).all(|w| w[0].0 <= w[1].0),
+            "PWL times must be non-decreasing"
+        );
+        Self::Pwl(points)
+    }
+
+    /// The value at time `t`.
+    #[must_use]
+    pub fn value(&self, t: f64) -> f64 {
+        match self {
+            Self::Dc(v) => *v,
+            Self::Sin {
+                offset,
+                amplitude,
+                frequency,
+                delay,
+                damping,
+                phase_deg,
+            } => {
+                let phase = phase_deg * PI / 180.0;
+                let tau = t - delay;
+                if tau <= 0.0 {
+                    offset + amplitude * phase.sin()
+                } else {
+                    offset
+                        + amplitude
+                            * (2.0 * PI * frequency * tau + phase).sin()
+                            * (-tau * damping).exp()
+                }
+            }
+            Self::Pulse {
+                v1,
+                v2,
+                delay,
+                rise,
+                fall,
+                width,
+                period,
+            } => {
+                let mut tau = t - delay;
+                if tau > *period {
+                    tau -= period * (tau / period).floor();
+                }
+                if tau <= 0.0 || tau >= rise + width + fall {
+                    *v1
+                } else if tau >= *rise && tau <= rise + width {
+                    *v2
+                } else if tau < *rise {
+                    v1 + (v2 - v1) * tau / rise
+                } else {
+                    v2 + (v1 - v2) * (tau - (rise + width)) / fall
+                }
+            }
+            Self::Pwl(points) => {
+                // First point with time ≥ t; the segment ends there.
+                let i = points.partition_point(|p| p.0 < t);
+                if i == 0 {
+                    points[0].1
+                } else if i == points.len() {
+                    points[i - 1].1
+                } else {
+                    let (t0, v0) = points[i - 1];
+                    let (t1, v1) = points[i];
+                    v0 + (v1 - v0) * (t - t0) / (t1 - t0)
+                }
+            }
+        }
+    }
+}
+
+impl From<f64> for Waveform {
+    fn from(v: f64) -> Self {
+        Self::Dc(v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Hand-evaluated values of each ngspice function at breakpoints and inside segments.
+    #[test]
+    fn ngspice_semantics() {
+        assert_eq!(Waveform::Dc(3.0).value(-1.0), 3.0);
+
+        // SIN(1 2 50 0.01 10 30): before TD the phase-shifted constant, after it the damped sine.
+        let s = Waveform::Sin {
+            offset: 1.0,
+            amplitude: 2.0,
+            frequency: 50.0,
+            delay: 0.01,
+            damping: 10.0,
+            phase_deg: 30.0,
+        };
+        assert!((s.value(0.0) - 2.0).abs() < 1e-15); // 1 + 2 sin 30°
+        assert!((s.value(0.01) - 2.0).abs() < 1e-15);
+        let tau: f64 = 0.013;
+        let expected = 1.0 + 2.0 * (2.0 * PI * 50.0 * tau + PI / 6.0).sin() * (-10.0 * tau).exp();
+        assert!((s.value(0.023) - expected).abs() < 1e-14);
+        assert!((Waveform::sin(0.0, 1.0, 1.0).value(0.25) - 1.0).abs() < 1e-15);
+
+        // PULSE(0 5 1 0.5 0.25 2 10).
+        let p = Waveform::pulse(0.0, 5.0, 1.0, 0.5, 0.25, 2.0, 10.0);
+        let cases = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.25, 2.5),
+            (1.5, 5.0),
+            (3.5, 5.0),
+            (3.625, 2.5),
+            (3.75, 0.0),
+            (9.0, 0.0),
+            (11.25, 2.5),
+            (13.0, 5.0),
+            (21.5, 5.0),
+        ];
+        for (t, v) in cases {
+            assert!(
+                (p.value(t) - v).abs() < 1e-12,
+                "PULSE at {t}: {}",
+                p.value(t)
+            );
+        }
+        // Ideal edges and a single pulse.
+        let ideal = Waveform::pulse(-1.0, 1.0, 0.0, 0.0, 0.0, 1.0, f64::INFINITY);
+        assert_eq!(ideal.value(0.0), -1.0);
+        assert_eq!(ideal.value(0.5), 1.0);
+        assert_eq!(ideal.value(1.0), -1.0);
+        assert_eq!(ideal.value(1e9), -1.0);
+
+        // PWL(1 0 2 4 2 -4 3 0): held first value, ramp, step (left value at the step), hold.
+        let w = Waveform::pwl(vec![(1.0, 0.0), (2.0, 4.0), (2.0, -4.0), (3.0, 0.0)]);
+        let cases = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (1.5, 2.0),
+            (2.0, 4.0),
+            (2.5, -2.0),
+            (3.0, 0.0),
+            (7.0, 0.0),
+        ];
+        for (t, v) in cases {
+            assert!((w.value(t) - v).abs() < 1e-15, "PWL at {t}: {}", w.value(t));
+        }
+        assert_eq!(Waveform::pwl(vec![(0.0, 2.5)]).value(-3.0), 2.5);
+    }
+
+    #[test]
+    #[should_panic(expected = "non-decreasing")]
+    fn pwl_rejects_decreasing_times() {
+        let _ = Waveform::pwl(vec![(1.0, 0.0), (0.5, 1.0)]);
+    }
+}
