@@ -1,0 +1,182 @@
+//! The `dirac` binary's contracts: CSV columns, exit codes, atomic output, --signals.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn dirac() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_dirac"))
+}
+
+fn repo(path: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(path)
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("dirac-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir.join(name)
+}
+
+#[test]
+fn run_writes_the_contracted_csv() {
+    let out = scratch("seed.csv");
+    let status = dirac()
+        .args([
+            "run",
+            repo("examples/netlists/seed_rlc.cir").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--quiet",
+        ])
+        .status()
+        .expect("runs");
+    assert!(status.success());
+    let text = std::fs::read_to_string(&out).expect("output");
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("t,v(1),v(2),i(l1),q(c1)"));
+    assert_eq!(lines.count(), 1001, "t = 0, 0.05, …, 50");
+}
+
+#[test]
+fn signals_option_selects_columns() {
+    let output = dirac()
+        .args([
+            "run",
+            repo("examples/netlists/seed_rlc.cir").to_str().unwrap(),
+            "--signals",
+            "q(C1),v(1)",
+            "--t-end",
+            "0.1",
+        ])
+        .output()
+        .expect("runs");
+    assert!(output.status.success());
+    let text = String::from_utf8(output.stdout).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], "t,q(c1),v(1)");
+    assert_eq!(lines.len(), 4);
+    assert!(lines[1].starts_with("0,3,"), "{}", lines[1]);
+}
+
+#[test]
+fn unsupported_card_is_exit_2_with_position_and_no_output() {
+    let netlist = scratch("bad.cir");
+    std::fs::write(
+        &netlist,
+        "bad\nR1 1 0 1k\nM1 d g s 0 nmos\n.tran 1m 1\n.end\n",
+    )
+    .unwrap();
+    let out = scratch("bad.csv");
+    let output = dirac()
+        .args([
+            "run",
+            netlist.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .expect("runs");
+    assert_eq!(output.status.code(), Some(2));
+    let stderr = String::from_utf8(output.stderr).unwrap();
+    assert!(
+        stderr.contains("bad.cir:3:1") && stderr.contains("not supported"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+    assert!(!scratch("bad.csv.partial").exists());
+}
+
+/// Two voltage sources in parallel with different values: the Newton matrix is singular, which is
+/// a numerical failure (exit 1) with the step and residual, and no output file.
+#[test]
+fn singular_circuit_is_exit_1_and_leaves_no_output() {
+    let netlist = scratch("parallel_sources.cir");
+    std::fs::write(
+        &netlist,
+        "two sources\nV1 1 0 1\nV2 1 0 2\nR1 1 0 1k\n.tran 1m 10m uic\n.end\n",
+    )
+    .unwrap();
+    let out = scratch("parallel.csv");
+    let output = dirac()
+        .args([
+            "run",
+            netlist.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8(output.stderr).unwrap();
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("step 0"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn unknown_signal_and_unknown_file_type_are_exit_2() {
+    let seed = repo("examples/netlists/seed_rlc.cir");
+    let output = dirac()
+        .args(["run", seed.to_str().unwrap(), "--signals", "v(9)"])
+        .output()
+        .unwrap();
+    assert_eq!(output.status.code(), Some(2));
+    assert!(
+        String::from_utf8(output.stderr)
+            .unwrap()
+            .contains("unknown signal `v(9)`")
+    );
+    let output = dirac().args(["run", "model.xyz"]).output().unwrap();
+    assert_eq!(output.status.code(), Some(2));
+}
+
+#[test]
+fn compare_json_reports_every_representation() {
+    let output = dirac()
+        .args([
+            "compare",
+            repo("examples/netlists/seed_rlc.cir").to_str().unwrap(),
+            "--json",
+            "--t-end",
+            "5",
+        ])
+        .output()
+        .unwrap();
+    assert!(output.status.success());
+    let text = String::from_utf8(output.stdout).unwrap();
+    for key in [
+        "\"monolithic\"",
+        "\"constraint\"",
+        "\"force\"",
+        "\"staggered\"",
+        "max_abs_deviation",
+    ] {
+        assert!(text.contains(key), "{text}");
+    }
+}
+
+#[test]
+fn plot_writes_svg() {
+    let csv = scratch("plot.csv");
+    let status = dirac()
+        .args([
+            "run",
+            repo("examples/netlists/seed_rlc.cir").to_str().unwrap(),
+            "--out",
+            csv.to_str().unwrap(),
+            "--t-end",
+            "5",
+            "--quiet",
+        ])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let svg = scratch("plot.svg");
+    let status = dirac()
+        .args(["plot", csv.to_str().unwrap(), "-o", svg.to_str().unwrap()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
+}
