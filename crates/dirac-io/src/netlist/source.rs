@@ -16,8 +16,6 @@
 //! ngspice's waveform. Without `.tran`, unresolved zeros are taken literally, except that a zero
 //! `PER` means "no repetition".
 
-use std::f64::consts::PI;
-
 /// The waveform of an independent voltage or current source.
 #[derive(Debug, Clone, PartialEq)]
 pub enum SourceSpec {
@@ -59,93 +57,18 @@ pub enum SourceSpec {
     Pwl(Vec<(f64, f64)>),
 }
 
-/// Value and slope of a waveform at one time.
-fn eval(spec: &SourceSpec, t: f64) -> (f64, f64) {
-    match spec {
-        SourceSpec::Dc(v) => (*v, 0.0),
-        SourceSpec::Sin {
-            vo,
-            va,
-            freq,
-            td,
-            theta,
-            phase,
-        } => {
-            let phase = phase * PI / 180.0;
-            let time = t - td;
-            if time <= 0.0 {
-                (vo + va * phase.sin(), 0.0)
-            } else {
-                let arg = freq * time * 2.0 * PI + phase;
-                let damp = (-time * theta).exp();
-                let value = vo + va * arg.sin() * damp;
-                let slope = va * damp * (2.0 * PI * freq * arg.cos() - theta * arg.sin());
-                (value, slope)
-            }
-        }
-        SourceSpec::Pulse {
-            v1,
-            v2,
-            td,
-            tr,
-            tf,
-            pw,
-            per,
-        } => {
-            let (v1, v2, tr, tf, pw, per) = (*v1, *v2, *tr, *tf, *pw, *per);
-            let mut time = t - td;
-            if per > 0.0 && time > per {
-                let base = per * (time / per).floor();
-                time -= base;
-            }
-            if time <= 0.0 || time >= tr + pw + tf {
-                (v1, 0.0)
-            } else if time >= tr && time <= tr + pw {
-                (v2, 0.0)
-            } else if time > 0.0 && time < tr {
-                (v1 + (v2 - v1) * time / tr, (v2 - v1) / tr)
-            } else {
-                (v2 + (v1 - v2) * (time - (tr + pw)) / tf, (v1 - v2) / tf)
-            }
-        }
-        SourceSpec::Pwl(points) => {
-            let (Some(&(t0, v0)), Some(&(t_end, v_end))) = (points.first(), points.last()) else {
-                return (0.0, 0.0);
-            };
-            if t < t0 {
-                return (v0, 0.0);
-            }
-            if t > t_end {
-                return (v_end, 0.0);
-            }
-            for w in points.windows(2) {
-                let ((ta, va), (tb, vb)) = (w[0], w[1]);
-                if tb >= t {
-                    let dt = tb - ta;
-                    if dt <= 0.0 {
-                        return (va, 0.0);
-                    }
-                    let slope = (vb - va) / dt;
-                    return (va + (t - ta) / dt * (vb - va), slope);
-                }
-            }
-            (v_end, 0.0)
-        }
-    }
-}
-
 impl SourceSpec {
     /// The waveform's value at time `t` (seconds), by ngspice's definitions. See the module docs
     /// for how unresolved defaults are treated.
     pub fn value(&self, t: f64) -> f64 {
-        eval(self, t).0
+        crate::circuit::waveform(self).value(t)
     }
 
     /// The waveform's time derivative at `t`. At a corner of a piecewise-linear waveform it is the
     /// slope of the piece that [`value`](Self::value) uses there (for `PULSE` and `PWL` the piece
     /// ending at `t`); it is 0 where the waveform is constant and before a `SIN`'s delay.
     pub fn derivative(&self, t: f64) -> f64 {
-        eval(self, t).1
+        crate::circuit::waveform(self).derivative(t)
     }
 
     /// The waveform with ngspice's transient defaults filled in from `.tran TSTEP TSTOP`: a zero
