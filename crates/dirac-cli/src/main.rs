@@ -14,8 +14,11 @@ use std::time::{Duration, Instant};
 use clap::{Parser, Subcommand, ValueEnum};
 use dirac_core::{Discretisation, Model};
 use dirac_graph::{Assembler, Representation};
-use dirac_io::{Circuit, RunError, RunSettings, Signal, build_circuit, parse_netlist, run_circuit};
-use dirac_sim::{Scheme, SimError};
+use dirac_io::{
+    BuiltScene, Circuit, Execution, RunError, RunSettings, RunSummary, Scene, SceneSignal, Signal,
+    build_circuit, parse_netlist, run_circuit, run_scene,
+};
+use dirac_sim::{Scheme, SimError, Splitting};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 const LONG_ABOUT: &str = "\
@@ -91,9 +94,9 @@ struct RunArgs {
     /// Record only these signals, comma-separated, e.g. 'v(out),i(l1)'.
     #[arg(long)]
     signals: Option<String>,
-    /// Representation to assemble.
-    #[arg(long, value_enum, default_value = "monolithic")]
-    representation: RepresentationArg,
+    /// Representation to assemble (default: the scene's, or monolithic for netlists).
+    #[arg(long, value_enum)]
+    representation: Option<RepresentationArg>,
     /// Step size (overrides .tran TSTEP or the scene's h).
     #[arg(long)]
     h: Option<f64>,
@@ -186,10 +189,32 @@ fn main() -> ExitCode {
     }
 }
 
-/// A model ready to run: the circuit and its default step and end time.
+/// A model ready to run: the circuit (graph, initial data, default signals, step, end time) and,
+/// for scenes, the scene's own settings.
 struct Loaded {
     circuit: Circuit,
     name: String,
+    scene: Option<BuiltScene>,
+}
+
+impl Loaded {
+    /// The representation asked for on the command line, else the scene's, else monolithic.
+    fn execution(&self, arg: Option<RepresentationArg>) -> Execution {
+        match (arg, &self.scene) {
+            (Some(RepresentationArg::Staggered), Some(scene)) => match scene.execution {
+                Execution::Staggered(s) => Execution::Staggered(s),
+                Execution::Assembled(_) => Execution::Staggered(Splitting::GaussSeidel),
+            },
+            (Some(RepresentationArg::Staggered), None) => {
+                Execution::Staggered(Splitting::GaussSeidel)
+            }
+            (Some(a), _) => {
+                Execution::Assembled(a.assembled().unwrap_or(Representation::Monolithic))
+            }
+            (None, Some(scene)) => scene.execution,
+            (None, None) => Execution::Assembled(Representation::Monolithic),
+        }
+    }
 }
 
 fn load(path: &Path) -> Result<Loaded, Failure> {
@@ -207,11 +232,21 @@ fn load(path: &Path) -> Result<Loaded, Failure> {
             }
             let circuit =
                 build_circuit(&netlist, &name).map_err(|e| Failure::Input(e.to_string()))?;
-            Ok(Loaded { circuit, name })
+            Ok(Loaded {
+                circuit,
+                name,
+                scene: None,
+            })
         }
-        Some("toml") => Err(Failure::Input(format!(
-            "{name}: scene files are not supported by this build yet; use a netlist"
-        ))),
+        Some("toml") => {
+            let scene = Scene::parse(&text, &name).map_err(|e| Failure::Input(e.to_string()))?;
+            let built = scene.build().map_err(|e| Failure::Input(e.to_string()))?;
+            Ok(Loaded {
+                circuit: built.circuit(),
+                name,
+                scene: Some(built),
+            })
+        }
         _ => Err(Failure::Input(format!(
             "{name}: unknown file type (expected .cir, .sp, .net or .toml)"
         ))),
@@ -241,21 +276,42 @@ fn settings(
             "end time must be non-negative, got {t_end}"
         )));
     }
+    let (discretisation, scheme) = match &loaded.scene {
+        Some(scene) => (scene.options.discretisation.clone(), scene.options.scheme),
+        None => (Discretisation::midpoint(), Scheme::Plus),
+    };
     Ok(RunSettings {
         h,
         t_end,
         representation,
-        discretisation: Discretisation::midpoint(),
-        scheme: Scheme::Plus,
+        discretisation,
+        scheme,
     })
 }
 
-fn select_signals(circuit: &Circuit, wanted: Option<&str>) -> Result<Vec<Signal>, Failure> {
+/// The scene with step size and end time overridden, to run staggered with `splitting`.
+fn scene_with(scene: &BuiltScene, settings: &RunSettings, splitting: Splitting) -> BuiltScene {
+    let mut scene = scene.clone();
+    scene.options.h = settings.h;
+    scene.t_end = settings.t_end;
+    scene.execution = Execution::Staggered(splitting);
+    scene
+}
+
+fn select_signals(loaded: &Loaded, wanted: Option<&str>) -> Result<Vec<Signal>, Failure> {
+    let circuit = &loaded.circuit;
     let Some(list) = wanted else {
         return Ok(circuit.signals.clone());
     };
     let mut out = Vec::new();
     for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+        if let Some(scene) = &loaded.scene {
+            let signal = scene
+                .signal(name)
+                .map_err(|e| Failure::Input(e.to_string()))?;
+            out.push(signal.to_signal());
+            continue;
+        }
         let lower = name.to_ascii_lowercase();
         match circuit.signals.iter().find(|s| s.name == lower) {
             Some(s) => out.push(s.clone()),
@@ -321,14 +377,19 @@ impl Drop for Output {
 
 fn run(args: &RunArgs) -> Result<(), Failure> {
     let loaded = load(&args.file)?;
-    let Some(representation) = args.representation.assembled() else {
-        return Err(Failure::Input(format!(
-            "{}: staggered co-simulation needs coupling elements between subsystems; a circuit's nodes are constraints",
-            loaded.name
-        )));
+    let execution = loaded.execution(args.representation);
+    let representation = match execution {
+        Execution::Assembled(r) => r,
+        Execution::Staggered(_) if loaded.scene.is_none() => {
+            return Err(Failure::Input(format!(
+                "{}: staggered co-simulation needs coupling elements between subsystems; a circuit's nodes are constraints",
+                loaded.name
+            )));
+        }
+        Execution::Staggered(_) => Representation::Monolithic,
     };
     let settings = settings(&loaded, args.h, args.t_end, representation)?;
-    let signals = select_signals(&loaded.circuit, args.signals.as_deref())?;
+    let signals = select_signals(&loaded, args.signals.as_deref())?;
     let mut out = Output::open(args.out.as_deref())?;
     let header: Vec<&str> = std::iter::once("t")
         .chain(signals.iter().map(|s| s.name.as_str()))
@@ -340,13 +401,14 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     let started = Instant::now();
     let mut bar: Option<ProgressBar> = None;
     let mut rows = 0u64;
-    let summary = run_circuit(&loaded.circuit, &settings, &signals, |t, values| {
+    let writer = &mut out.writer;
+    let summary = execute(&loaded, &settings, execution, &signals, |t, values| {
         let mut line = format!("{t}");
         for v in values {
             line.push(',');
             line.push_str(&v.to_string());
         }
-        writeln!(out.writer, "{line}").map_err(|e| e.to_string())?;
+        writeln!(writer, "{line}").map_err(|e| e.to_string())?;
         rows += 1;
         if show_progress && bar.is_none() && started.elapsed() > Duration::from_secs(1) {
             let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
@@ -370,9 +432,14 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
         eprintln!("warning: {w}");
     }
     if args.json_summary {
+        let representation = match execution {
+            Execution::Assembled(r) => r.to_string(),
+            Execution::Staggered(Splitting::GaussSeidel) => "staggered-gs".to_string(),
+            Execution::Staggered(Splitting::Jacobi) => "staggered-jacobi".to_string(),
+        };
         let json = serde_json::json!({
             "file": loaded.name,
-            "representation": representation.to_string(),
+            "representation": representation,
             "h": settings.h,
             "t_end": settings.t_end,
             "steps": summary.steps,
@@ -387,12 +454,45 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// Runs `loaded` in `execution` and streams rows of `signals` to `row`.
+fn execute(
+    loaded: &Loaded,
+    settings: &RunSettings,
+    execution: Execution,
+    signals: &[Signal],
+    row: impl FnMut(f64, &[f64]) -> Result<(), String>,
+) -> Result<RunSummary, Failure> {
+    match (execution, &loaded.scene) {
+        (Execution::Staggered(splitting), Some(scene)) => {
+            let scene = scene_with(scene, settings, splitting);
+            let scene_signals: Vec<SceneSignal> = signals
+                .iter()
+                .map(|s| scene.signal(&s.name))
+                .collect::<Result<_, _>>()
+                .map_err(|e| Failure::Input(e.to_string()))?;
+            run_scene(&scene, &scene_signals, row).map_err(|e| {
+                if e.is_numerical() {
+                    Failure::Numerical(e.to_string())
+                } else {
+                    Failure::Input(e.to_string())
+                }
+            })
+        }
+        _ => Ok(run_circuit(&loaded.circuit, settings, signals, row)?),
+    }
+}
+
 /// Runs one representation and returns all signals, row by row.
-fn collect(loaded: &Loaded, settings: &RunSettings) -> Result<Vec<Vec<f64>>, Failure> {
+fn collect(
+    loaded: &Loaded,
+    settings: &RunSettings,
+    execution: Execution,
+) -> Result<Vec<Vec<f64>>, Failure> {
     let mut rows = Vec::new();
-    run_circuit(
-        &loaded.circuit,
+    execute(
+        loaded,
         settings,
+        execution,
         &loaded.circuit.signals,
         |_, v| {
             rows.push(v.to_vec());
@@ -405,7 +505,17 @@ fn collect(loaded: &Loaded, settings: &RunSettings) -> Result<Vec<Vec<f64>>, Fai
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
     let loaded = load(&args.file)?;
     let base = settings(&loaded, args.h, args.t_end, Representation::Monolithic)?;
-    let reference = collect(&loaded, &base)?;
+    let reference = collect(
+        &loaded,
+        &base,
+        Execution::Assembled(Representation::Monolithic),
+    )?;
+    let deviation = |rows: &[Vec<f64>]| {
+        rows.iter()
+            .zip(&reference)
+            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+            .fold(0.0_f64, f64::max)
+    };
     let mut results = Vec::new();
     for representation in [
         Representation::Monolithic,
@@ -416,19 +526,32 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
             representation,
             ..base.clone()
         };
-        let rows = collect(&loaded, &settings)?;
-        let dev = rows
-            .iter()
-            .zip(&reference)
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
-            .fold(0.0_f64, f64::max);
-        results.push((representation.to_string(), Some(dev), None::<String>));
+        let rows = collect(&loaded, &settings, Execution::Assembled(representation))?;
+        results.push((
+            representation.to_string(),
+            Some(deviation(&rows)),
+            None::<String>,
+        ));
     }
-    results.push((
-        "staggered".to_string(),
-        None,
-        Some("not applicable: a circuit's nodes are constraints between parts, not coupling elements".to_string()),
-    ));
+    for (name, splitting) in [
+        ("staggered-gs", Splitting::GaussSeidel),
+        ("staggered-jacobi", Splitting::Jacobi),
+    ] {
+        if loaded.scene.is_none() {
+            results.push((
+                name.to_string(),
+                None,
+                Some("not applicable: a circuit's nodes are constraints between parts, not coupling elements".to_string()),
+            ));
+            continue;
+        }
+        match collect(&loaded, &base, Execution::Staggered(splitting)) {
+            Ok(rows) => results.push((name.to_string(), Some(deviation(&rows)), None)),
+            Err(Failure::Input(why) | Failure::Numerical(why)) => {
+                results.push((name.to_string(), None, Some(why)))
+            }
+        }
+    }
     if args.json {
         let mut map = serde_json::Map::new();
         for (name, dev, note) in &results {

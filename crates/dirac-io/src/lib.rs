@@ -22,6 +22,7 @@
 pub mod circuit;
 pub mod netlist;
 pub mod run;
+pub mod scene;
 
 pub use circuit::{Circuit, CircuitError, Signal, SignalKind, build_circuit, waveform};
 pub use netlist::{
@@ -29,3 +30,7 @@ pub use netlist::{
     parse_netlist, parse_spice_number,
 };
 pub use run::{RunError, RunSettings, RunSummary, run_circuit};
+pub use scene::{
+    BuiltScene, Execution, Location, Quantity, Scene, SceneError, SceneSignal, SceneSimulation,
+    run_scene,
+};
