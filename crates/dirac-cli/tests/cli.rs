@@ -149,11 +149,51 @@ fn compare_json_reports_every_representation() {
         "\"monolithic\"",
         "\"constraint\"",
         "\"force\"",
-        "\"staggered\"",
+        "\"staggered-gs\"",
+        "\"staggered-jacobi\"",
         "max_abs_deviation",
     ] {
         assert!(text.contains(key), "{text}");
     }
+}
+
+/// On a scene with a coupling spring, the constraint and force forms equal monolithic to round-off
+/// and the staggered ones do not.
+#[test]
+fn compare_scene_separates_equivalent_from_staggered() {
+    let output = dirac()
+        .args([
+            "compare",
+            repo("examples/scenes/two_mass_split.toml")
+                .to_str()
+                .unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let text = String::from_utf8(output.stdout).unwrap();
+    let value = |name: &str| -> f64 {
+        let at = text
+            .find(&format!("\"{name}\""))
+            .unwrap_or_else(|| panic!("{name} in {text}"));
+        let rest = &text[at..];
+        let start = rest.find("max_abs_deviation\":").unwrap() + "max_abs_deviation\":".len();
+        let end = rest[start..].find(|c: char| c == ',' || c == '}').unwrap() + start;
+        rest[start..end].parse().unwrap()
+    };
+    assert!(
+        value("constraint") <= 1e-12 && value("force") <= 1e-12,
+        "{text}"
+    );
+    assert!(
+        value("staggered-gs") > 1e-6 && value("staggered-jacobi") > 1e-6,
+        "{text}"
+    );
 }
 
 #[test]
