@@ -183,7 +183,7 @@ fn compare_scene_separates_equivalent_from_staggered() {
             .unwrap_or_else(|| panic!("{name} in {text}"));
         let rest = &text[at..];
         let start = rest.find("max_abs_deviation\":").unwrap() + "max_abs_deviation\":".len();
-        let end = rest[start..].find(|c: char| c == ',' || c == '}').unwrap() + start;
+        let end = rest[start..].find([',', '}']).unwrap() + start;
         rest[start..end].parse().unwrap()
     };
     assert!(
