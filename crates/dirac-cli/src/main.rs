@@ -37,6 +37,7 @@ Examples:
   dirac plot run.csv -o run.svg
   dirac check circuit.cir
   dirac compare examples/netlists/seed_rlc.cir --json
+  dirac convert examples/netlists/seed_rlc.cir -o seed_rlc.toml
 
 Exit codes: 0 success, 1 numerical failure, 2 bad input.";
 
@@ -57,6 +58,8 @@ enum Command {
     Check(CheckArgs),
     /// Plot a CSV written by `dirac run` to SVG or PNG (by the output's extension).
     Plot(PlotArgs),
+    /// Convert a netlist into an equivalent scene file.
+    Convert(ConvertArgs),
 }
 
 /// How the coupled system is assembled.
@@ -133,6 +136,15 @@ struct CheckArgs {
 }
 
 #[derive(Debug, clap::Args)]
+struct ConvertArgs {
+    /// SPICE-subset netlist.
+    netlist: PathBuf,
+    /// Scene file to write (.toml).
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+#[derive(Debug, clap::Args)]
 struct PlotArgs {
     /// CSV file written by `dirac run`.
     csv: PathBuf,
@@ -178,6 +190,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare(&args),
         Command::Check(args) => check(&args),
         Command::Plot(args) => plot(&args),
+        Command::Convert(args) => convert(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -723,4 +736,18 @@ fn plot(args: &PlotArgs) -> Result<(), Failure> {
         }
     };
     result.map_err(|e| Failure::Input(format!("{}: {e}", out.display())))
+}
+
+fn convert(args: &ConvertArgs) -> Result<(), Failure> {
+    let name = args.netlist.display().to_string();
+    let text = std::fs::read_to_string(&args.netlist)
+        .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let netlist = parse_netlist(&text, &name).map_err(|e| Failure::Input(e.to_string()))?;
+    let scene =
+        dirac_io::netlist_to_scene(&netlist, &name).map_err(|e| Failure::Input(e.to_string()))?;
+    let mut out = Output::open(Some(&args.output))?;
+    out.writer
+        .write_all(scene.as_bytes())
+        .map_err(|e| Failure::Input(format!("{}: {e}", args.output.display())))?;
+    out.commit()
 }

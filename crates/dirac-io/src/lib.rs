@@ -20,11 +20,13 @@
 #![warn(missing_docs)]
 
 pub mod circuit;
+pub mod convert;
 pub mod netlist;
 pub mod run;
 pub mod scene;
 
 pub use circuit::{Circuit, CircuitError, Signal, SignalKind, build_circuit, waveform};
+pub use convert::{ConvertError, netlist_to_scene};
 pub use netlist::{
     DiodeModel, Element, ErrorKind, Netlist, NetlistError, Origin, Pos, SourceSpec, Tran, Warning,
     parse_netlist, parse_spice_number,

@@ -60,3 +60,87 @@ fn seed_rlc_netlist() {
         println!("{t} {v:?} q/C = {}", v[qc] / c);
     }
 }
+
+/// Every bundled netlist converts to a scene that runs to the same charges and currents.
+#[test]
+fn converted_scenes_reproduce_their_netlists() {
+    use dirac_io::{Scene, netlist_to_scene};
+    let dir = format!("{}/../../examples/netlists", env!("CARGO_MANIFEST_DIR"));
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&dir).expect("netlists") {
+        let path = entry.expect("entry").path();
+        let file = path.display().to_string();
+        let net = parse_netlist(&std::fs::read_to_string(&path).unwrap(), &file).unwrap();
+        let circuit = build_circuit(&net, &file).unwrap();
+        let toml = netlist_to_scene(&net, &file).unwrap_or_else(|e| panic!("{file}: {e}"));
+        let built = Scene::parse(&toml, "converted.toml")
+            .unwrap()
+            .build()
+            .unwrap();
+        // Columns q(x) and i(x) of the netlist are x.q and x.i (or K.i1/K.i2) of the scene.
+        let mut pairs = Vec::new();
+        for s in &circuit.signals {
+            let Some(inner) = s
+                .name
+                .strip_prefix("q(")
+                .or_else(|| s.name.strip_prefix("i("))
+            else {
+                continue;
+            };
+            let element = inner.trim_end_matches(')');
+            let coupled = net.elements.iter().find_map(|e| match e {
+                dirac_io::Element::K { name, l1, l2, .. } if l1 == element => {
+                    Some(format!("{}.i1", name.replace('.', "_")))
+                }
+                dirac_io::Element::K {
+                    name, l1: _, l2, ..
+                } if l2 == element => Some(format!("{}.i2", name.replace('.', "_"))),
+                _ => None,
+            });
+            let scene_name = coupled.unwrap_or_else(|| {
+                format!(
+                    "{}.{}",
+                    element.replace('.', "_"),
+                    if s.name.starts_with('q') { "q" } else { "i" }
+                )
+            });
+            pairs.push((
+                s.clone(),
+                built
+                    .signal(&scene_name)
+                    .unwrap_or_else(|e| panic!("{file}: {e}"))
+                    .to_signal(),
+            ));
+        }
+        let (ours, theirs): (Vec<_>, Vec<_>) = pairs.into_iter().unzip();
+        let settings = RunSettings {
+            h: circuit.h.unwrap(),
+            t_end: circuit.h.unwrap() * 50.0,
+            representation: Representation::Monolithic,
+            discretisation: Discretisation::midpoint(),
+            scheme: Scheme::Plus,
+        };
+        let collect = |c: &dirac_io::Circuit, signals: &[dirac_io::Signal]| {
+            let mut rows = Vec::new();
+            run_circuit(c, &settings, signals, |_, v| {
+                rows.push(v.to_vec());
+                Ok(())
+            })
+            .unwrap();
+            rows
+        };
+        let a = collect(&circuit, &ours);
+        let b = collect(&built.circuit(), &theirs);
+        assert_eq!(a.len(), b.len());
+        for (x, y) in a.iter().zip(&b) {
+            for (u, v) in x.iter().zip(y) {
+                assert!(
+                    (u - v).abs() <= 1e-12 * (1.0 + u.abs()),
+                    "{file}: {u} vs {v}"
+                );
+            }
+        }
+        checked += 1;
+    }
+    assert!(checked >= 8, "only {checked} netlists");
+}
