@@ -13,14 +13,20 @@ use std::io::Write;
 fn main() -> Result<(), Box<dyn Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let sections: usize = match args.iter().position(|a| a == "--sections") {
-        Some(i) => args.get(i + 1).and_then(|s| s.parse().ok()).ok_or("--sections expects a positive integer")?,
+        Some(i) => args
+            .get(i + 1)
+            .and_then(|s| s.parse().ok())
+            .ok_or("--sections expects a positive integer")?,
         None => 10,
     };
     if sections == 0 {
         return Err("--sections must be at least 1".into());
     }
     let mut out = std::io::BufWriter::new(std::io::stdout().lock());
-    writeln!(out, "RLC ladder of {sections} sections (R = 0.1, L = 1, C = 1), 1 V DC source")?;
+    writeln!(
+        out,
+        "RLC ladder of {sections} sections (R = 0.1, L = 1, C = 1), 1 V DC source"
+    )?;
     writeln!(out, "V1 n0 0 DC 1")?;
     for k in 1..=sections {
         writeln!(out, "R{k} n{} m{k} 0.1", k - 1)?;

@@ -403,6 +403,15 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     };
     let settings = settings(&loaded, args.h, args.t_end, representation)?;
     let signals = select_signals(&loaded, args.signals.as_deref())?;
+    if let Some(scene) = &loaded.scene {
+        let r = &scene.recording;
+        if r.energy || r.residuals || !r.power.is_empty() || !r.forces.is_empty() {
+            eprintln!(
+                "warning: {}: [record] energy, power, residuals and forces are not recorded by this version; only signals are written (the constraint residual is in --json-summary)",
+                loaded.name
+            );
+        }
+    }
     let mut out = Output::open(args.out.as_deref())?;
     let header: Vec<&str> = std::iter::once("t")
         .chain(signals.iter().map(|s| s.name.as_str()))
