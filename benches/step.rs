@@ -2,7 +2,8 @@
 //!
 //! - `oscillator_step`: one step of the damped oscillator (m = k = 1, c = 0.01, h = 0.05) for the
 //!   midpoint rule and Gauss s = 2, 3;
-//! - `seed_rlc_run`: the seed paper's RLC loop, 1000 (+) midpoint steps including set-up.
+//! - `seed_rlc_run`: the seed paper's RLC loop, 1000 (+) midpoint steps including set-up;
+//!   `seed_rlc_run_affine_map`: the same with the opt-in precomputed affine step map.
 //!
 //! divan's allocation profiler reports allocations per iteration: the step loop must show none.
 
@@ -52,6 +53,22 @@ fn oscillator_step(bencher: Bencher, name: &str) {
 fn seed_rlc_run(bencher: Bencher, solver: SolverChoice) {
     bencher.bench_local(|| {
         let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).solver(solver);
+        let mut sim =
+            Integrator::new(RlcLoop::seed(), RlcLoop::kcl(), options).expect("valid options");
+        sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0)
+            .expect("consistent");
+        for _ in 0..1000 {
+            sim.step().expect("step");
+        }
+        black_box(sim.q()[0])
+    });
+}
+
+/// The seed RLC run with the opt-in affine step map (precomputed discrete state-space form).
+#[divan::bench]
+fn seed_rlc_run_affine_map(bencher: Bencher) {
+    bencher.bench_local(|| {
+        let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).affine_map(true);
         let mut sim =
             Integrator::new(RlcLoop::seed(), RlcLoop::kcl(), options).expect("valid options");
         sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0)

@@ -590,3 +590,76 @@ fn redundant_constraint_is_dropped_with_a_warning() {
         assert!(max_diff(sim.q(), &state.0) <= 1e-14, "step {k}");
     }
 }
+
+/// The opt-in affine step map (linear autonomous models, constant forms) reproduces the Newton
+/// path: on the seed RLC loop, and on free fall under gravity, whose constant force makes the map
+/// affine rather than linear (the offset must be kept).
+#[test]
+fn affine_step_map_matches_newton_path() {
+    let run = |affine: bool| {
+        let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).affine_map(affine);
+        let mut sim = Integrator::new(RlcLoop::seed(), RlcLoop::kcl(), options).unwrap();
+        sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0).unwrap();
+        let mut out = Vec::new();
+        for _ in 0..1000 {
+            sim.step().unwrap();
+            out.push((
+                sim.q().to_vec(),
+                sim.p().to_vec(),
+                sim.last_multipliers().to_vec(),
+            ));
+        }
+        assert_eq!(sim.uses_affine_map(), affine);
+        out
+    };
+    let (newton, affine) = (run(false), run(true));
+    for (a, b) in newton.iter().zip(&affine) {
+        assert!(
+            max_diff(&a.0, &b.0) <= 1e-12
+                && max_diff(&a.1, &b.1) <= 1e-12
+                && max_diff(&a.2, &b.2) <= 1e-12
+        );
+    }
+    // Free fall with gravity: L = ½ m v² − m g y, no constraints.
+    let fall = |affine: bool| {
+        let model = dirac_problems::FreeMasses {
+            masses: vec![2.0, 2.0],
+            weights: vec![0.0, 2.0 * 9.81],
+            names: vec!["x", "y"],
+        };
+        let options = IntegratorOptions::new(Discretisation::gauss(2), 0.01).affine_map(affine);
+        let mut sim = Integrator::new(model, NoConstraints, options).unwrap();
+        sim.initialise(&[0.0, 10.0], &[1.0, 3.0], 0.0).unwrap();
+        for _ in 0..100 {
+            sim.step().unwrap();
+        }
+        assert_eq!(sim.uses_affine_map(), affine);
+        sim.q().to_vec()
+    };
+    let (a, b) = (fall(false), fall(true));
+    // Exact: y(1) = 10 + 3 − 9.81/2 (Gauss 2 integrates the quadratic motion exactly).
+    assert!(
+        (a[1] - (13.0 - 4.905)).abs() <= 1e-12 && max_diff(&a, &b) <= 1e-12,
+        "{a:?} vs {b:?}"
+    );
+}
+
+/// Models that do not qualify (nonlinear, or time-dependent) keep the Newton path.
+#[test]
+fn affine_step_map_only_where_it_is_exact() {
+    let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).affine_map(true);
+    let mut sim = Integrator::new(
+        QuarticPendulums {
+            g: 2.0,
+            kappa: 0.5,
+            eps: 0.3,
+            c: 0.1,
+        },
+        NoConstraints,
+        options,
+    )
+    .unwrap();
+    sim.set_state(&[0.1, 0.2], &[0.0, 0.0], 0.0).unwrap();
+    sim.step().unwrap();
+    assert!(!sim.uses_affine_map());
+}

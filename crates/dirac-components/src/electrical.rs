@@ -93,6 +93,9 @@ impl Model for Inductor {
     fn is_linear(&self) -> bool {
         true
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn coordinate_name(&self, _i: usize) -> String {
         "q".into()
     }
@@ -122,6 +125,9 @@ impl Model for Resistor {
     fn is_linear(&self) -> bool {
         true
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn coordinate_name(&self, _i: usize) -> String {
         "q".into()
     }
@@ -142,6 +148,9 @@ impl Model for Capacitor {
         h.qq.add(0, 0, -1.0 / self.c);
     }
     fn is_linear(&self) -> bool {
+        true
+    }
+    fn is_autonomous(&self) -> bool {
         true
     }
     fn coordinate_name(&self, _i: usize) -> String {
@@ -324,6 +333,9 @@ impl Model for CoupledInductors {
         h.vv.add(1, 1, self.l2);
     }
     fn is_linear(&self) -> bool {
+        true
+    }
+    fn is_autonomous(&self) -> bool {
         true
     }
     fn coordinate_name(&self, i: usize) -> String {

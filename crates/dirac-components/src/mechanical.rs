@@ -98,6 +98,9 @@ macro_rules! inertial_model {
             fn is_linear(&self) -> bool {
                 true
             }
+            fn is_autonomous(&self) -> bool {
+                true
+            }
             fn coordinate_name(&self, _i: usize) -> String {
                 $name.into()
             }

@@ -109,6 +109,12 @@ pub trait Model {
         false
     }
 
+    /// True when the force does not depend on `t` (no sources). A linear autonomous model with
+    /// constant constraint forms has a step that is a fixed linear map of `(q_k, p_k)`.
+    fn is_autonomous(&self) -> bool {
+        false
+    }
+
     /// Name of coordinate `i`, for diagnostics and output headers.
     fn coordinate_name(&self, i: usize) -> String {
         format!("q{i}")
@@ -139,6 +145,9 @@ impl<M: Model + ?Sized> Model for &M {
     }
     fn is_linear(&self) -> bool {
         (**self).is_linear()
+    }
+    fn is_autonomous(&self) -> bool {
+        (**self).is_autonomous()
     }
     fn coordinate_name(&self, i: usize) -> String {
         (**self).coordinate_name(i)

@@ -95,6 +95,7 @@ pub struct AssembledModel {
     names: Vec<String>,
     has_force: bool,
     linear: bool,
+    autonomous: bool,
 }
 
 impl AssembledModel {
@@ -272,6 +273,10 @@ impl Model for AssembledModel {
 
     fn is_linear(&self) -> bool {
         self.linear
+    }
+
+    fn is_autonomous(&self) -> bool {
+        self.autonomous
     }
 
     fn coordinate_name(&self, i: usize) -> String {
@@ -660,6 +665,8 @@ impl Assembler {
         let constant = parts
             .iter()
             .all(|p| p.rows == 0 || p.constraints.is_constant());
+        let autonomous = parts.iter().all(|p| p.model.is_autonomous())
+            && couplings.iter().all(|c| c.element.is_autonomous());
         let model = AssembledModel {
             parts: parts
                 .iter()
@@ -675,6 +682,7 @@ impl Assembler {
             names,
             has_force,
             linear,
+            autonomous,
         };
         let constraints = AssembledConstraints {
             parts,

@@ -36,6 +36,10 @@ pub trait CouplingElement: Send + Sync {
     }
     /// True when `V` is quadratic and the force affine.
     fn is_linear(&self) -> bool;
+    /// True when the force does not depend on `t`.
+    fn is_autonomous(&self) -> bool {
+        false
+    }
     /// A short description for diagnostics.
     fn describe(&self) -> String;
 }
@@ -67,6 +71,9 @@ impl CouplingElement for LinearSpring {
     fn is_linear(&self) -> bool {
         true
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn describe(&self) -> String {
         format!("spring k = {}", self.k)
     }
@@ -91,6 +98,9 @@ impl CouplingElement for LinearDamper {
         [[[0.0; 2]; 2], [[-self.c, self.c], [self.c, -self.c]]]
     }
     fn is_linear(&self) -> bool {
+        true
+    }
+    fn is_autonomous(&self) -> bool {
         true
     }
     fn describe(&self) -> String {

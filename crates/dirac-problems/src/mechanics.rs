@@ -55,6 +55,9 @@ impl Model for FreeMasses {
     fn is_linear(&self) -> bool {
         true
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn coordinate_name(&self, i: usize) -> String {
         self.names
             .get(i)

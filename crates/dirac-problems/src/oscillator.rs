@@ -72,6 +72,9 @@ impl Model for DampedOscillator {
     fn is_linear(&self) -> bool {
         true
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
 }
 
 /// Unit oscillator with the spring split between potential and force (paper Figure 2):
@@ -107,6 +110,9 @@ impl Model for SplitOscillator {
         j.q.add(0, 0, -self.alpha);
     }
     fn is_linear(&self) -> bool {
+        true
+    }
+    fn is_autonomous(&self) -> bool {
         true
     }
 }

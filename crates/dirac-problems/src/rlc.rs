@@ -71,6 +71,9 @@ impl Model for RlcLoop {
     fn is_linear(&self) -> bool {
         true
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn coordinate_name(&self, i: usize) -> String {
         ["qC", "qL", "qR"][i].to_string()
     }
@@ -128,6 +131,9 @@ impl Model for LcTank {
     fn is_linear(&self) -> bool {
         true
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn coordinate_name(&self, i: usize) -> String {
         ["qC", "qL"][i].to_string()
     }
@@ -174,6 +180,9 @@ impl Model for LadderSection {
         j.v.add(0, 0, -self.r);
     }
     fn is_linear(&self) -> bool {
+        true
+    }
+    fn is_autonomous(&self) -> bool {
         true
     }
     fn coordinate_name(&self, i: usize) -> String {
