@@ -1,8 +1,8 @@
 //! Time stepping for `dirac`: runs forced discrete Dirac steps with Newton's method.
 //!
 //! [`Integrator`] owns the state `(q_k, p_k, t_k)` of a model with constraints and advances it with
-//! a [`ForcedDiracStep`] solved by [`Newton`]. The linear solver is dense for small systems and
-//! sparse LU (faer) above [`DenseLu::AUTO_LIMIT`] unknowns; for linear models at fixed `h` the
+//! a [`dirac_core::ForcedDiracStep`] solved by [`dirac_solve::Newton`]. The linear solver is dense
+//! for small systems and sparse LU (faer) above [`dirac_solve::DenseLu::AUTO_LIMIT`] unknowns; for linear models at fixed `h` the
 //! factorisation is computed once for the whole run.
 
 mod error;
