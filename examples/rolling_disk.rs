@@ -12,7 +12,7 @@ use std::io::Write;
 
 use dirac::core::Discretisation;
 use dirac::sim::{Integrator, IntegratorOptions, Scheme};
-use dirac_problems::RollingDiskForms;
+use dirac_components::{RollingConstraint, RollingDisk};
 
 fn main() -> Result<(), Box<dyn Error>> {
     let (h, steps, every) = (0.05, 100_000, 500);
@@ -26,17 +26,22 @@ fn main() -> Result<(), Box<dyn Error>> {
         ("minus", Scheme::Minus),
         ("symmetric", Scheme::Symmetric),
     ] {
-        let model = RollingDiskForms::model(1.0, 1.0, 1.0);
+        let model = RollingDisk {
+            m: 1.0,
+            i: 1.0,
+            j: 1.0,
+            radius: 1.0,
+        };
         let options = IntegratorOptions::new(Discretisation::midpoint(), h).scheme(scheme);
-        let mut sim = Integrator::new(model.clone(), RollingDiskForms { radius: 1.0 }, options)?;
+        let mut sim = Integrator::new(model.clone(), RollingConstraint { radius: 1.0 }, options)?;
         sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0)?;
-        let mut energy = vec![(0.0, model.energy(sim.q(), sim.p()))];
+        let mut energy = vec![(0.0, model.energy(sim.p()))];
         let mut worst_residual: f64 = 0.0;
         for k in 1..=steps {
             sim.step()?;
             worst_residual = worst_residual.max(sim.last_constraint_residual());
             if k % every == 0 {
-                let e = model.energy(sim.q(), sim.p());
+                let e = model.energy(sim.p());
                 writeln!(
                     out,
                     "{name},{},{:e},{},{}",

@@ -77,6 +77,7 @@ mod electromechanical;
 mod mechanical;
 mod nonlinear;
 mod planar;
+mod rolling;
 #[cfg(test)]
 mod testing;
 #[cfg(test)]
@@ -90,4 +91,5 @@ pub use electromechanical::{DcMotor, IdealGear, IdealTransformer};
 pub use mechanical::{Damper, ForceSource, Ground, Inertia, Mass, Spring};
 pub use nonlinear::{Diode, SaturatingInductor};
 pub use planar::{Anchor, Pendulum, Pin, PlanarBody, PlanarLinkage};
+pub use rolling::{RollingConstraint, RollingDisk};
 pub use waveform::Waveform;

@@ -108,15 +108,13 @@
 //! | `dc_motor` | `k`, `r`, `l`, `j` ≥ 0, `b` (0) | `q`, `theta` | `i`, `theta` |
 //! | `ideal_transformer` | `n` ≠ 0 | `q1`, `q2` | `i1`, `i2` |
 //! | `ideal_gear` | `ratio` ≠ 0 | `theta1`, `theta2` | `theta1`, `theta2` |
+//! | `rolling_disk` | `m`, `i`, `j`, `radius` > 0 (rolls without slipping; use `scheme = "symmetric"`) | `x`, `y`, `theta`, `phi` | same |
 //!
 //! A `waveform` is a number (DC) or a table with a `shape`, with ngspice's semantics
 //! ([`dirac_components::Waveform`]): `{ shape = "dc", value }`,
 //! `{ shape = "sin", amplitude, frequency, offset = 0, delay = 0, damping = 0, phase = 0 }`
 //! (phase in degrees), `{ shape = "pulse", v1, v2, width, delay = 0, rise = 0, fall = 0, period }`
 //! (no `period`: one pulse), `{ shape = "pwl", points = [[t, v], …] }`.
-//!
-//! The vertical rolling disk (a model with q-dependent nonholonomic constraints) is not a stock
-//! part, so it has no scene type.
 //!
 //! ```
 //! use dirac_io::Scene;

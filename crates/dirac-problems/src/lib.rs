@@ -9,7 +9,7 @@ mod oscillator;
 mod pendulum;
 mod rlc;
 
-pub use mechanics::{CircleConstraint, FreeMasses, RollingDiskForms};
+pub use mechanics::{CircleConstraint, FreeMasses};
 pub use oscillator::{ArtificialPotential, DampedOscillator, SplitOscillator};
 pub use pendulum::{QuarticPendulums, QuarticPendulumsGeneric};
 pub use rlc::{LadderSection, LcTank, RlcLoop, rlc_exact};

@@ -65,58 +65,6 @@ impl Model for FreeMasses {
     }
 }
 
-/// Vertical rolling disk on `q = (x, y, θ, φ)` with `ẋ = R cos φ θ̇`, `ẏ = R sin φ θ̇`:
-/// `ω¹ = dx − R cos φ dθ`, `ω² = dy − R sin φ dθ` (nonholonomic, q-dependent).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RollingDiskForms {
-    /// Disk radius.
-    pub radius: f64,
-}
-
-impl RollingDiskForms {
-    /// The disk's Lagrangian `½m(ẋ² + ẏ²) + ½Iθ̇² + ½Jφ̇²`.
-    #[must_use]
-    pub fn model(m: f64, i: f64, j: f64) -> FreeMasses {
-        FreeMasses {
-            masses: vec![m, m, i, j],
-            weights: vec![0.0; 4],
-            names: vec!["x", "y", "theta", "phi"],
-        }
-    }
-}
-
-impl Constraints for RollingDiskForms {
-    fn count(&self) -> usize {
-        2
-    }
-    fn kind(&self, _a: usize) -> ConstraintKind {
-        ConstraintKind::OneForm
-    }
-    fn forms(&self, q: &[f64], out: &mut Triplets) {
-        let (s, c) = q[3].sin_cos();
-        out.add(0, 0, 1.0);
-        out.add(0, 2, -self.radius * c);
-        out.add(1, 1, 1.0);
-        out.add(1, 2, -self.radius * s);
-    }
-    fn is_constant(&self) -> bool {
-        false
-    }
-    fn multiplier_hessian(&self, q: &[f64], lambda: &[f64], out: &mut Triplets) {
-        // ∂/∂φ of (λ₁ ω¹ + λ₂ ω²)_θ = λ₁ R sin φ − λ₂ R cos φ.
-        let (s, c) = q[3].sin_cos();
-        out.add(2, 3, self.radius * (lambda[0] * s - lambda[1] * c));
-    }
-    fn contracted_derivative(&self, q: &[f64], w: &[f64], out: &mut Triplets) {
-        let (s, c) = q[3].sin_cos();
-        out.add(0, 3, self.radius * s * w[2]);
-        out.add(1, 3, -self.radius * c * w[2]);
-    }
-    fn name(&self, a: usize) -> String {
-        ["roll-x", "roll-y"][a].to_string()
-    }
-}
-
 /// Unit-length pendulum in Cartesian coordinates `(x, y)`: `x² + y² = ℓ²`, either at position
 /// level (`g(q) = ½(x² + y² − ℓ²)`, holonomic) or as the one-form `x dx + y dy` (Dirac form).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use dirac_components::{
     Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource, Ground,
     IdealGear, IdealTransformer, Inductor, Inertia, Mass, Pendulum, PlanarLinkage, Resistor,
-    SaturatingInductor, Spring, VoltageSource, Waveform,
+    RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
 };
 use dirac_core::Discretisation;
 use dirac_graph::{
@@ -630,6 +630,16 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
             }
             .subsystem(name),
             zeros(2),
+        ),
+        PartKind::RollingDisk(p) => (
+            RollingDisk {
+                m: c.positive("m", p.m)?,
+                i: c.positive("i", p.i)?,
+                j: c.positive("j", p.j)?,
+                radius: c.positive("radius", p.radius)?,
+            }
+            .subsystem(name),
+            zeros(4),
         ),
     })
 }

@@ -459,10 +459,13 @@ pub enum PartKind {
     IdealTransformer(IdealTransformerParams),
     /// `type = "ideal_gear"`: coordinates and ports `theta1`, `theta2`.
     IdealGear(IdealGearParams),
+    /// `type = "rolling_disk"`: coordinates and ports `x`, `y`, `theta`, `phi`; rolls without
+    /// slipping (q-dependent one-forms: use `scheme = "symmetric"` for bounded energy).
+    RollingDisk(RollingDiskParams),
 }
 
 /// The `type` names of [`PartKind`], in declaration order.
-pub const PART_TYPES: [&str; 19] = [
+pub const PART_TYPES: [&str; 20] = [
     "resistor",
     "inductor",
     "capacitor",
@@ -482,6 +485,7 @@ pub const PART_TYPES: [&str; 19] = [
     "dc_motor",
     "ideal_transformer",
     "ideal_gear",
+    "rolling_disk",
 ];
 
 impl PartKind {
@@ -508,6 +512,7 @@ impl PartKind {
             Self::DcMotor(_) => 16,
             Self::IdealTransformer(_) => 17,
             Self::IdealGear(_) => 18,
+            Self::RollingDisk(_) => 19,
         };
         PART_TYPES[i]
     }
@@ -776,6 +781,20 @@ pub struct DcMotorParams {
 pub struct IdealTransformerParams {
     /// Turns ratio.
     pub n: f64,
+}
+
+/// `rolling_disk`: mass `m`, inertias `i` (rolling axis) and `j` (vertical axis), `radius`, all > 0.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RollingDiskParams {
+    /// Mass.
+    pub m: f64,
+    /// Moment of inertia about the rolling axis.
+    pub i: f64,
+    /// Moment of inertia about the vertical axis.
+    pub j: f64,
+    /// Radius.
+    pub radius: f64,
 }
 
 /// `ideal_gear`: `ratio = θ₂/θ₁` (≠ 0).

@@ -325,6 +325,7 @@ fn parse_part(
         "dc_motor" => PartKind::DcMotor(params(src, &span, t, common)?),
         "ideal_transformer" => PartKind::IdealTransformer(params(src, &span, t, common)?),
         "ideal_gear" => PartKind::IdealGear(params(src, &span, t, common)?),
+        "rolling_disk" => PartKind::RollingDisk(params(src, &span, t, common)?),
         other => {
             return Err(SceneError::UnknownPartType {
                 at: Some(src.location(&type_span)),
