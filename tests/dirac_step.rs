@@ -379,8 +379,7 @@ fn rolling_disk(scheme: Scheme, steps: usize) -> (f64, f64, f64, f64) {
         radius: 1.0,
     };
     let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).scheme(scheme);
-    let mut sim =
-        Integrator::new(model.clone(), RollingConstraint { radius: 1.0 }, options).unwrap();
+    let mut sim = Integrator::new(model, RollingConstraint { radius: 1.0 }, options).unwrap();
     sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0)
         .unwrap();
     let p_phi = sim.p()[3];
