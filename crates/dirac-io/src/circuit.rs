@@ -299,19 +299,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let nodes = netlist.nodes();
     let mut terminals: HashMap<&str, Vec<(PortRef, f64)>> = HashMap::new();
     for element in &netlist.elements {
-        let ends: Option<(&str, &str)> = match element {
-            Element::R { n1, n2, .. } | Element::L { n1, n2, .. } | Element::C { n1, n2, .. } => {
-                Some((n1, n2))
-            }
-            Element::V {
-                n_plus, n_minus, ..
-            }
-            | Element::I {
-                n_plus, n_minus, ..
-            } => Some((n_plus, n_minus)),
-            Element::D { anode, cathode, .. } => Some((anode, cathode)),
-            Element::K { .. } => None,
-        };
+        let ends = element.terminals();
         let Some((a, b)) = ends else { continue };
         let branch = &branches[element.name()];
         let port = graph.port(graph.subsystems()[branch.subsystem].name(), branch.port)?;

@@ -211,19 +211,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
     // KCL: a branch's flow leaves its first node (−1) and enters its second (+1).
     let mut terminals: HashMap<&str, Vec<(String, f64)>> = HashMap::new();
     for element in &netlist.elements {
-        let ends: Option<(&str, &str)> = match element {
-            Element::R { n1, n2, .. } | Element::L { n1, n2, .. } | Element::C { n1, n2, .. } => {
-                Some((n1, n2))
-            }
-            Element::V {
-                n_plus, n_minus, ..
-            }
-            | Element::I {
-                n_plus, n_minus, ..
-            } => Some((n_plus, n_minus)),
-            Element::D { anode, cathode, .. } => Some((anode, cathode)),
-            Element::K { .. } => None,
-        };
+        let ends = element.terminals();
         let (Some((a, b)), Some(port)) = (ends, port_of.get(element.name())) else {
             continue;
         };

@@ -225,6 +225,24 @@ impl Element {
         }
     }
 
+    /// The branch's `(from, to)` nodes: its current flows from the first through the element to
+    /// the second (`None` for `K`, which has no branch of its own).
+    pub fn terminals(&self) -> Option<(&str, &str)> {
+        match self {
+            Element::R { n1, n2, .. } | Element::L { n1, n2, .. } | Element::C { n1, n2, .. } => {
+                Some((n1, n2))
+            }
+            Element::V {
+                n_plus, n_minus, ..
+            }
+            | Element::I {
+                n_plus, n_minus, ..
+            } => Some((n_plus, n_minus)),
+            Element::D { anode, cathode, .. } => Some((anode, cathode)),
+            Element::K { .. } => None,
+        }
+    }
+
     /// The nodes the element connects, in card order (none for `K`).
     pub fn nodes(&self) -> Vec<&str> {
         match self {
