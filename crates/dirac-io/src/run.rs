@@ -29,6 +29,75 @@ pub enum RunError {
 /// Receiver of output rows `(t, values)`.
 type RowSink<'a> = dyn FnMut(f64, &[f64]) -> Result<(), String> + 'a;
 
+/// Turns per-step values into output rows `t = 0, h, …, N h`.
+///
+/// The values computed after step `k` (which goes from `t_k` to `t_{k+1}`) form row `k` for
+/// `k ≥ 1`. Row 0 waits for rows 1 and 2: entries the initial state knows (`known`) are kept,
+/// the others are extrapolated linearly, `2·row₁ − row₂`.
+pub(crate) struct RowEmitter {
+    h: f64,
+    steps: usize,
+    known: Vec<Option<f64>>,
+    pending: Vec<Vec<f64>>,
+}
+
+impl RowEmitter {
+    /// An emitter for `steps` steps of size `h`; with no steps, row 0 (unknown entries as 0) is
+    /// written at once.
+    pub(crate) fn new(
+        h: f64,
+        steps: usize,
+        known: Vec<Option<f64>>,
+        row: &mut RowSink<'_>,
+    ) -> Result<Self, String> {
+        if steps == 0 {
+            let zeros: Vec<f64> = known.iter().map(|v| v.unwrap_or(0.0)).collect();
+            row(0.0, &zeros)?;
+        }
+        Ok(Self {
+            h,
+            steps,
+            known,
+            pending: Vec::new(),
+        })
+    }
+
+    /// Takes the values computed after step `k` (`k = 0 … steps`).
+    pub(crate) fn push(
+        &mut self,
+        k: usize,
+        values: &[f64],
+        row: &mut RowSink<'_>,
+    ) -> Result<(), String> {
+        if k == 0 {
+            return Ok(());
+        }
+        if k > 2 {
+            return row(k as f64 * self.h, values);
+        }
+        self.pending.push(values.to_vec());
+        if k == 2 || k == self.steps {
+            let first = self.pending[0].clone();
+            let second = self
+                .pending
+                .get(1)
+                .cloned()
+                .unwrap_or_else(|| first.clone());
+            let extrapolated: Vec<f64> = self
+                .known
+                .iter()
+                .zip(first.iter().zip(&second))
+                .map(|(known, (a, b))| known.unwrap_or(2.0 * a - b))
+                .collect();
+            row(0.0, &extrapolated)?;
+            for (j, r) in self.pending.drain(..).enumerate() {
+                row((j + 1) as f64 * self.h, &r)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// How to run a circuit.
 #[derive(Debug, Clone)]
 pub struct RunSettings {
@@ -129,31 +198,13 @@ pub fn run_circuit(
     let mut rate_prev = v0.clone();
     let mut rate = vec![0.0; n];
     let mut values = vec![0.0; width];
-    let mut pending: Vec<Vec<f64>> = Vec::new();
     let mut max_residual: f64 = 0.0;
     // Row 0: charges are states; everything else is extrapolated from rows 1 and 2.
-    let row0: Vec<Option<f64>> = columns
+    let known: Vec<Option<f64>> = columns
         .iter()
         .map(|(kind, i, _)| matches!(kind, SignalKind::Charge { .. }).then(|| q0[*i]))
         .collect();
-    let flush = |pending: &mut Vec<Vec<f64>>, row: &mut RowSink<'_>| {
-        let first = pending[0].clone();
-        let second = pending.get(1).cloned().unwrap_or_else(|| first.clone());
-        let extrapolated: Vec<f64> = row0
-            .iter()
-            .zip(first.iter().zip(&second))
-            .map(|(known, (a, b))| known.unwrap_or(2.0 * a - b))
-            .collect();
-        row(0.0, &extrapolated)?;
-        for (j, r) in pending.drain(..).enumerate() {
-            row((j + 1) as f64 * h, &r)?;
-        }
-        Ok::<(), String>(())
-    };
-    if steps == 0 {
-        let zeros: Vec<f64> = row0.iter().map(|v| v.unwrap_or(0.0)).collect();
-        row(0.0, &zeros).map_err(RunError::Output)?;
-    }
+    let mut emitter = RowEmitter::new(h, steps, known, &mut row).map_err(RunError::Output)?;
     // Step k goes from t_k to t_{k+1}; row k (k ≥ 1) is complete once step k is solved.
     for k in 0..=steps {
         let before = sim.q().to_vec();
@@ -171,17 +222,9 @@ pub fn run_circuit(
             };
         }
         std::mem::swap(&mut rate_prev, &mut rate);
-        if k == 0 {
-            continue;
-        }
-        if k <= 2 {
-            pending.push(values.clone());
-            if k == 2 || k == steps {
-                flush(&mut pending, &mut row).map_err(RunError::Output)?;
-            }
-        } else {
-            row(k as f64 * h, &values).map_err(RunError::Output)?;
-        }
+        emitter
+            .push(k, &values, &mut row)
+            .map_err(RunError::Output)?;
     }
     let stats = sim.stats();
     let taken = sim.steps_taken();

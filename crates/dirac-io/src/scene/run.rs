@@ -7,7 +7,7 @@ use dirac_sim::{Integrator, Staggered};
 
 use super::build::{BuiltScene, Execution, Quantity, SceneSignal};
 use super::error::SceneError;
-use crate::run::RunSummary;
+use crate::run::{RowEmitter, RunSummary};
 
 enum Engine {
     Assembled {
@@ -165,16 +165,12 @@ pub fn run_scene(
     let mut rate = vec![0.0; n];
     let mut values = vec![0.0; signals.len()];
     let mut max_residual: f64 = 0.0;
-    let row0: Vec<Option<f64>> = signals
+    let known: Vec<Option<f64>> = signals
         .iter()
         .map(|s| (s.quantity == Quantity::Value).then(|| q0[s.index]))
         .collect();
-    let mut pending: Vec<Vec<f64>> = Vec::new();
     let output = |e: String| SceneError::Output(e);
-    if steps == 0 {
-        let zeros: Vec<f64> = row0.iter().map(|v| v.unwrap_or(0.0)).collect();
-        row(0.0, &zeros).map_err(output)?;
-    }
+    let mut emitter = RowEmitter::new(h, steps, known, &mut row).map_err(output)?;
     for k in 0..=steps {
         let before = sim.positions();
         sim.step()?;
@@ -190,27 +186,7 @@ pub fn run_scene(
             };
         }
         std::mem::swap(&mut rate_prev, &mut rate);
-        if k == 0 {
-            continue;
-        }
-        if k <= 2 {
-            pending.push(values.clone());
-            if k == 2 || k == steps {
-                let first = pending[0].clone();
-                let second = pending.get(1).cloned().unwrap_or_else(|| first.clone());
-                let extrapolated: Vec<f64> = row0
-                    .iter()
-                    .zip(first.iter().zip(&second))
-                    .map(|(known, (a, b))| known.unwrap_or(2.0 * a - b))
-                    .collect();
-                row(0.0, &extrapolated).map_err(output)?;
-                for (j, r) in pending.drain(..).enumerate() {
-                    row((j + 1) as f64 * h, &r).map_err(output)?;
-                }
-            }
-        } else {
-            row(k as f64 * h, &values).map_err(output)?;
-        }
+        emitter.push(k, &values, &mut row).map_err(output)?;
     }
     let taken = sim.steps_taken();
     let (iterations, factorisations) = sim.assembled().map_or((0, 0), |(_, s)| {
