@@ -161,14 +161,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let mut v0 = Vec::new();
     let mut branches: HashMap<String, Branch> = HashMap::new();
     let mut k_subsystem: HashMap<usize, usize> = HashMap::new();
-    let ic: HashMap<&str, f64> = netlist.ic.iter().map(|(n, v)| (n.as_str(), *v)).collect();
-    let node_voltage = |n: &str| {
-        if n == "0" {
-            Some(0.0)
-        } else {
-            ic.get(n).copied()
-        }
-    };
+
     let mut add = |graph: &mut Interconnection,
                    s: Subsystem,
                    q: Vec<f64>,
@@ -184,17 +177,9 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         let Element::K { name, l1, l2, k } = element else {
             continue;
         };
-        let find = |l: &str| {
-            netlist.elements.iter().find_map(|x| match x {
-                Element::L {
-                    name, value, ic, ..
-                } if name == l => Some((*value, *ic)),
-                _ => None,
-            })
-        };
         let ((v1, ic1), (v2, ic2)) = (
-            find(l1).unwrap_or((0.0, None)),
-            find(l2).unwrap_or((0.0, None)),
+            netlist.inductor(l1).unwrap_or((0.0, None)),
+            netlist.inductor(l2).unwrap_or((0.0, None)),
         );
         let part = CoupledInductors {
             l1: v1,
@@ -247,9 +232,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 value,
                 ic,
             } => {
-                let volts = ic
-                    .or_else(|| Some(node_voltage(n1)? - node_voltage(n2)?))
-                    .unwrap_or(0.0);
+                let volts = netlist.capacitor_voltage(n1, n2, *ic).unwrap_or(0.0);
                 (
                     name,
                     Capacitor { c: *value }.subsystem(name.clone()),

@@ -115,29 +115,15 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
         number(tran.tstep),
         number(tran.tstop)
     );
-    let ic: HashMap<&str, f64> = netlist.ic.iter().map(|(n, v)| (n.as_str(), *v)).collect();
-    let voltage = |n: &str| {
-        if n == "0" {
-            Some(0.0)
-        } else {
-            ic.get(n).copied()
-        }
-    };
+
     // Inductors coupled by a K card: name → (K part, port).
     let mut coupled: HashMap<&str, (String, &str)> = HashMap::new();
-    let inductor = |name: &str| {
-        netlist.elements.iter().find_map(|e| match e {
-            Element::L {
-                name: n, value, ic, ..
-            } if n == name => Some((*value, *ic)),
-            _ => None,
-        })
-    };
+
     for element in &netlist.elements {
         if let Element::K { name, l1, l2, k } = element {
             let ((v1, i1), (v2, i2)) = (
-                inductor(l1).unwrap_or((0.0, None)),
-                inductor(l2).unwrap_or((0.0, None)),
+                netlist.inductor(l1).unwrap_or((0.0, None)),
+                netlist.inductor(l2).unwrap_or((0.0, None)),
             );
             let _ = writeln!(
                 out,
@@ -186,7 +172,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
                 n1, n2, value, ic, ..
             } => {
                 let mut b = format!("type = \"capacitor\"\nc = {}", number(*value));
-                if let Some(v) = ic.or_else(|| Some(voltage(n1)? - voltage(n2)?)) {
+                if let Some(v) = netlist.capacitor_voltage(n1, n2, *ic) {
                     let _ = write!(b, "\nq0 = {}", number(value * v));
                 }
                 b

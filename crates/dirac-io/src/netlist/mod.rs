@@ -313,6 +313,27 @@ impl Netlist {
         let name = name.to_lowercase();
         self.elements.iter().find(|e| e.name() == name)
     }
+
+    /// Inductance and `IC=` current of the inductor named `name` (`None` if it is not one).
+    pub fn inductor(&self, name: &str) -> Option<(f64, Option<f64>)> {
+        match self.element(name) {
+            Some(Element::L { value, ic, .. }) => Some((*value, *ic)),
+            _ => None,
+        }
+    }
+
+    /// Initial voltage `V(n1) − V(n2)` of a capacitor between `n1` and `n2` with `IC=` value `ic`:
+    /// the `IC=` value if given, else from the `.ic` node voltages (ground is 0), else `None`.
+    pub fn capacitor_voltage(&self, n1: &str, n2: &str, ic: Option<f64>) -> Option<f64> {
+        let node = |n: &str| {
+            if n == "0" {
+                Some(0.0)
+            } else {
+                self.ic.iter().find(|(m, _)| m == n).map(|(_, v)| *v)
+            }
+        };
+        ic.or_else(|| Some(node(n1)? - node(n2)?))
+    }
 }
 
 /// Parses SPICE netlist text into a flat [`Netlist`]. `file_name` is only used in error messages
