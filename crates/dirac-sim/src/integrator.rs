@@ -431,6 +431,33 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         Ok(StepReport { newton: stats })
     }
 
+    /// Solves stage `i`'s step equations from its current start and guess, reporting a failure
+    /// with the step, the time and the likely cause.
+    fn solve_stage(&mut self, i: usize, scale: f64) -> Result<NewtonStats, SimError> {
+        let stage = &mut self.stages[i];
+        let mut system = StepSystem {
+            model: &self.model,
+            constraints: &self.constraints,
+            constant: stage
+                .step
+                .jacobian_is_constant(&self.model, &self.constraints),
+            step: &mut stage.step,
+            scale,
+        };
+        match stage.newton.solve(&mut system, &mut stage.x) {
+            Ok(stats) => Ok(stats),
+            Err(source) => {
+                let likely_cause = self.likely_cause(&source);
+                Err(SimError::Newton {
+                    step: self.k,
+                    t: self.t,
+                    source,
+                    likely_cause,
+                })
+            }
+        }
+    }
+
     fn substep(&mut self, i: usize) -> Result<NewtonStats, SimError> {
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
@@ -443,27 +470,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             stage.x.copy_from_slice(&stage.x_prev);
         }
         let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
-        let mut system = StepSystem {
-            model: &self.model,
-            constraints: &self.constraints,
-            constant: stage
-                .step
-                .jacobian_is_constant(&self.model, &self.constraints),
-            step: &mut stage.step,
-            scale,
-        };
-        let stats = match stage.newton.solve(&mut system, &mut stage.x) {
-            Ok(stats) => stats,
-            Err(source) => {
-                let likely_cause = self.likely_cause(&source);
-                return Err(SimError::Newton {
-                    step: self.k,
-                    t: self.t,
-                    source,
-                    likely_cause,
-                });
-            }
-        };
+        let stats = self.solve_stage(i, scale)?;
+        let stage = &mut self.stages[i];
         stage
             .step
             .end_momentum(&self.model, &stage.x, &mut self.p_next);
@@ -500,7 +508,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let unknowns = self.stages[0].step.unknowns();
         let mut x = vec![0.0; unknowns * 2 * n];
         let mut p = vec![0.0; n * 2 * n];
-        let (q_saved, p_saved) = (self.q.clone(), self.p.clone());
         let mut column = vec![0.0; 2 * n];
         let mut x0 = vec![0.0; unknowns];
         let mut p0 = vec![0.0; n];
@@ -513,25 +520,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             let stage = &mut self.stages[0];
             stage.step.set_start(&column[..n], &column[n..], self.t);
             stage.x.fill(0.0);
-            let mut system = StepSystem {
-                model: &self.model,
-                constraints: &self.constraints,
-                constant: true,
-                step: &mut stage.step,
-                scale: 1.0,
-            };
-            let stats = match stage.newton.solve(&mut system, &mut stage.x) {
-                Ok(stats) => stats,
-                Err(source) => {
-                    let likely_cause = self.likely_cause(&source);
-                    return Err(SimError::Newton {
-                        step: self.k,
-                        t: self.t,
-                        source,
-                        likely_cause,
-                    });
-                }
-            };
+            let stats = self.solve_stage(0, 1.0)?;
             self.stats.accumulate(&stats);
             let stage = &mut self.stages[0];
             stage
@@ -549,8 +538,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 p[r * 2 * n + c] = self.p_next[r] - p0[r];
             }
         }
-        self.q.copy_from_slice(&q_saved);
-        self.p.copy_from_slice(&p_saved);
         Ok(Affine::Map {
             x,
             p,
