@@ -320,36 +320,10 @@ impl ForcedDiracStep {
         x: &[f64],
         r: &mut [f64],
     ) {
-        let (n, m, s, h) = (self.n, self.m, self.s, self.h);
+        let (n, m, s) = (self.n, self.m, self.s);
         r.fill(0.0);
         r[..n].copy_from_slice(&self.p0);
-        let nodes = &self.lagrangian_nodes;
-        for i in 0..nodes.len() {
-            let (phi, dphi) = nodes.row(i);
-            eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
-            model.lagrangian_gradient(&self.y, &self.w, &mut self.lq, &mut self.lv);
-            let b = nodes.weights[i];
-            for j in 0..s {
-                let (cq, cv) = (h * b * phi[j], b * dphi[j]);
-                axpy2(&mut r[j * n..(j + 1) * n], cq, &self.lq, cv, &self.lv);
-            }
-        }
-        if model.has_force() {
-            let nodes = &self.force_nodes;
-            for i in 0..nodes.len() {
-                let (phi, dphi) = nodes.row(i);
-                eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
-                let t = self.t0 + nodes.nodes[i] * h;
-                model.force(&self.y, &self.w, t, &mut self.f);
-                let b = nodes.weights[i];
-                for j in 0..s {
-                    let cq = h * b * phi[j];
-                    if cq != 0.0 {
-                        axpy(&mut r[j * n..(j + 1) * n], cq, &self.f);
-                    }
-                }
-            }
-        }
+        self.add_stationarity(model, x, 0..s, &mut r[..s * n]);
         if m == 0 {
             return;
         }
@@ -557,27 +531,52 @@ impl ForcedDiracStep {
 
     /// `p_{k+1} = S_s = D₂L_d + f_d⁺` at the solution `x`.
     pub fn end_momentum<M: Model + ?Sized>(&mut self, model: &M, x: &[f64], p1: &mut [f64]) {
-        let (s, h) = (self.s, self.h);
+        let s = self.s;
         p1.fill(0.0);
+        self.add_stationarity(model, x, s..s + 1, p1);
+    }
+
+    /// Adds `S_j = h Σᵢ bᵢ [ℓⱼ(cᵢ)(∂L/∂q + f) + ℓⱼ'(cᵢ)/h ∂L/∂v]` for `j` in `blocks` to
+    /// `out[(j − blocks.start)·n ..]`. A force node none of whose weights in `blocks` is nonzero is
+    /// not evaluated (the trapezoid's end nodes, for instance).
+    fn add_stationarity<M: Model + ?Sized>(
+        &mut self,
+        model: &M,
+        x: &[f64],
+        blocks: std::ops::Range<usize>,
+        out: &mut [f64],
+    ) {
+        let (n, h, first) = (self.n, self.h, blocks.start);
         let nodes = &self.lagrangian_nodes;
         for i in 0..nodes.len() {
             let (phi, dphi) = nodes.row(i);
-            let (cq, cv) = (h * nodes.weights[i] * phi[s], nodes.weights[i] * dphi[s]);
             eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
             model.lagrangian_gradient(&self.y, &self.w, &mut self.lq, &mut self.lv);
-            axpy2(p1, cq, &self.lq, cv, &self.lv);
+            let b = nodes.weights[i];
+            for j in blocks.clone() {
+                let (cq, cv) = (h * b * phi[j], b * dphi[j]);
+                let o = (j - first) * n;
+                axpy2(&mut out[o..o + n], cq, &self.lq, cv, &self.lv);
+            }
         }
-        if model.has_force() {
-            let nodes = &self.force_nodes;
-            for i in 0..nodes.len() {
-                let (phi, dphi) = nodes.row(i);
-                let cq = h * nodes.weights[i] * phi[s];
-                if cq == 0.0 {
-                    continue;
+        if !model.has_force() {
+            return;
+        }
+        let nodes = &self.force_nodes;
+        for i in 0..nodes.len() {
+            let (phi, dphi) = nodes.row(i);
+            let b = nodes.weights[i];
+            if blocks.clone().all(|j| h * b * phi[j] == 0.0) {
+                continue;
+            }
+            eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
+            model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
+            for j in blocks.clone() {
+                let cq = h * b * phi[j];
+                if cq != 0.0 {
+                    let o = (j - first) * n;
+                    axpy(&mut out[o..o + n], cq, &self.f);
                 }
-                eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
-                model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
-                axpy(p1, cq, &self.f);
             }
         }
     }
