@@ -11,10 +11,9 @@ use std::error::Error;
 use std::time::Instant;
 
 use dirac::core::Discretisation;
-use dirac::graph::{Assembler, Interconnection, Representation, Subsystem};
+use dirac::graph::{Assembler, Representation};
 use dirac::sim::{Integrator, IntegratorOptions};
-use dirac_components::VoltageSource;
-use dirac_problems::LadderSection;
+use dirac_problems::{LadderSection, rlc_ladder};
 
 fn arg(name: &str, default: usize) -> Result<usize, String> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -34,33 +33,12 @@ fn main() -> Result<(), Box<dyn Error>> {
         return Err("--sections must be at least 1".into());
     }
     let start = Instant::now();
-    let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::dc(1.0).subsystem("V1"))?;
     let section = LadderSection {
         r: 0.1,
         l: 1.0,
         c: 1.0,
     };
-    let prototype = Subsystem::new("S", section)
-        .with_port("series", 0)
-        .with_port("shunt", 1);
-    for k in 1..=sections {
-        g.add_subsystem(prototype.renamed(format!("S{k}")))?;
-    }
-    // n0 is the source's + terminal: its branch current (SPICE orientation, + to − through the
-    // source) leaves n0.
-    let src = g.port("V1", "i")?;
-    g.node("n0", vec![(src, -1.0), (g.port("S1", "series")?, -1.0)])?;
-    for k in 1..=sections {
-        let mut ports = vec![
-            (g.port(&format!("S{k}"), "series")?, 1.0),
-            (g.port(&format!("S{k}"), "shunt")?, -1.0),
-        ];
-        if k < sections {
-            ports.push((g.port(&format!("S{}", k + 1), "series")?, -1.0));
-        }
-        g.node(format!("n{k}"), ports)?;
-    }
+    let g = rlc_ladder(sections, section)?;
     let system = Assembler::assemble(&g, Representation::Monolithic)?;
     let n = system.coordinates();
     let options = IntegratorOptions::new(Discretisation::midpoint(), 0.01);

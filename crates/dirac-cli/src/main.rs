@@ -5,6 +5,8 @@
 //! (with the file, line and column, or the part, port or signal at fault). A failed run never
 //! leaves a partial output file.
 
+mod bench;
+
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::{Path, PathBuf};
@@ -60,6 +62,8 @@ enum Command {
     Plot(PlotArgs),
     /// Convert a netlist into an equivalent scene file.
     Convert(ConvertArgs),
+    /// Work-precision sweep of a benchmark scene (bench/SCENES.md): one CSV row per run.
+    Bench(BenchArgs),
 }
 
 /// How the coupled system is assembled.
@@ -112,6 +116,35 @@ struct RunArgs {
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+}
+
+#[derive(Debug, clap::Args)]
+#[command(after_help = "\
+Scenes (bench/SCENES.md): A seed RLC loop, B damped oscillator, C RLC ladders (--sections),
+D1 stiff spring chain, D2 double pendulum. Methods: midpoint and Gauss-Galerkin of 2, 3, 4 nodes
+(orders 2, 4, 6, 8), plus the opt-in affine step map on the linear scenes A and B.
+CSV: scene,tool,method,setting,wall_s,steps,newton_iterations,error,energy_error
+The peers (scipy, SUNDIALS, ngspice) write the same columns: bench/peers/run.sh runs everything.")]
+struct BenchArgs {
+    /// Scene to sweep.
+    #[arg(long, value_enum)]
+    scene: bench::BenchScene,
+    /// Write the CSV here (atomically) instead of stdout.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Also draw the work-precision diagram (wall time against error, log-log) to this .svg/.png.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// A short sweep with one repetition per run (smoke test).
+    #[arg(long)]
+    quick: bool,
+    /// Ladder sizes for scene C, comma-separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "10,100,1000,10000,100000"
+    )]
+    sections: Vec<usize>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -191,6 +224,7 @@ fn main() -> ExitCode {
         Command::Check(args) => check(&args),
         Command::Plot(args) => plot(&args),
         Command::Convert(args) => convert(&args),
+        Command::Bench(args) => bench_command(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -728,7 +762,76 @@ fn plot(args: &PlotArgs) -> Result<(), Failure> {
             std::mem::take(&mut series[c]),
         ));
     }
-    let out = &args.output;
+    save_chart(&chart, &args.output)
+}
+
+fn bench_command(args: &BenchArgs) -> Result<(), Failure> {
+    if args.sections.contains(&0) {
+        return Err(Failure::Input(
+            "--sections: a ladder needs at least one section".into(),
+        ));
+    }
+    let options = bench::BenchOptions {
+        quick: args.quick,
+        sections: args.sections.clone(),
+    };
+    let mut out = Output::open(args.out.as_deref())?;
+    writeln!(out.writer, "{}", bench::HEADER)
+        .map_err(|e| Failure::Input(format!("writing output: {e}")))?;
+    let mut rows = Vec::new();
+    bench::run(args.scene, &options, &mut |row| {
+        writeln!(out.writer, "{}", row.csv())?;
+        out.writer.flush()?;
+        rows.push(row);
+        Ok(())
+    })
+    .map_err(|e| Failure::Numerical(e.to_string()))?;
+    out.commit()?;
+    match &args.plot {
+        Some(path) => save_chart(&work_precision_chart(&rows), path),
+        None => Ok(()),
+    }
+}
+
+/// Wall time against error, one line per method (scene C: µs per step per section against N).
+fn work_precision_chart(rows: &[bench::BenchRow]) -> dirac_plot::LineChart {
+    let ladder = rows.iter().any(|r| r.scene.starts_with("C-"));
+    let mut methods: Vec<&str> = Vec::new();
+    for row in rows {
+        if !methods.contains(&row.method.as_str()) {
+            methods.push(&row.method);
+        }
+    }
+    let scene = rows.first().map_or("", |r| r.scene.as_str());
+    let mut chart = if ladder {
+        dirac_plot::LineChart::new("RLC ladder: stepping cost")
+            .x_label("sections N")
+            .y_label("µs per step per section")
+    } else {
+        dirac_plot::LineChart::new(format!("scene {scene}: work against precision"))
+            .x_label("error")
+            .y_label("wall time [s]")
+    }
+    .log_log();
+    for method in methods {
+        let points = rows
+            .iter()
+            .filter(|r| r.method == method && r.error > 0.0 && r.error.is_finite())
+            .map(|r| {
+                if ladder {
+                    (r.setting, r.error)
+                } else {
+                    (r.error, r.wall_s)
+                }
+            })
+            .collect();
+        chart.push(dirac_plot::Series::new(method, points).markers(true));
+    }
+    chart
+}
+
+/// Saves a chart as SVG or PNG by the path's extension.
+fn save_chart(chart: &dirac_plot::LineChart, out: &Path) -> Result<(), Failure> {
     let result = match out
         .extension()
         .and_then(|e| e.to_str())

@@ -4,11 +4,17 @@
 //! `L(q, v)` and `f(q, v, t)` and get derivatives from `dirac_core::AutoDiff`, so tests can check
 //! one against the other.
 
+mod chain;
+mod double_pendulum;
+mod ladder;
 mod mechanics;
 mod oscillator;
 mod pendulum;
 mod rlc;
 
+pub use chain::SpringChain;
+pub use double_pendulum::{DoublePendulum, DoublePendulumGeneric};
+pub use ladder::rlc_ladder;
 pub use mechanics::{CircleConstraint, FreeMasses};
 pub use oscillator::{ArtificialPotential, DampedOscillator, SplitOscillator};
 pub use pendulum::{QuarticPendulums, QuarticPendulumsGeneric};

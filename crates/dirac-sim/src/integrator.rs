@@ -175,8 +175,10 @@ enum Affine {
 struct Stage {
     step: ForcedDiracStep,
     newton: Newton<AutoLu>,
+    /// The last solution (increments, then multipliers), which is also the next step's guess.
     x: Vec<f64>,
-    x_prev: Vec<f64>,
+    /// Work space for diagnostics that re-evaluate the step equations.
+    scratch: Vec<f64>,
 }
 
 impl Stage {
@@ -192,7 +194,7 @@ impl Stage {
         Self {
             newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
             x: vec![0.0; unknowns],
-            x_prev: vec![0.0; unknowns],
+            scratch: vec![0.0; unknowns],
             step,
         }
     }
@@ -401,19 +403,14 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             z[..n].copy_from_slice(&self.q);
             z[n..].copy_from_slice(&self.p);
             let stage = &mut self.stages[0];
-            for ((xi, row), o) in stage
-                .x_prev
-                .iter_mut()
-                .zip(x.chunks_exact(2 * n))
-                .zip(x0.iter())
-            {
+            for ((xi, row), o) in stage.x.iter_mut().zip(x.chunks_exact(2 * n)).zip(x0.iter()) {
                 *xi = o + row.iter().zip(z.iter()).map(|(a, b)| a * b).sum::<f64>();
             }
             for ((pi, row), o) in self.p.iter_mut().zip(p.chunks_exact(2 * n)).zip(p0.iter()) {
                 *pi = o + row.iter().zip(z.iter()).map(|(a, b)| a * b).sum::<f64>();
             }
             stage.step.set_start(&self.q, &self.p, self.t);
-            stage.step.end_position(&stage.x_prev, &mut self.q);
+            stage.step.end_position(&stage.x, &mut self.q);
             self.k += 1;
             self.t = self.t0 + self.k as f64 * self.options.h;
             return Ok(StepReport {
@@ -461,13 +458,12 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     fn substep(&mut self, i: usize) -> Result<NewtonStats, SimError> {
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
+        // After the first step the guess is the previous solution still in `stage.x`: a
+        // constant-velocity extrapolation of the increments and multipliers.
         if self.k == 0 {
             stage
                 .step
                 .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
-        } else {
-            // Constant-velocity extrapolation: reuse the previous increments and multipliers.
-            stage.x.copy_from_slice(&stage.x_prev);
         }
         let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
         let stats = self.solve_stage(i, scale)?;
@@ -477,7 +473,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             .end_momentum(&self.model, &stage.x, &mut self.p_next);
         stage.step.end_position(&stage.x, &mut self.q);
         std::mem::swap(&mut self.p, &mut self.p_next);
-        std::mem::swap(&mut stage.x, &mut stage.x_prev);
         self.t += stage.step.step_size();
         Ok(stats)
     }
@@ -702,14 +697,12 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     pub fn last_constraint_residual(&mut self) -> f64 {
         let mut worst: f64 = 0.0;
         for stage in &mut self.stages {
-            let mut scratch = std::mem::take(&mut stage.x);
             worst = worst.max(stage.step.constraint_residual(
                 &self.model,
                 &self.constraints,
-                &stage.x_prev,
-                &mut scratch,
+                &stage.x,
+                &mut stage.scratch,
             ));
-            stage.x = scratch;
         }
         worst
     }
@@ -717,7 +710,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// The unknowns of the last solved substep (increments, then multipliers).
     #[must_use]
     pub fn last_unknowns(&self) -> &[f64] {
-        self.stages.last().map_or(&[], |s| &s.x_prev)
+        self.stages.last().map_or(&[], |s| &s.x)
     }
 
     /// Multipliers `Λ⁰` of the first substep of the last step: the constraint impulses at `q_k`,
@@ -726,7 +719,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     pub fn last_multipliers(&self) -> &[f64] {
         let stage = &self.stages[0];
         let o = stage.step.multiplier_offset(0);
-        &stage.x_prev[o..o + self.constraints.count()]
+        &stage.x[o..o + self.constraints.count()]
     }
 
     /// The step equations of each substep (for diagnostics and tests).
