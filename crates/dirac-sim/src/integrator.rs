@@ -177,6 +177,8 @@ struct Stage {
     newton: Newton<AutoLu>,
     /// The last solution (increments, then multipliers), which is also the next step's guess.
     x: Vec<f64>,
+    /// The solution of the step before the last (nonlinear models only: the predictor).
+    older: Vec<f64>,
     /// Work space for diagnostics that re-evaluate the step equations.
     scratch: Vec<f64>,
 }
@@ -194,6 +196,7 @@ impl Stage {
         Self {
             newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
             x: vec![0.0; unknowns],
+            older: vec![0.0; unknowns],
             scratch: vec![0.0; unknowns],
             step,
         }
@@ -458,12 +461,25 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     fn substep(&mut self, i: usize) -> Result<NewtonStats, SimError> {
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
-        // After the first step the guess is the previous solution still in `stage.x`: a
-        // constant-velocity extrapolation of the increments and multipliers.
+        // After the first step the guess extrapolates the previous solutions, still in
+        // `stage.x`: constant (the increments of a constant velocity) after one step, linear in k
+        // after two. The linear predictor is one order better and saves Newton iterations on
+        // nonlinear models; linear models are solved exactly by one update from any guess.
         if self.k == 0 {
             stage
                 .step
                 .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
+        } else if !stage
+            .step
+            .jacobian_is_constant(&self.model, &self.constraints)
+        {
+            for (x, old) in stage.x.iter_mut().zip(stage.older.iter_mut()) {
+                let last = *x;
+                if self.k >= 2 {
+                    *x = 2.0 * last - *old;
+                }
+                *old = last;
+            }
         }
         let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
         let stats = self.solve_stage(i, scale)?;
