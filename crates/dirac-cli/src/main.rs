@@ -126,8 +126,8 @@ D1 stiff spring chain, D2 double pendulum. Methods: midpoint and Gauss-Galerkin 
 CSV: scene,tool,method,setting,wall_s,steps,newton_iterations,error,energy_error
 The peers (scipy, SUNDIALS, ngspice) write the same columns: bench/peers/run.sh runs everything.")]
 struct BenchArgs {
-    /// Scene to sweep.
-    #[arg(long, value_enum)]
+    /// Scene to sweep (A, B, C, D1, D2; case does not matter).
+    #[arg(long, value_enum, ignore_case = true)]
     scene: bench::BenchScene,
     /// Write the CSV here (atomically) instead of stdout.
     #[arg(long)]
