@@ -2,6 +2,8 @@
 //!
 //! - `oscillator_step`: one step of the damped oscillator (m = k = 1, c = 0.01, h = 0.05) for the
 //!   midpoint rule and Gauss s = 2, 3;
+//! - `double_pendulum_step`: one step of the double pendulum of benchmark scene D2 (h = 0.0125),
+//!   nonlinear: modified Newton with kept factorisations and the linear predictor;
 //! - `seed_rlc_run`: the seed paper's RLC loop, 1000 (+) midpoint steps including set-up;
 //!   `seed_rlc_run_affine_map`: the same with the opt-in precomputed affine step map.
 //!
@@ -9,7 +11,7 @@
 
 use dirac::core::{Discretisation, NoConstraints};
 use dirac::sim::{Integrator, IntegratorOptions, SolverChoice};
-use dirac_problems::{DampedOscillator, RlcLoop};
+use dirac_problems::{DampedOscillator, DoublePendulum, RlcLoop};
 use divan::{AllocProfiler, Bencher, black_box};
 
 #[global_allocator]
@@ -23,6 +25,7 @@ fn discretisation(name: &str) -> Discretisation {
     match name {
         "gauss2" => Discretisation::gauss(2),
         "gauss3" => Discretisation::gauss(3),
+        "gauss4" => Discretisation::gauss(4),
         _ => Discretisation::midpoint(),
     }
 }
@@ -43,6 +46,26 @@ fn oscillator_step(bencher: Bencher, name: &str) {
     sim.set_state(&[1.0], &[0.0], 0.0).expect("state");
     // Warm up: the first step analyses the pattern and sizes every buffer.
     sim.step().expect("step");
+    bencher.bench_local(|| {
+        sim.step().expect("step");
+        black_box(sim.q()[0])
+    });
+}
+
+#[divan::bench(args = ["midpoint", "gauss2", "gauss4"])]
+fn double_pendulum_step(bencher: Bencher, name: &str) {
+    let mut sim = Integrator::new(
+        DoublePendulum::unit(),
+        NoConstraints,
+        IntegratorOptions::new(discretisation(name), 0.0125),
+    )
+    .expect("valid options");
+    sim.initialise(&[1.0, 0.5], &[0.0, 0.0], 0.0)
+        .expect("state");
+    // Warm up past the predictor's start (two steps) so every buffer is sized.
+    for _ in 0..3 {
+        sim.step().expect("step");
+    }
     bencher.bench_local(|| {
         sim.step().expect("step");
         black_box(sim.q()[0])

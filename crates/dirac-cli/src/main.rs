@@ -17,8 +17,9 @@ use clap::{Parser, Subcommand, ValueEnum};
 use dirac_core::{Discretisation, Model};
 use dirac_graph::{Assembler, Representation};
 use dirac_io::{
-    BuiltScene, Circuit, Execution, RunError, RunSettings, RunSummary, Scene, SceneSignal, Signal,
-    build_circuit, parse_netlist, run_circuit, run_scene,
+    BuiltScene, Circuit, Execution, Recording, RunError, RunSettings, RunSummary, Scene,
+    SceneSignal, Signal, build_circuit, parse_netlist, recorded_columns, run_circuit,
+    run_scene_recorded,
 };
 use dirac_sim::{Scheme, SimError, Splitting};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -337,11 +338,11 @@ fn settings(
 }
 
 /// The scene with step size and end time overridden, to run staggered with `splitting`.
-fn scene_with(scene: &BuiltScene, settings: &RunSettings, splitting: Splitting) -> BuiltScene {
+fn scene_with(scene: &BuiltScene, settings: &RunSettings, execution: Execution) -> BuiltScene {
     let mut scene = scene.clone();
     scene.options.h = settings.h;
     scene.t_end = settings.t_end;
-    scene.execution = Execution::Staggered(splitting);
+    scene.execution = execution;
     scene
 }
 
@@ -437,18 +438,21 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     };
     let settings = settings(&loaded, args.h, args.t_end, representation)?;
     let signals = select_signals(&loaded, args.signals.as_deref())?;
-    if let Some(scene) = &loaded.scene {
-        let r = &scene.recording;
-        if r.energy || r.residuals || !r.power.is_empty() || !r.forces.is_empty() {
-            eprintln!(
-                "warning: {}: [record] energy, power, residuals and forces are not recorded by this version; only signals are written (the constraint residual is in --json-summary)",
-                loaded.name
-            );
-        }
-    }
+    // A scene's `[record]` energy, power, residuals and forces become extra columns.
+    let recording = loaded
+        .scene
+        .as_ref()
+        .map(|s| s.recording.clone())
+        .filter(|r| *r != Recording::default());
+    let extra_columns = match (&loaded.scene, &recording) {
+        (Some(scene), Some(r)) => recorded_columns(&scene_with(scene, &settings, execution), r)
+            .map_err(|e| Failure::Input(format!("{}: {e}", loaded.name)))?,
+        _ => Vec::new(),
+    };
     let mut out = Output::open(args.out.as_deref())?;
     let header: Vec<&str> = std::iter::once("t")
         .chain(signals.iter().map(|s| s.name.as_str()))
+        .chain(extra_columns.iter().map(String::as_str))
         .collect();
     writeln!(out.writer, "{}", header.join(","))
         .map_err(|e| Failure::Input(format!("writing output: {e}")))?;
@@ -458,28 +462,35 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     let mut bar: Option<ProgressBar> = None;
     let mut rows = 0u64;
     let writer = &mut out.writer;
-    let summary = execute(&loaded, &settings, execution, &signals, |t, values| {
-        let mut line = format!("{t}");
-        for v in values {
-            line.push(',');
-            line.push_str(&v.to_string());
-        }
-        writeln!(writer, "{line}").map_err(|e| e.to_string())?;
-        rows += 1;
-        if show_progress && bar.is_none() && started.elapsed() > Duration::from_secs(1) {
-            let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-            if let Ok(style) =
-                ProgressStyle::with_template("{bar:40} {pos}/{len} steps, {eta} left")
-            {
-                b.set_style(style);
+    let summary = execute(
+        &loaded,
+        &settings,
+        execution,
+        &signals,
+        recording.as_ref(),
+        |t, values| {
+            let mut line = format!("{t}");
+            for v in values {
+                line.push(',');
+                line.push_str(&v.to_string());
             }
-            bar = Some(b);
-        }
-        if let Some(b) = &bar {
-            b.set_position(rows);
-        }
-        Ok(())
-    })?;
+            writeln!(writer, "{line}").map_err(|e| e.to_string())?;
+            rows += 1;
+            if show_progress && bar.is_none() && started.elapsed() > Duration::from_secs(1) {
+                let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+                if let Ok(style) =
+                    ProgressStyle::with_template("{bar:40} {pos}/{len} steps, {eta} left")
+                {
+                    b.set_style(style);
+                }
+                bar = Some(b);
+            }
+            if let Some(b) = &bar {
+                b.set_position(rows);
+            }
+            Ok(())
+        },
+    )?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }
@@ -510,23 +521,26 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Runs `loaded` in `execution` and streams rows of `signals` to `row`.
+/// Runs `loaded` in `execution` and streams rows of `signals` (then the `recording` columns of a
+/// scene) to `row`.
 fn execute(
     loaded: &Loaded,
     settings: &RunSettings,
     execution: Execution,
     signals: &[Signal],
+    recording: Option<&Recording>,
     row: impl FnMut(f64, &[f64]) -> Result<(), String>,
 ) -> Result<RunSummary, Failure> {
     match (execution, &loaded.scene) {
-        (Execution::Staggered(splitting), Some(scene)) => {
-            let scene = scene_with(scene, settings, splitting);
+        (_, Some(scene)) if recording.is_some() || matches!(execution, Execution::Staggered(_)) => {
+            let scene = scene_with(scene, settings, execution);
             let scene_signals: Vec<SceneSignal> = signals
                 .iter()
                 .map(|s| scene.signal(&s.name))
                 .collect::<Result<_, _>>()
                 .map_err(|e| Failure::Input(e.to_string()))?;
-            run_scene(&scene, &scene_signals, row).map_err(|e| {
+            let recording = recording.cloned().unwrap_or_default();
+            run_scene_recorded(&scene, &scene_signals, &recording, row).map_err(|e| {
                 if e.is_numerical() {
                     Failure::Numerical(e.to_string())
                 } else {
@@ -550,6 +564,7 @@ fn collect(
         settings,
         execution,
         &loaded.circuit.signals,
+        None,
         |_, v| {
             rows.push(v.to_vec());
             Ok(())

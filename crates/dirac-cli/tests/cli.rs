@@ -220,3 +220,43 @@ fn plot_writes_svg() {
     assert!(status.success());
     assert!(std::fs::read_to_string(&svg).unwrap().contains("<svg"));
 }
+
+/// A scene's `[record]` energy, power, residuals and forces become columns after the signals; a
+/// node force in a staggered run is bad input (exit 2, no output file).
+#[test]
+fn scene_record_requests_become_columns() {
+    let text = std::fs::read_to_string(repo("examples/scenes/seed_rlc.toml")).expect("scene");
+    let text = text.replace(
+        "signals = [\"C1.q\", \"L1.i\"]",
+        "signals = [\"C1.q\", \"L1.i\"]\nenergy = true\npower = [\"R1\"]\nresiduals = true\nforces = [\"n2\"]",
+    );
+    let scene = scratch("recorded.toml");
+    std::fs::write(&scene, text).expect("write scene");
+    let out = scratch("recorded.csv");
+    let status = dirac()
+        .args(["run", scene.to_str().unwrap(), "--t-end", "1", "--quiet"])
+        .args(["--out", out.to_str().unwrap()])
+        .status()
+        .expect("runs");
+    assert!(status.success());
+    let csv = std::fs::read_to_string(&out).expect("output");
+    assert_eq!(
+        csv.lines().next(),
+        Some("t,C1.q,L1.i,energy,power(R1),constraint_residual,force(n2)")
+    );
+    assert_eq!(csv.lines().count(), 22);
+    let refused = scratch("refused.csv");
+    let output = dirac()
+        .args(["run", scene.to_str().unwrap(), "--t-end", "1", "--quiet"])
+        .args([
+            "--representation",
+            "staggered",
+            "--out",
+            refused.to_str().unwrap(),
+        ])
+        .output()
+        .expect("runs");
+    assert_eq!(output.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&output.stderr).contains("force(n2)"));
+    assert!(!refused.exists());
+}

@@ -33,6 +33,6 @@ pub use netlist::{
 };
 pub use run::{RunError, RunSettings, RunSummary, run_circuit};
 pub use scene::{
-    BuiltScene, Execution, Location, Quantity, Scene, SceneError, SceneSignal, SceneSimulation,
-    run_scene,
+    BuiltScene, Execution, Location, Quantity, Recording, Scene, SceneError, SceneSignal,
+    SceneSimulation, recorded_columns, run_scene, run_scene_recorded,
 };

@@ -62,6 +62,13 @@ impl RowEmitter {
         })
     }
 
+    /// Fixes row 0's entry `index` to `value` instead of extrapolating it.
+    pub(crate) fn know(&mut self, index: usize, value: f64) {
+        if let Some(k) = self.known.get_mut(index) {
+            *k = Some(value);
+        }
+    }
+
     /// Takes the values computed after step `k` (`k = 0 … steps`).
     pub(crate) fn push(
         &mut self,

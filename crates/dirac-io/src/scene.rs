@@ -150,6 +150,7 @@ mod build;
 mod error;
 mod model;
 mod parse;
+mod record;
 mod run;
 
 pub use build::{BuiltScene, Execution, MAX_ORDER, Quantity, Recording, SceneSignal};
@@ -163,7 +164,7 @@ pub use model::{
     SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec,
     SpringElement, SpringParams, WaveformSpec,
 };
-pub use run::{SceneSimulation, run_scene};
+pub use run::{SceneSimulation, recorded_columns, run_scene, run_scene_recorded};
 
 impl Scene {
     /// Parses and checks scene text read from `file` (the name used in error messages).

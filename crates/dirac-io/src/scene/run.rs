@@ -5,8 +5,9 @@ use std::time::Instant;
 use dirac_graph::{AssembledConstraints, AssembledModel, AssembledSystem, Assembler};
 use dirac_sim::{Integrator, Staggered};
 
-use super::build::{BuiltScene, Execution, Quantity, SceneSignal};
+use super::build::{BuiltScene, Execution, Quantity, Recording, SceneSignal};
 use super::error::SceneError;
+use super::record::{Placement, Recorder};
 use crate::run::{RowEmitter, RunSummary};
 
 enum Engine {
@@ -153,21 +154,58 @@ impl SceneSimulation {
 pub fn run_scene(
     built: &BuiltScene,
     signals: &[SceneSignal],
+    row: impl FnMut(f64, &[f64]) -> Result<(), String>,
+) -> Result<RunSummary, SceneError> {
+    run_scene_recorded(built, signals, &Recording::default(), row)
+}
+
+/// Column names that [`run_scene_recorded`] appends after the signals for `recording`:
+/// `energy`, `power(<part>)`, `constraint_residual`, `force(<connection>)`.
+///
+/// # Errors
+/// Forces of nodes or joints asked of a staggered run (they are multipliers it does not have).
+pub fn recorded_columns(
+    built: &BuiltScene,
+    recording: &Recording,
+) -> Result<Vec<String>, SceneError> {
+    Ok(Recorder::new(built, recording)?.names())
+}
+
+/// [`run_scene`] with the `[record]` quantities of `recording` appended to each row (see
+/// [`recorded_columns`]).
+///
+/// Energy, power and coupling forces of a step are evaluated at its midpoint state
+/// (`q̄ = (q_k + q_{k+1})/2`, `v̄ = (q_{k+1} − q_k)/h`); a row at `t_k` takes the mean of the two
+/// steps around it, like a rate. The energy is `Σ (v̄·∂L/∂v − L)` over the parts plus the coupling
+/// potentials; the power of a part is `f·v̄` of its own forces (negative when it dissipates). The
+/// constraint residual and the forces of nodes and joints (their multipliers over `h`; for a
+/// circuit node, its potential) belong to the step starting at `t_k`.
+pub fn run_scene_recorded(
+    built: &BuiltScene,
+    signals: &[SceneSignal],
+    recording: &Recording,
     mut row: impl FnMut(f64, &[f64]) -> Result<(), String>,
 ) -> Result<RunSummary, SceneError> {
     let start = Instant::now();
     let steps = built.steps();
     let h = built.h();
+    let mut recorder = Recorder::new(built, recording)?;
+    let placements = recorder.placements();
     let mut sim = SceneSimulation::new(built)?;
     let q0 = sim.positions();
     let n = q0.len();
     let mut rate_prev = vec![0.0; n];
     let mut rate = vec![0.0; n];
-    let mut values = vec![0.0; signals.len()];
+    let ns = signals.len();
+    let mut values = vec![0.0; ns + placements.len()];
+    let mut extra_prev = vec![0.0; placements.len()];
+    let mut extra = vec![0.0; placements.len()];
     let mut max_residual: f64 = 0.0;
+    // Row 0: states are known; rates and step averages are extrapolated from rows 1 and 2.
     let known: Vec<Option<f64>> = signals
         .iter()
         .map(|s| (s.quantity == Quantity::Value).then(|| q0[s.index]))
+        .chain(placements.iter().map(|_| None))
         .collect();
     let output = |e: String| SceneError::Output(e);
     let mut emitter = RowEmitter::new(h, steps, known, &mut row).map_err(output)?;
@@ -184,6 +222,21 @@ pub fn run_scene(
                 Quantity::Value => before[s.index],
                 Quantity::Rate => 0.5 * (rate_prev[s.index] + rate[s.index]),
             };
+        }
+        if !placements.is_empty() {
+            recorder.step_values(&mut sim, &before, &after, k as f64 * h, &mut extra);
+            for (j, placement) in placements.iter().enumerate() {
+                values[ns + j] = match placement {
+                    Placement::Averaged => 0.5 * (extra_prev[j] + extra[j]),
+                    Placement::StepStart { first_row } => {
+                        if k == 0 && *first_row {
+                            emitter.know(ns + j, extra[j]);
+                        }
+                        extra[j]
+                    }
+                };
+            }
+            std::mem::swap(&mut extra_prev, &mut extra);
         }
         std::mem::swap(&mut rate_prev, &mut rate);
         emitter.push(k, &values, &mut row).map_err(output)?;
