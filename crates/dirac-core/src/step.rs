@@ -93,6 +93,9 @@ pub struct ForcedDiracStep {
     flavour: Flavour,
     lagrangian_nodes: NodeTable,
     force_nodes: NodeTable,
+    /// The force rule is the Lagrangian rule (every equivalence-preserving discretisation): forces
+    /// are evaluated at the path points already computed for `∂L`.
+    shared_nodes: bool,
     kinds: Vec<ConstraintKind>,
     has_holonomic: bool,
     q0: Vec<f64>,
@@ -127,17 +130,20 @@ impl ForcedDiracStep {
         let m = constraints.count();
         let kinds: Vec<ConstraintKind> = (0..m).map(|a| constraints.kind(a)).collect();
         let has_holonomic = kinds.contains(&ConstraintKind::Holonomic);
+        let (lagrangian_rule, force_rule) = (
+            discretisation.lagrangian_rule(),
+            discretisation.force_rule(),
+        );
         Self {
             n,
             m,
             s: discretisation.path().degree(),
             h,
             flavour,
-            lagrangian_nodes: NodeTable::new(
-                discretisation.path(),
-                discretisation.lagrangian_rule(),
-            ),
-            force_nodes: NodeTable::new(discretisation.path(), discretisation.force_rule()),
+            lagrangian_nodes: NodeTable::new(discretisation.path(), lagrangian_rule),
+            force_nodes: NodeTable::new(discretisation.path(), force_rule),
+            shared_nodes: lagrangian_rule.nodes() == force_rule.nodes()
+                && lagrangian_rule.weights() == force_rule.weights(),
             kinds,
             has_holonomic,
             q0: vec![0.0; n],
@@ -320,11 +326,68 @@ impl ForcedDiracStep {
         x: &[f64],
         r: &mut [f64],
     ) {
-        let (n, m, s) = (self.n, self.m, self.s);
+        let (n, s) = (self.n, self.s);
         r.fill(0.0);
         r[..n].copy_from_slice(&self.p0);
-        self.add_stationarity(model, x, 0..s, &mut r[..s * n]);
+        self.add_stationarity(model, x, 0..s, &mut r[..s * n], None);
+        self.add_constraint_terms(constraints, x, r);
+    }
+
+    /// The residual at `x` (as [`ForcedDiracStep::residual`]) and, from the same evaluations of
+    /// `∂L` and `f`, the end momentum `p_{k+1} = S_s(x)` (as [`ForcedDiracStep::end_momentum`]).
+    pub fn residual_and_end_momentum<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &mut self,
+        model: &M,
+        constraints: &C,
+        x: &[f64],
+        r: &mut [f64],
+        p1: &mut [f64],
+    ) {
+        let (n, s) = (self.n, self.s);
+        r.fill(0.0);
+        r[..n].copy_from_slice(&self.p0);
+        p1.fill(0.0);
+        self.add_stationarity(model, x, 0..s, &mut r[..s * n], Some(p1));
+        self.add_constraint_terms(constraints, x, r);
+    }
+
+    /// Stamps `∂p_{k+1}/∂x` (rows: momentum components; columns: the increments; the end momentum
+    /// does not depend on the multipliers). Constant for linear models at fixed `h`, where
+    /// `p_{k+1}(x) = p_{k+1}(x₀) + (∂p_{k+1}/∂x)(x − x₀)` exactly.
+    pub fn end_momentum_jacobian<M: Model + ?Sized>(
+        &mut self,
+        model: &M,
+        x: &[f64],
+        jac: &mut Triplets,
+    ) {
+        let s = self.s;
+        self.stamp_stationarity(model, x, s..s + 1, jac);
+    }
+
+    /// Adds the multiplier terms to the stationarity rows and writes the constraint rows.
+    fn add_constraint_terms<C: Constraints + ?Sized>(
+        &mut self,
+        constraints: &C,
+        x: &[f64],
+        r: &mut [f64],
+    ) {
+        let (n, m, s) = (self.n, self.m, self.s);
         if m == 0 {
+            return;
+        }
+        if !self.has_holonomic && self.flavour == Flavour::Plus {
+            // Every row a one-form and every covector at q_k (all circuits, for instance): one
+            // pass over the form entries without the per-entry placement logic below.
+            self.eval_forms(constraints, x, Point::Start);
+            let (stationarity, kinematic) = r.split_at_mut(s * n);
+            let (increments, multipliers) = x.split_at(s * n);
+            let forms = &self.forms;
+            for ((&a, &col), &val) in forms.rows().iter().zip(forms.cols()).zip(forms.values()) {
+                for j in 0..s {
+                    stationarity[j * n + col] -= val * multipliers[j * m + a];
+                    kinematic[j * m + a] += val * increments[j * n + col];
+                }
+            }
             return;
         }
         for i in 0..self.constraint_point_count() {
@@ -361,15 +424,16 @@ impl ForcedDiracStep {
         }
     }
 
-    /// Stamps the Jacobian `∂F/∂x` (fixed pattern).
-    pub fn jacobian<M: Model + ?Sized, C: Constraints + ?Sized>(
+    /// Stamps `∂S_j/∂Z` for the stationarity blocks `j` in `blocks` (rows `(j − blocks.start)·n`,
+    /// columns of the increments): the part of the Jacobian that comes from `L` and `f`.
+    fn stamp_stationarity<M: Model + ?Sized>(
         &mut self,
         model: &M,
-        constraints: &C,
         x: &[f64],
+        blocks: std::ops::Range<usize>,
         jac: &mut Triplets,
     ) {
-        let (n, m, s, h) = (self.n, self.m, self.s, self.h);
+        let (n, s, h, first) = (self.n, self.s, self.h, blocks.start);
         let nodes = &self.lagrangian_nodes;
         for i in 0..nodes.len() {
             let (phi, dphi) = nodes.row(i);
@@ -381,11 +445,11 @@ impl ForcedDiracStep {
                 hess.freeze();
             }
             let b = nodes.weights[i];
-            for j in 0..s {
+            for j in blocks.clone() {
                 let (pj, dj) = (phi[j], dphi[j]);
                 for l in 1..=s {
                     let (pl, dl) = (phi[l], dphi[l]);
-                    let (er, uc) = (j * n, (l - 1) * n);
+                    let (er, uc) = ((j - first) * n, (l - 1) * n);
                     let (aqq, aqv, avq, avv) =
                         (h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h);
                     if aqq != 0.0 {
@@ -423,14 +487,14 @@ impl ForcedDiracStep {
                     fj.freeze();
                 }
                 let b = nodes.weights[i];
-                for j in 0..s {
+                for j in blocks.clone() {
                     let pj = phi[j];
                     if pj == 0.0 {
                         continue;
                     }
                     for l in 1..=s {
                         let (pl, dl) = (phi[l], dphi[l]);
-                        let (er, uc) = (j * n, (l - 1) * n);
+                        let (er, uc) = ((j - first) * n, (l - 1) * n);
                         let (cq, cv) = (h * b * pj * pl, b * pj * dl);
                         if cq != 0.0 {
                             for (r, c, v) in fj.q.iter() {
@@ -447,6 +511,18 @@ impl ForcedDiracStep {
                 self.force_jacobian = fj;
             }
         }
+    }
+
+    /// Stamps the Jacobian `∂F/∂x` (fixed pattern).
+    pub fn jacobian<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &mut self,
+        model: &M,
+        constraints: &C,
+        x: &[f64],
+        jac: &mut Triplets,
+    ) {
+        let (n, m, s) = (self.n, self.m, self.s);
+        self.stamp_stationarity(model, x, 0..s, jac);
         if m == 0 {
             return;
         }
@@ -533,20 +609,28 @@ impl ForcedDiracStep {
     pub fn end_momentum<M: Model + ?Sized>(&mut self, model: &M, x: &[f64], p1: &mut [f64]) {
         let s = self.s;
         p1.fill(0.0);
-        self.add_stationarity(model, x, s..s + 1, p1);
+        self.add_stationarity(model, x, s..s + 1, p1, None);
     }
 
     /// Adds `S_j = h Σᵢ bᵢ [ℓⱼ(cᵢ)(∂L/∂q + f) + ℓⱼ'(cᵢ)/h ∂L/∂v]` for `j` in `blocks` to
-    /// `out[(j − blocks.start)·n ..]`. A force node none of whose weights in `blocks` is nonzero is
-    /// not evaluated (the trapezoid's end nodes, for instance).
+    /// `out[(j − blocks.start)·n ..]`, and `S_s` to `end` when given (from the same evaluations). A
+    /// force node none of whose wanted weights is nonzero is not evaluated (the trapezoid's end
+    /// nodes, for instance); when the force rule is the Lagrangian rule, forces are evaluated at the
+    /// path points already computed.
     fn add_stationarity<M: Model + ?Sized>(
         &mut self,
         model: &M,
         x: &[f64],
         blocks: std::ops::Range<usize>,
         out: &mut [f64],
+        mut end: Option<&mut [f64]>,
     ) {
-        let (n, h, first) = (self.n, self.h, blocks.start);
+        let (n, h, s, first) = (self.n, self.h, self.s, blocks.start);
+        // Block j goes to `out` for j in `blocks`, and to `end` (when given) for j = s.
+        let with_end = end.is_some();
+        let wanted = |j: usize| blocks.contains(&j) || (with_end && j == s);
+        let has_force = model.has_force();
+        let shared = has_force && self.shared_nodes;
         let nodes = &self.lagrangian_nodes;
         for i in 0..nodes.len() {
             let (phi, dphi) = nodes.row(i);
@@ -554,29 +638,62 @@ impl ForcedDiracStep {
             model.lagrangian_gradient(&self.y, &self.w, &mut self.lq, &mut self.lv);
             let b = nodes.weights[i];
             for j in blocks.clone() {
-                let (cq, cv) = (h * b * phi[j], b * dphi[j]);
                 let o = (j - first) * n;
-                axpy2(&mut out[o..o + n], cq, &self.lq, cv, &self.lv);
+                axpy2(
+                    &mut out[o..o + n],
+                    h * b * phi[j],
+                    &self.lq,
+                    b * dphi[j],
+                    &self.lv,
+                );
+            }
+            if let Some(end) = end.as_deref_mut() {
+                axpy2(end, h * b * phi[s], &self.lq, b * dphi[s], &self.lv);
+            }
+            let force_weight = |j: usize| h * b * phi[j];
+            if shared
+                && (blocks.clone().any(|j| force_weight(j) != 0.0)
+                    || (with_end && force_weight(s) != 0.0))
+            {
+                model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
+                for j in blocks.clone() {
+                    let cq = force_weight(j);
+                    if cq != 0.0 {
+                        let o = (j - first) * n;
+                        axpy(&mut out[o..o + n], cq, &self.f);
+                    }
+                }
+                if let Some(end) = end.as_deref_mut()
+                    && force_weight(s) != 0.0
+                {
+                    axpy(end, force_weight(s), &self.f);
+                }
             }
         }
-        if !model.has_force() {
+        if !has_force || shared {
             return;
         }
         let nodes = &self.force_nodes;
         for i in 0..nodes.len() {
             let (phi, dphi) = nodes.row(i);
             let b = nodes.weights[i];
-            if blocks.clone().all(|j| h * b * phi[j] == 0.0) {
+            let force_weight = |j: usize| h * b * phi[j];
+            if (0..=s).all(|j| !wanted(j) || force_weight(j) == 0.0) {
                 continue;
             }
             eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
             model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
             for j in blocks.clone() {
-                let cq = h * b * phi[j];
+                let cq = force_weight(j);
                 if cq != 0.0 {
                     let o = (j - first) * n;
                     axpy(&mut out[o..o + n], cq, &self.f);
                 }
+            }
+            if let Some(end) = end.as_deref_mut()
+                && force_weight(s) != 0.0
+            {
+                axpy(end, force_weight(s), &self.f);
             }
         }
     }

@@ -169,6 +169,17 @@ enum Affine {
     },
 }
 
+/// The end momentum of a step with a constant Newton matrix as an affine map of the unknowns.
+#[derive(Debug)]
+struct LinearEnd {
+    /// `E = ∂p_{k+1}/∂x`, stamped at the first step (empty until then).
+    jacobian: Triplets,
+    /// The guess `x₀` of the current step.
+    guess: Vec<f64>,
+    /// `p_{k+1}(x₀)`.
+    at_guess: Vec<f64>,
+}
+
 /// One substep of a scheme: its step equations, its Newton solver (which keeps that substep's
 /// pattern and, for linear models, its factorisation) and its unknowns.
 #[derive(Debug)]
@@ -177,6 +188,10 @@ struct Stage {
     newton: Newton<AutoLu>,
     /// The last solution (increments, then multipliers), which is also the next step's guess.
     x: Vec<f64>,
+    /// For a constant Newton matrix, the end momentum is affine in the unknowns:
+    /// `p_{k+1}(x) = p_{k+1}(x₀) + E (x − x₀)`. `p_{k+1}(x₀)` comes with the residual at the guess
+    /// `x₀`, so a step evaluates the model once instead of twice.
+    linear_end: LinearEnd,
     /// The solution of the step before the last (nonlinear models only: the predictor).
     older: Vec<f64>,
     /// Work space for diagnostics that re-evaluate the step equations.
@@ -198,6 +213,11 @@ impl Stage {
             x: vec![0.0; unknowns],
             older: vec![0.0; unknowns],
             scratch: vec![0.0; unknowns],
+            linear_end: LinearEnd {
+                jacobian: Triplets::new(),
+                guess: vec![0.0; unknowns],
+                at_guess: vec![0.0; model.dim()],
+            },
             step,
         }
     }
@@ -226,6 +246,8 @@ struct StepSystem<'a, M: ?Sized, C: ?Sized> {
     step: &'a mut ForcedDiracStep,
     constant: bool,
     scale: f64,
+    /// When set, the first residual evaluation (at the guess) also writes the end momentum there.
+    end_momentum: Option<&'a mut [f64]>,
 }
 
 impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for StepSystem<'_, M, C> {
@@ -233,7 +255,13 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for StepSystem<
         self.step.unknowns()
     }
     fn residual(&mut self, x: &[f64], r: &mut [f64]) {
-        self.step.residual(self.model, self.constraints, x, r);
+        match self.end_momentum.take() {
+            Some(p1) => {
+                self.step
+                    .residual_and_end_momentum(self.model, self.constraints, x, r, p1);
+            }
+            None => self.step.residual(self.model, self.constraints, x, r),
+        }
     }
     fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
         self.step.jacobian(self.model, self.constraints, x, jac);
@@ -433,7 +461,14 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
 
     /// Solves stage `i`'s step equations from its current start and guess, reporting a failure
     /// with the step, the time and the likely cause.
-    fn solve_stage(&mut self, i: usize, scale: f64) -> Result<NewtonStats, SimError> {
+    /// With `end_momentum`, the residual at the guess also writes `p_{k+1}` there into the
+    /// stage's [`LinearEnd`].
+    fn solve_stage(
+        &mut self,
+        i: usize,
+        scale: f64,
+        end_momentum: bool,
+    ) -> Result<NewtonStats, SimError> {
         let stage = &mut self.stages[i];
         let mut system = StepSystem {
             model: &self.model,
@@ -443,6 +478,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .jacobian_is_constant(&self.model, &self.constraints),
             step: &mut stage.step,
             scale,
+            end_momentum: end_momentum.then_some(&mut stage.linear_end.at_guess[..]),
         };
         match stage.newton.solve(&mut system, &mut stage.x) {
             Ok(stats) => Ok(stats),
@@ -465,14 +501,14 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         // `stage.x`: constant (the increments of a constant velocity) after one step, linear in k
         // after two. The linear predictor is one order better and saves Newton iterations on
         // nonlinear models; linear models are solved exactly by one update from any guess.
+        let constant = stage
+            .step
+            .jacobian_is_constant(&self.model, &self.constraints);
         if self.k == 0 {
             stage
                 .step
                 .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
-        } else if !stage
-            .step
-            .jacobian_is_constant(&self.model, &self.constraints)
-        {
+        } else if !constant {
             for (x, old) in stage.x.iter_mut().zip(stage.older.iter_mut()) {
                 let last = *x;
                 if self.k >= 2 {
@@ -481,12 +517,28 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 *old = last;
             }
         }
+        if constant {
+            stage.linear_end.guess.copy_from_slice(&stage.x);
+        }
         let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
-        let stats = self.solve_stage(i, scale)?;
+        let stats = self.solve_stage(i, scale, constant)?;
         let stage = &mut self.stages[i];
-        stage
-            .step
-            .end_momentum(&self.model, &stage.x, &mut self.p_next);
+        if constant {
+            let end = &mut stage.linear_end;
+            if end.jacobian.is_empty() {
+                stage
+                    .step
+                    .end_momentum_jacobian(&self.model, &stage.x, &mut end.jacobian);
+            }
+            self.p_next.copy_from_slice(&end.at_guess);
+            for (r, c, e) in end.jacobian.iter() {
+                self.p_next[r] += e * (stage.x[c] - end.guess[c]);
+            }
+        } else {
+            stage
+                .step
+                .end_momentum(&self.model, &stage.x, &mut self.p_next);
+        }
         stage.step.end_position(&stage.x, &mut self.q);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.t += stage.step.step_size();
@@ -531,7 +583,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             let stage = &mut self.stages[0];
             stage.step.set_start(&column[..n], &column[n..], self.t);
             stage.x.fill(0.0);
-            let stats = self.solve_stage(0, 1.0)?;
+            let stats = self.solve_stage(0, 1.0, false)?;
             self.stats.accumulate(&stats);
             let stage = &mut self.stages[0];
             stage

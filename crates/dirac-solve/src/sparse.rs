@@ -1,12 +1,11 @@
 //! Sparse LU on faer (simplicial, left-looking, partial pivoting) for large step systems.
 
+use faer::Par;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::perm::PermRef;
 use faer::sparse::linalg::lu::simplicial::{self, SimplicialLu};
 use faer::sparse::linalg::lu::{LuSymbolicParams, SymbolicLu, factorize_symbolic_lu};
 use faer::sparse::linalg::{LuError, SupernodalThreshold};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, MatMut, Par};
 
 use crate::error::LinearSolveError;
 use crate::newton::LinearSolver;
@@ -60,6 +59,8 @@ struct Factors {
     lu: SimplicialLu<u32, f64>,
     row_perm: Vec<u32>,
     row_perm_inv: Vec<u32>,
+    /// The permuted right-hand side of a solve.
+    work: Vec<f64>,
     /// Workspace of factorisation and solve.
     req: StackReq,
     mem: MemBuffer,
@@ -74,6 +75,7 @@ impl Clone for Factors {
             lu: self.lu.clone(),
             row_perm: self.row_perm.clone(),
             row_perm_inv: self.row_perm_inv.clone(),
+            work: self.work.clone(),
             req: self.req,
             mem: MemBuffer::new(self.req),
         }
@@ -204,6 +206,7 @@ impl LinearSolver for SparseLu {
             lu: SimplicialLu::new(),
             row_perm: vec![0; n],
             row_perm_inv: vec![0; n],
+            work: vec![0.0; n],
             req,
             mem,
         };
@@ -257,15 +260,26 @@ impl LinearSolver for SparseLu {
         let u = f.lu.u_factor_unsorted();
         let (u_pattern, u_val) = u.parts();
         let u_row = u_pattern.row_idx();
+        let l = f.lu.l_factor_unsorted();
+        let (l_pattern, _) = l.parts();
+        for (j, w) in l_pattern.col_ptr().windows(2).enumerate() {
+            // L's unit diagonal is stored first in its column (skipped by `solve_in_place`).
+            if w[1] == w[0] || l_pattern.row_idx()[w[0] as usize] as usize != j {
+                return Err(LinearSolveError::Backend(format!(
+                    "sparse LU: column {j} of L does not start with its diagonal entry"
+                )));
+            }
+        }
         for (j, w) in u_pattern.col_ptr().windows(2).enumerate() {
-            let range = w[0] as usize..w[1] as usize;
-            // The pivot is U's diagonal entry (faer stores it last; do not rely on that).
-            let pivot = u_row[range.clone()]
-                .iter()
-                .zip(&u_val[range])
-                .rev()
-                .find_map(|(&i, &v)| (i as usize == j).then_some(v))
-                .unwrap_or(0.0);
+            // The pivot is U's diagonal entry, stored last in its column: faer's own solves and
+            // `solve_in_place` rely on that layout, so it is checked here, once per factorisation.
+            let last = w[1] as usize;
+            if last == w[0] as usize || u_row[last - 1] as usize != j {
+                return Err(LinearSolveError::Backend(format!(
+                    "sparse LU: column {j} of U does not end with its diagonal entry"
+                )));
+            }
+            let pivot = u_val[last - 1];
             if pivot.is_nan() || pivot.abs() <= tol {
                 let index = col_perm.get(j).map_or(j, |&c| c as usize);
                 return Err(LinearSolveError::NumericallySingular { index });
@@ -291,16 +305,43 @@ impl LinearSolver for SparseLu {
         let Some(f) = self.factors.as_mut() else {
             return Ok(()); // 0×0
         };
-        let n = self.n;
-        let row_perm = PermRef::new_checked(&f.row_perm, &f.row_perm_inv, n);
-        f.lu.solve_in_place_with_conj(
-            row_perm,
-            f.symbolic.col_perm(),
-            Conj::No,
-            MatMut::from_column_major_slice_mut(rhs, n, 1),
-            Par::Seq,
-            MemStack::new(&mut f.mem),
-        );
+        // P A Q = L U (faer's simplicial LU): gather by the row permutation, solve with the unit
+        // lower factor (its diagonal stored first in each column) and the upper factor (diagonal
+        // stored last), scatter by the column permutation. Written out here rather than through
+        // `solve_in_place_with_conj`, which copies the right-hand side twice and re-validates
+        // both permutations on every call.
+        let w = &mut f.work;
+        for (wi, &p) in w.iter_mut().zip(&f.row_perm) {
+            *wi = rhs[p as usize];
+        }
+        let l = f.lu.l_factor_unsorted();
+        let (l_pattern, l_val) = l.parts();
+        let (l_ptr, l_row) = (l_pattern.col_ptr(), l_pattern.row_idx());
+        for j in 0..w.len() {
+            let xj = w[j];
+            if xj != 0.0 {
+                for p in l_ptr[j] as usize + 1..l_ptr[j + 1] as usize {
+                    w[l_row[p] as usize] -= l_val[p] * xj;
+                }
+            }
+        }
+        let u = f.lu.u_factor_unsorted();
+        let (u_pattern, u_val) = u.parts();
+        let (u_ptr, u_row) = (u_pattern.col_ptr(), u_pattern.row_idx());
+        for j in (0..w.len()).rev() {
+            let last = u_ptr[j + 1] as usize - 1;
+            w[j] /= u_val[last];
+            let xj = w[j];
+            if xj != 0.0 {
+                for p in u_ptr[j] as usize..last {
+                    w[u_row[p] as usize] -= u_val[p] * xj;
+                }
+            }
+        }
+        let (_, col_inv) = f.symbolic.col_perm().arrays();
+        for (out, &c) in rhs.iter_mut().zip(col_inv) {
+            *out = w[c as usize];
+        }
         match rhs.iter().position(|v| !v.is_finite()) {
             Some(index) => Err(LinearSolveError::NonFinite { index }),
             None => Ok(()),
