@@ -628,7 +628,26 @@ impl ForcedDiracStep {
         let (n, h, s, first) = (self.n, self.h, self.s, blocks.start);
         // Block j goes to `out` for j in `blocks`, and to `end` (when given) for j = s.
         let with_end = end.is_some();
-        let wanted = |j: usize| blocks.contains(&j) || (with_end && j == s);
+        // Whether a force node of weight `b` contributes to a wanted block.
+        let needs_force = |phi: &[f64], b: f64| {
+            (0..=s).any(|j| (blocks.contains(&j) || (with_end && j == s)) && h * b * phi[j] != 0.0)
+        };
+        // `out` (and `end`) += h·b·ℓⱼ(cᵢ)·f for the wanted blocks.
+        let add_force =
+            |f: &[f64], phi: &[f64], b: f64, out: &mut [f64], end: Option<&mut [f64]>| {
+                for j in blocks.clone() {
+                    let cq = h * b * phi[j];
+                    if cq != 0.0 {
+                        let o = (j - first) * n;
+                        axpy(&mut out[o..o + n], cq, f);
+                    }
+                }
+                if let Some(end) = end
+                    && h * b * phi[s] != 0.0
+                {
+                    axpy(end, h * b * phi[s], f);
+                }
+            };
         let has_force = model.has_force();
         let shared = has_force && self.shared_nodes;
         let nodes = &self.lagrangian_nodes;
@@ -650,24 +669,9 @@ impl ForcedDiracStep {
             if let Some(end) = end.as_deref_mut() {
                 axpy2(end, h * b * phi[s], &self.lq, b * dphi[s], &self.lv);
             }
-            let force_weight = |j: usize| h * b * phi[j];
-            if shared
-                && (blocks.clone().any(|j| force_weight(j) != 0.0)
-                    || (with_end && force_weight(s) != 0.0))
-            {
+            if shared && needs_force(phi, b) {
                 model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
-                for j in blocks.clone() {
-                    let cq = force_weight(j);
-                    if cq != 0.0 {
-                        let o = (j - first) * n;
-                        axpy(&mut out[o..o + n], cq, &self.f);
-                    }
-                }
-                if let Some(end) = end.as_deref_mut()
-                    && force_weight(s) != 0.0
-                {
-                    axpy(end, force_weight(s), &self.f);
-                }
+                add_force(&self.f, phi, b, out, end.as_deref_mut());
             }
         }
         if !has_force || shared {
@@ -677,24 +681,12 @@ impl ForcedDiracStep {
         for i in 0..nodes.len() {
             let (phi, dphi) = nodes.row(i);
             let b = nodes.weights[i];
-            let force_weight = |j: usize| h * b * phi[j];
-            if (0..=s).all(|j| !wanted(j) || force_weight(j) == 0.0) {
+            if !needs_force(phi, b) {
                 continue;
             }
             eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
             model.force(&self.y, &self.w, self.t0 + nodes.nodes[i] * h, &mut self.f);
-            for j in blocks.clone() {
-                let cq = force_weight(j);
-                if cq != 0.0 {
-                    let o = (j - first) * n;
-                    axpy(&mut out[o..o + n], cq, &self.f);
-                }
-            }
-            if let Some(end) = end.as_deref_mut()
-                && force_weight(s) != 0.0
-            {
-                axpy(end, force_weight(s), &self.f);
-            }
+            add_force(&self.f, phi, b, out, end.as_deref_mut());
         }
     }
 

@@ -238,6 +238,31 @@ impl Interconnection {
         &self.connections
     }
 
+    /// Where each subsystem's coordinates start when all subsystems' coordinates are concatenated
+    /// in insertion order (the layout of the assembled state's subsystem part).
+    #[must_use]
+    pub fn coordinate_offsets(&self) -> Vec<usize> {
+        let mut offsets = Vec::with_capacity(self.subsystems.len());
+        let mut o = 0;
+        for s in &self.subsystems {
+            offsets.push(o);
+            o += s.model().dim();
+        }
+        offsets
+    }
+
+    /// The value of `port` (its combination of coordinates) in `values`, all subsystems'
+    /// coordinates concatenated at `offsets` ([`Interconnection::coordinate_offsets`]).
+    #[must_use]
+    pub fn port_value(&self, offsets: &[usize], values: &[f64], port: PortRef) -> f64 {
+        let o = offsets[port.subsystem.0];
+        self.subsystems[port.subsystem.0].ports()[port.port]
+            .coefficients
+            .iter()
+            .map(|&(i, c)| c * values[o + i])
+            .sum()
+    }
+
     /// The subsystems adjacent to `id` through some connection.
     #[must_use]
     pub fn neighbours(&self, id: SubsystemId) -> Vec<SubsystemId> {

@@ -181,7 +181,7 @@ impl BuiltScene {
 
     /// The signal named `name` (see [`BuiltScene::recordable`]).
     pub fn signal(&self, name: &str) -> Result<SceneSignal, SceneError> {
-        resolve_signal(&self.graph, &offsets(&self.graph), name, None)
+        resolve_signal(&self.graph, &self.graph.coordinate_offsets(), name, None)
     }
 }
 
@@ -201,16 +201,6 @@ fn flow_ports(sub: &Subsystem, names: &[String], s: usize, offset: usize) -> Vec
             _ => None,
         })
         .collect()
-}
-
-fn offsets(graph: &Interconnection) -> Vec<usize> {
-    let mut out = Vec::with_capacity(graph.subsystems().len());
-    let mut o = 0;
-    for s in graph.subsystems() {
-        out.push(o);
-        o += s.model().dim();
-    }
-    out
 }
 
 /// Resolves `part.coordinate`, `part.coordinate'` or `part.port` (a flow).
@@ -948,7 +938,7 @@ impl Scene {
             connections.insert(c.name.as_str(), (id, c));
         }
 
-        let offsets = offsets(&graph);
+        let offsets = graph.coordinate_offsets();
         let record = &self.record;
         let signals = if record.signals.is_empty() {
             let mut all = Vec::new();

@@ -7,7 +7,7 @@
 //! extrapolated), except the constraint residual and the multiplier forces of nodes and joints,
 //! which belong to the step starting at `t_k`.
 
-use dirac_graph::{Connection, Interconnection, PortRef};
+use dirac_graph::{Connection, Interconnection};
 
 use super::build::{BuiltScene, Execution, Recording};
 use super::error::SceneError;
@@ -90,12 +90,7 @@ impl<'a> Recorder<'a> {
             .map(|s| s.model().dim())
             .max()
             .unwrap_or(0);
-        let mut offsets = Vec::with_capacity(graph.subsystems().len());
-        let mut o = 0;
-        for s in graph.subsystems() {
-            offsets.push(o);
-            o += s.model().dim();
-        }
+        let offsets = graph.coordinate_offsets();
         Ok(Self {
             graph,
             offsets,
@@ -125,13 +120,15 @@ impl<'a> Recorder<'a> {
             .collect()
     }
 
-    /// Values of the step from `before` (positions at `t`) to `after`, just taken by `sim`.
+    /// Values of the step from `before` (positions at `t`) to `after`, just taken by `sim`, whose
+    /// constraint residual the caller has evaluated as `residual`.
     pub(crate) fn step_values(
         &mut self,
-        sim: &mut SceneSimulation,
+        sim: &SceneSimulation,
         before: &[f64],
         after: &[f64],
         t: f64,
+        residual: f64,
         out: &mut [f64],
     ) {
         let h = self.h;
@@ -145,14 +142,19 @@ impl<'a> Recorder<'a> {
             *v = (a - b) / h;
         }
         let t_mid = t + 0.5 * h;
+        let wants_multipliers = self
+            .columns
+            .iter()
+            .any(|(_, c)| matches!(c, Column::MultiplierForce(_)));
         let multipliers = sim
             .assembled()
+            .filter(|_| wants_multipliers)
             .map(|(_, integrator)| integrator.last_multipliers_full());
         for (j, value) in out.iter_mut().enumerate() {
             *value = match self.columns[j].1 {
                 Column::Energy => self.energy(),
                 Column::Power(part) => self.power(part, t_mid),
-                Column::Residual => sim.constraint_residual(),
+                Column::Residual => residual,
                 Column::MultiplierForce(c) => {
                     let row = sim.assembled().and_then(|(s, _)| s.connection_row(c));
                     match (row, &multipliers) {
@@ -181,7 +183,8 @@ impl<'a> Recorder<'a> {
             if let Connection::Coupling { a, b, element, .. } = connection
                 && element.has_potential()
             {
-                total += element.potential(self.port(&self.q_mid, a), self.port(&self.q_mid, b));
+                let x = |p| self.graph.port_value(&self.offsets, &self.q_mid, p);
+                total += element.potential(x(*a), x(*b));
             }
         }
         total
@@ -208,8 +211,9 @@ impl<'a> Recorder<'a> {
         let Connection::Coupling { a, b, element, .. } = &self.graph.connections()[c] else {
             return 0.0;
         };
-        let x = [self.port(&self.q_mid, a), self.port(&self.q_mid, b)];
-        let w = [self.port(&self.v_mid, a), self.port(&self.v_mid, b)];
+        let at = |values: &[f64], p| self.graph.port_value(&self.offsets, values, p);
+        let x = [at(&self.q_mid, *a), at(&self.q_mid, *b)];
+        let w = [at(&self.v_mid, *a), at(&self.v_mid, *b)];
         let mut f = 0.0;
         if element.has_potential() {
             f -= element.potential_gradient(x[0], x[1])[0];
@@ -218,16 +222,5 @@ impl<'a> Recorder<'a> {
             f += element.force(x, w, t)[0];
         }
         f
-    }
-
-    /// A port's value from a concatenated per-part vector.
-    fn port(&self, values: &[f64], port: &PortRef) -> f64 {
-        let s = &self.graph.subsystems()[port.subsystem.0];
-        let o = self.offsets[port.subsystem.0];
-        s.ports()[port.port]
-            .coefficients
-            .iter()
-            .map(|&(i, c)| c * values[o + i])
-            .sum()
     }
 }

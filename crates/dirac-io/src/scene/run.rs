@@ -212,7 +212,8 @@ pub fn run_scene_recorded(
     for k in 0..=steps {
         let before = sim.positions();
         sim.step()?;
-        max_residual = max_residual.max(sim.constraint_residual());
+        let residual = sim.constraint_residual();
+        max_residual = max_residual.max(residual);
         let after = sim.positions();
         for ((r, a), b) in rate.iter_mut().zip(&after).zip(&before) {
             *r = (a - b) / h;
@@ -224,7 +225,7 @@ pub fn run_scene_recorded(
             };
         }
         if !placements.is_empty() {
-            recorder.step_values(&mut sim, &before, &after, k as f64 * h, &mut extra);
+            recorder.step_values(&sim, &before, &after, k as f64 * h, residual, &mut extra);
             for (j, placement) in placements.iter().enumerate() {
                 values[ns + j] = match placement {
                     Placement::Averaged => 0.5 * (extra_prev[j] + extra[j]),
