@@ -138,6 +138,8 @@ struct CardParser<'a> {
     text: String,
 }
 
+/// `name=value` assignments in card order.
+type Assignments = Vec<(Name, ExprTok)>;
 impl<'a> CardParser<'a> {
     fn new(card: &'a Card) -> Self {
         Self {
@@ -471,32 +473,8 @@ impl<'a> CardParser<'a> {
                 (nodes, ElemKind::D(model))
             }
             'x' => {
-                let mut words: Vec<Spanned> = Vec::new();
-                let mut params = Vec::new();
-                let mut params_mode = false;
-                while !self.cur.at_end() {
-                    if self.cur.eat_keyword("params:") {
-                        params_mode = true;
-                        continue;
-                    }
-                    let w = self.word("node or subcircuit name")?;
-                    if self.cur.eat('=') {
-                        let pname = param_name(&w, &self.text)?;
-                        let v = self.assigned_value(&pname)?;
-                        params.push((pname, v));
-                    } else if params_mode || !params.is_empty() {
-                        return Err(NetlistError::syntax(
-                            w.start(),
-                            w.text.clone(),
-                            format!(
-                                "expected `name=value`, found `{}` in card `{}`",
-                                w.text, self.text
-                            ),
-                        ));
-                    } else {
-                        words.push(w);
-                    }
-                }
+                let (mut words, params) =
+                    self.words_then_assignments("node or subcircuit name", |_, _| Ok(()))?;
                 let Some(sub) = words.pop() else {
                     return Err(self.syntax("missing subcircuit name"));
                 };
@@ -511,6 +489,45 @@ impl<'a> CardParser<'a> {
             }
         };
         Ok(ElemCard { name, nodes, kind })
+    }
+
+    /// Plain words, then `name=value` assignments (optionally after the keyword `params:`), to
+    /// the end of the card: the shape of an `X` instance and of a `.subckt` header. A plain word
+    /// after `params:` or after an assignment is an error naming it; `check` sees each plain word
+    /// (with the card's text) as it is read, so errors come in card order.
+    fn words_then_assignments(
+        &mut self,
+        what: &str,
+        mut check: impl FnMut(&Spanned, &str) -> Result<(), NetlistError>,
+    ) -> Result<(Vec<Spanned>, Assignments), NetlistError> {
+        let mut words: Vec<Spanned> = Vec::new();
+        let mut assignments = Vec::new();
+        let mut params_mode = false;
+        while !self.cur.at_end() {
+            if self.cur.eat_keyword("params:") {
+                params_mode = true;
+                continue;
+            }
+            let w = self.word(what)?;
+            if self.cur.eat('=') {
+                let pname = param_name(&w, &self.text)?;
+                let v = self.assigned_value(&pname)?;
+                assignments.push((pname, v));
+            } else if params_mode || !assignments.is_empty() {
+                return Err(NetlistError::syntax(
+                    w.start(),
+                    w.text.clone(),
+                    format!(
+                        "expected `name=value`, found `{}` in card `{}`",
+                        w.text, self.text
+                    ),
+                ));
+            } else {
+                check(&w, &self.text)?;
+                words.push(w);
+            }
+        }
+        Ok((words, assignments))
     }
 
     fn params(&mut self) -> Result<Vec<(Name, ExprTok)>, NetlistError> {
@@ -570,46 +587,25 @@ impl<'a> CardParser<'a> {
     fn subckt(&mut self) -> Result<SubcktDef, NetlistError> {
         let name = Name::plain(&self.word("subcircuit name")?);
         let mut ports: Vec<Name> = Vec::new();
-        let mut defaults = Vec::new();
-        let mut params_mode = false;
-        while !self.cur.at_end() {
-            if self.cur.eat_keyword("params:") {
-                params_mode = true;
-                continue;
-            }
-            let w = self.word("port or parameter")?;
-            if self.cur.eat('=') {
-                let pname = param_name(&w, &self.text)?;
-                let v = self.assigned_value(&pname)?;
-                defaults.push((pname, v));
-            } else if params_mode || !defaults.is_empty() {
-                return Err(NetlistError::syntax(
-                    w.start(),
-                    w.text.clone(),
-                    format!(
-                        "expected `name=value`, found `{}` in card `{}`",
-                        w.text, self.text
-                    ),
+        let (_, defaults) = self.words_then_assignments("port or parameter", |w, card| {
+            let port = Name::node(w);
+            if port.norm == "0" {
+                return Err(NetlistError::bad_value(
+                    port.pos,
+                    port.orig.clone(),
+                    format!("the ground node cannot be a port in card `{card}`"),
                 ));
-            } else {
-                let port = Name::node(&w);
-                if port.norm == "0" {
-                    return Err(NetlistError::bad_value(
-                        port.pos,
-                        port.orig.clone(),
-                        format!("the ground node cannot be a port in card `{}`", self.text),
-                    ));
-                }
-                if ports.iter().any(|p| p.norm == port.norm) {
-                    return Err(NetlistError::syntax(
-                        port.pos,
-                        port.orig.clone(),
-                        format!("port `{}` listed twice in card `{}`", port.orig, self.text),
-                    ));
-                }
-                ports.push(port);
             }
-        }
+            if ports.iter().any(|p| p.norm == port.norm) {
+                return Err(NetlistError::syntax(
+                    port.pos,
+                    port.orig.clone(),
+                    format!("port `{}` listed twice in card `{card}`", port.orig),
+                ));
+            }
+            ports.push(port);
+            Ok(())
+        })?;
         Ok(SubcktDef {
             name,
             ports,
