@@ -8,6 +8,7 @@ use dirac_solve::{
     LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem,
 };
 
+use crate::composition::Composition;
 use crate::error::SimError;
 use crate::linear::{AutoLu, SolverChoice};
 
@@ -62,6 +63,10 @@ pub struct IntegratorOptions {
     /// steps: LC tank energy 4.5e-11 after 10⁶ steps) where the Newton path's rounding is a random
     /// walk (5.5e-13). Off by default.
     pub affine_map: bool,
+    /// The step as a composition of substeps `γᵢ h` (each one step of `scheme`); a single step by
+    /// default. With the symmetric scheme (or no constraints) the compositions of
+    /// [`Composition`] raise the order of a second-order discretisation to 4, 6 or 8.
+    pub composition: Composition,
 }
 
 impl IntegratorOptions {
@@ -75,7 +80,15 @@ impl IntegratorOptions {
             solver: SolverChoice::Auto,
             newton: NewtonOptions::default(),
             affine_map: false,
+            composition: Composition::single(),
         }
+    }
+
+    /// Composes the step from substeps `γᵢ h` (see [`IntegratorOptions::composition`]).
+    #[must_use]
+    pub fn composition(mut self, composition: Composition) -> Self {
+        self.composition = composition;
+        self
     }
 
     /// Sets the flavour of a single-stage scheme.
@@ -228,15 +241,35 @@ impl Stage {
         constraints: &C,
         options: &IntegratorOptions,
     ) -> Vec<Self> {
-        let h = options.h;
-        match options.scheme {
-            Scheme::Plus => vec![Self::new(model, constraints, options, Flavour::Plus, h)],
-            Scheme::Minus => vec![Self::new(model, constraints, options, Flavour::Minus, h)],
-            Scheme::Symmetric => vec![
-                Self::new(model, constraints, options, Flavour::Minus, 0.5 * h),
-                Self::new(model, constraints, options, Flavour::Plus, 0.5 * h),
-            ],
+        let mut stages = Vec::new();
+        for &gamma in options.composition.gammas() {
+            let h = gamma * options.h;
+            match options.scheme {
+                Scheme::Plus => {
+                    stages.push(Self::new(model, constraints, options, Flavour::Plus, h))
+                }
+                Scheme::Minus => {
+                    stages.push(Self::new(model, constraints, options, Flavour::Minus, h));
+                }
+                Scheme::Symmetric => {
+                    stages.push(Self::new(
+                        model,
+                        constraints,
+                        options,
+                        Flavour::Minus,
+                        0.5 * h,
+                    ));
+                    stages.push(Self::new(
+                        model,
+                        constraints,
+                        options,
+                        Flavour::Plus,
+                        0.5 * h,
+                    ));
+                }
+            }
         }
+        stages
     }
 }
 

@@ -5,12 +5,14 @@
 //! for small systems and sparse LU (faer) above [`dirac_solve::DenseLu::AUTO_LIMIT`] unknowns; for linear models at fixed `h` the
 //! factorisation is computed once for the whole run.
 
+mod composition;
 mod error;
 mod integrator;
 mod linear;
 mod shooting;
 mod staggered;
 
+pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
 pub use error::SimError;
 pub use integrator::{Integrator, IntegratorOptions, Scheme, StepReport};
