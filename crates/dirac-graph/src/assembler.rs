@@ -279,6 +279,26 @@ impl Model for AssembledModel {
         self.autonomous
     }
 
+    fn depends_on_time(&self, i: usize) -> bool {
+        let part = self.parts.partition_point(|p| p.offset + p.dim <= i);
+        let own = self
+            .parts
+            .get(part)
+            .is_some_and(|p| i >= p.offset && p.model.depends_on_time(i - p.offset));
+        own || self.couplings.iter().any(|c| {
+            !c.element.is_autonomous() && c.ports().iter().any(|p| p.iter().any(|&(j, _)| j == i))
+        })
+    }
+
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        let parts = self.parts.iter().filter_map(|p| p.model.next_breakpoint(t));
+        let couplings = self
+            .couplings
+            .iter()
+            .filter_map(|c| c.element.next_breakpoint(t));
+        parts.chain(couplings).reduce(f64::min)
+    }
+
     fn coordinate_name(&self, i: usize) -> String {
         self.names[i].clone()
     }
@@ -854,6 +874,24 @@ impl Model for FrozenCouplingModel {
     }
     fn is_linear(&self) -> bool {
         self.inner.is_linear() && self.links.iter().all(|l| l.element.is_linear())
+    }
+    fn depends_on_time(&self, i: usize) -> bool {
+        self.inner.depends_on_time(i)
+            || self
+                .links
+                .iter()
+                .any(|l| !l.element.is_autonomous() && l.mine.iter().any(|&(j, _)| j == i))
+    }
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        let links = self
+            .links
+            .iter()
+            .filter_map(|l| l.element.next_breakpoint(t));
+        self.inner
+            .next_breakpoint(t)
+            .into_iter()
+            .chain(links)
+            .reduce(f64::min)
     }
     fn coordinate_name(&self, i: usize) -> String {
         self.inner.coordinate_name(i)

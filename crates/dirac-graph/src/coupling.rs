@@ -40,6 +40,11 @@ pub trait CouplingElement: Send + Sync {
     fn is_autonomous(&self) -> bool {
         false
     }
+    /// The first time after `t` at which the force stops being smooth in time (see
+    /// [`dirac_core::Model::next_breakpoint`]).
+    fn next_breakpoint(&self, _t: f64) -> Option<f64> {
+        None
+    }
     /// A short description for diagnostics.
     fn describe(&self) -> String;
 }

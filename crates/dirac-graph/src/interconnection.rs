@@ -226,6 +226,28 @@ impl Interconnection {
         })
     }
 
+    /// The subsystem named `name`.
+    #[must_use]
+    pub fn subsystem_id(&self, name: &str) -> Option<SubsystemId> {
+        self.by_name.get(name).copied()
+    }
+
+    /// The connection named `name` (the first, if names repeat).
+    #[must_use]
+    pub fn connection_id(&self, name: &str) -> Option<ConnectionId> {
+        self.connections
+            .iter()
+            .position(|c| c.name() == name)
+            .map(ConnectionId)
+    }
+
+    /// The local index of the coordinate named `coordinate` of subsystem `id`.
+    #[must_use]
+    pub fn coordinate_index(&self, id: SubsystemId, coordinate: &str) -> Option<usize> {
+        let model = self.subsystems.get(id.0)?.model();
+        (0..model.dim()).find(|&i| model.coordinate_name(i) == coordinate)
+    }
+
     /// The subsystems, in insertion order.
     #[must_use]
     pub fn subsystems(&self) -> &[Subsystem] {

@@ -151,7 +151,30 @@ pub struct Integrator<M, C> {
     p_next: Vec<f64>,
     stats: NewtonStats,
     affine: Affine,
+    /// Constraint impulses of the last step (all substeps and multiplier blocks), per active row.
+    impulse: Vec<f64>,
+    /// The state at the start of the step (restored when a substep fails and is cut).
+    saved_q: Vec<f64>,
+    saved_p: Vec<f64>,
+    saved_impulse: Vec<f64>,
+    counters: StepCounters,
 }
+
+/// How often steps were split: at source breakpoints and after Newton failures.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StepCounters {
+    /// Substeps ending on a breakpoint of a source (a step containing one corner takes two).
+    pub breakpoint_substeps: usize,
+    /// Times a substep failed and was retried as two halves.
+    pub step_cuts: usize,
+}
+
+/// Breakpoints closer than this fraction of `h` to a grid point or to each other are merged
+/// (a substep that short would only add round-off).
+const BREAKPOINT_SNAP: f64 = 1e-9;
+
+/// How many times a failing substep is halved before the failure is reported (down to h/1024).
+const MAX_CUT_DEPTH: u32 = 10;
 
 /// Largest state dimension `2n` (and unknown count) for which the step is applied as a dense map.
 const AFFINE_LIMIT: usize = 32;
@@ -209,6 +232,14 @@ struct Stage {
     older: Vec<f64>,
     /// Work space for diagnostics that re-evaluate the step equations.
     scratch: Vec<f64>,
+    /// This substep's size as a fraction of `h` (a composition's `γᵢ`, halved by the symmetric
+    /// scheme).
+    fraction: f64,
+    /// Newton for substeps of other sizes (landing on a breakpoint, a cut step), so the regular
+    /// step keeps its factorisation.
+    aux: Option<(Newton<AutoLu>, f64)>,
+    /// The size of the last solve (the guess of the next one is scaled from it).
+    last_size: f64,
 }
 
 impl Stage {
@@ -222,6 +253,9 @@ impl Stage {
         let step = ForcedDiracStep::new(model, constraints, &options.discretisation, flavour, h);
         let unknowns = step.unknowns();
         Self {
+            fraction: h / options.h,
+            aux: None,
+            last_size: h,
             newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
             x: vec![0.0; unknowns],
             older: vec![0.0; unknowns],
@@ -333,6 +367,11 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             p_next: vec![0.0; n],
             stats: NewtonStats::default(),
             affine: Affine::Unknown,
+            impulse: Vec::new(),
+            saved_q: vec![0.0; n],
+            saved_p: vec![0.0; n],
+            saved_impulse: Vec::new(),
+            counters: StepCounters::default(),
         })
     }
 
@@ -462,6 +501,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         if matches!(self.affine, Affine::Unknown) {
             self.affine = self.build_affine()?;
         }
+        self.impulse.clear();
+        self.impulse.resize(self.constraints.count(), 0.0);
         if let Affine::Map { x, p, x0, p0, z } = &mut self.affine {
             let n = self.q.len();
             z[..n].copy_from_slice(&self.q);
@@ -475,21 +516,191 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             }
             stage.step.set_start(&self.q, &self.p, self.t);
             stage.step.end_position(&stage.x, &mut self.q);
+            Self::add_impulse(&mut self.impulse, stage);
             self.k += 1;
             self.t = self.t0 + self.k as f64 * self.options.h;
             return Ok(StepReport {
                 newton: NewtonStats::default(),
             });
         }
+        let h = self.options.h;
+        let t_end = self.t0 + (self.k + 1) as f64 * h;
         let mut stats = NewtonStats::default();
-        for i in 0..self.stages.len() {
-            stats.accumulate(&self.substep(i)?);
+        loop {
+            let t = self.t;
+            let mut corner = self.model.next_breakpoint(t);
+            while let Some(b) = corner.filter(|b| *b <= t + BREAKPOINT_SNAP * h) {
+                corner = self.model.next_breakpoint(b);
+            }
+            match corner.filter(|b| *b < t_end - BREAKPOINT_SNAP * h) {
+                Some(b) => {
+                    self.counters.breakpoint_substeps += 1;
+                    stats.accumulate(&self.advance(b - t, 0)?);
+                    self.t = b;
+                }
+                None => {
+                    stats.accumulate(&self.advance(t_end - t, 0)?);
+                    break;
+                }
+            }
         }
         self.k += 1;
         // t_k = t₀ + k h, not a running sum (which drifts by ~k·ε·h).
-        self.t = self.t0 + self.k as f64 * self.options.h;
+        self.t = t_end;
         self.stats.accumulate(&stats);
         Ok(StepReport { newton: stats })
+    }
+
+    /// Advances by `size` (every substep of the scheme, scaled), halving it up to
+    /// [`MAX_CUT_DEPTH`] times while Newton fails.
+    fn advance(&mut self, size: f64, depth: u32) -> Result<NewtonStats, SimError> {
+        let regular = (size - self.options.h).abs() <= 1e-12 * self.options.h;
+        // The state before this attempt, restored if it fails (preallocated for the first
+        // attempt, so a step that needs no cut allocates nothing).
+        let saved = if depth == 0 {
+            self.saved_q.copy_from_slice(&self.q);
+            self.saved_p.copy_from_slice(&self.p);
+            self.saved_impulse.clone_from(&self.impulse);
+            None
+        } else {
+            Some((self.q.clone(), self.p.clone(), self.impulse.clone()))
+        };
+        let t = self.t;
+        let mut stats = NewtonStats::default();
+        let mut result = Ok(());
+        for i in 0..self.stages.len() {
+            let solved = if regular {
+                self.substep(i)
+            } else {
+                let fraction = self.stages[i].fraction;
+                self.substep_sized(i, fraction * size)
+            };
+            match solved {
+                Ok(s) => stats.accumulate(&s),
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            }
+        }
+        let error = match result {
+            Ok(()) => return Ok(stats),
+            Err(e) => e,
+        };
+        let retry = matches!(
+            &error,
+            SimError::Newton {
+                source: NewtonError::NotConverged { .. }
+                    | NewtonError::NonFiniteResidual { .. }
+                    | NewtonError::Linear {
+                        source: LinearSolveError::NumericallySingular { .. }
+                            | LinearSolveError::NonFinite { .. },
+                        ..
+                    },
+                ..
+            }
+        );
+        if !retry || depth >= MAX_CUT_DEPTH {
+            return Err(match error {
+                SimError::Newton {
+                    step,
+                    t,
+                    source,
+                    likely_cause,
+                } if depth > 0 => SimError::Newton {
+                    step,
+                    t,
+                    source,
+                    likely_cause: format!(
+                        "{likely_cause} (the step was cut {depth} times, to h/{}, without success)",
+                        1u64 << depth
+                    ),
+                },
+                other => other,
+            });
+        }
+        match saved {
+            None => {
+                self.q.copy_from_slice(&self.saved_q);
+                self.p.copy_from_slice(&self.saved_p);
+                self.impulse.clone_from(&self.saved_impulse);
+            }
+            Some((q, p, impulse)) => {
+                self.q = q;
+                self.p = p;
+                self.impulse = impulse;
+            }
+        }
+        self.t = t;
+        self.counters.step_cuts += 1;
+        let half = 0.5 * size;
+        let first = self.advance(half, depth + 1)?;
+        self.t = t + half;
+        let second = self.advance(half, depth + 1)?;
+        stats.accumulate(&first);
+        stats.accumulate(&second);
+        Ok(stats)
+    }
+
+    /// Substep `i` at a size other than its regular one, solved with the stage's auxiliary Newton
+    /// (the regular factorisation is kept).
+    fn substep_sized(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
+        let stage = &mut self.stages[i];
+        let nominal = stage.step.step_size();
+        stage.step.set_step_size(size);
+        stage.step.set_start(&self.q, &self.p, self.t);
+        if self.k == 0 && stage.last_size == nominal {
+            stage
+                .step
+                .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
+        } else {
+            let ratio = size / stage.last_size;
+            for x in &mut stage.x {
+                *x *= ratio;
+            }
+        }
+        let options = self.options.newton;
+        let solver = self.options.solver;
+        let unknowns = stage.step.unknowns();
+        let (newton, aux_size) = stage.aux.get_or_insert_with(|| {
+            (
+                Newton::new(AutoLu::for_size(solver, unknowns), options),
+                size,
+            )
+        });
+        if *aux_size != size {
+            newton.invalidate_factorisation();
+            *aux_size = size;
+        }
+        let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
+        let result = self.solve_stage(i, scale, false, true);
+        let stage = &mut self.stages[i];
+        stage.step.set_step_size(nominal);
+        stage.last_size = size;
+        let stats = result?;
+        stage.step.set_step_size(size);
+        stage
+            .step
+            .end_momentum(&self.model, &stage.x, &mut self.p_next);
+        stage.step.end_position(&stage.x, &mut self.q);
+        stage.step.set_step_size(nominal);
+        // The next regular step starts its predictor afresh from this solution.
+        stage.older.copy_from_slice(&stage.x);
+        Self::add_impulse(&mut self.impulse, stage);
+        std::mem::swap(&mut self.p, &mut self.p_next);
+        self.t += size;
+        Ok(stats)
+    }
+
+    /// Adds every multiplier block of stage `stage`'s solution to `impulse`.
+    fn add_impulse(impulse: &mut [f64], stage: &Stage) {
+        let m = impulse.len();
+        for j in 0..stage.step.degree() {
+            let o = stage.step.multiplier_offset(j);
+            for (acc, l) in impulse.iter_mut().zip(&stage.x[o..o + m]) {
+                *acc += l;
+            }
+        }
     }
 
     /// Solves stage `i`'s step equations from its current start and guess, reporting a failure
@@ -501,8 +712,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         i: usize,
         scale: f64,
         end_momentum: bool,
+        aux: bool,
     ) -> Result<NewtonStats, SimError> {
         let stage = &mut self.stages[i];
+        let newton = match (&mut stage.aux, aux) {
+            (Some((newton, _)), true) => newton,
+            _ => &mut stage.newton,
+        };
         let mut system = StepSystem {
             model: &self.model,
             constraints: &self.constraints,
@@ -513,7 +729,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             scale,
             end_momentum: end_momentum.then_some(&mut stage.linear_end.at_guess[..]),
         };
-        match stage.newton.solve(&mut system, &mut stage.x) {
+        match newton.solve(&mut system, &mut stage.x) {
             Ok(stats) => Ok(stats),
             Err(source) => {
                 let likely_cause = self.likely_cause(&source);
@@ -537,7 +753,16 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let constant = stage
             .step
             .jacobian_is_constant(&self.model, &self.constraints);
-        if self.k == 0 {
+        let nominal = stage.step.step_size();
+        if stage.last_size != nominal {
+            // After a substep of another size: scale its solution, extrapolate nothing.
+            let ratio = nominal / stage.last_size;
+            for (x, old) in stage.x.iter_mut().zip(stage.older.iter_mut()) {
+                *x *= ratio;
+                *old = *x;
+            }
+            stage.last_size = nominal;
+        } else if self.k == 0 {
             stage
                 .step
                 .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
@@ -554,7 +779,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             stage.linear_end.guess.copy_from_slice(&stage.x);
         }
         let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
-        let stats = self.solve_stage(i, scale, constant)?;
+        let stats = self.solve_stage(i, scale, constant, false)?;
         let stage = &mut self.stages[i];
         if constant {
             let end = &mut stage.linear_end;
@@ -573,6 +798,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .end_momentum(&self.model, &stage.x, &mut self.p_next);
         }
         stage.step.end_position(&stage.x, &mut self.q);
+        Self::add_impulse(&mut self.impulse, stage);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.t += stage.step.step_size();
         Ok(stats)
@@ -616,7 +842,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             let stage = &mut self.stages[0];
             stage.step.set_start(&column[..n], &column[n..], self.t);
             stage.x.fill(0.0);
-            let stats = self.solve_stage(0, 1.0, false)?;
+            let stats = self.solve_stage(0, 1.0, false, false)?;
             self.stats.accumulate(&stats);
             let stage = &mut self.stages[0];
             stage
@@ -741,6 +967,26 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     #[must_use]
     pub fn stats(&self) -> NewtonStats {
         self.stats
+    }
+
+    /// How often steps were split at breakpoints or cut after a Newton failure.
+    #[must_use]
+    pub fn counters(&self) -> StepCounters {
+        self.counters
+    }
+
+    /// The constraint impulses of the last step, one per active row: the sum of every
+    /// multiplier block of every substep (divided by `h`, the mean constraint force over the
+    /// step).
+    #[must_use]
+    pub fn last_step_impulses(&self) -> &[f64] {
+        &self.impulse
+    }
+
+    /// The step size `h`.
+    #[must_use]
+    pub fn step_size(&self) -> f64 {
+        self.options.h
     }
 
     /// The model.

@@ -15,7 +15,7 @@ mod staggered;
 pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
 pub use error::SimError;
-pub use integrator::{Integrator, IntegratorOptions, Scheme, StepReport};
+pub use integrator::{Integrator, IntegratorOptions, Scheme, StepCounters, StepReport};
 pub use linear::{AutoLu, SolverChoice};
 pub use shooting::ShootingIntegrator;
 pub use staggered::{Splitting, Staggered};
