@@ -262,9 +262,9 @@ impl Csr {
 fn maximum_matching(adjacency: &Csr, rows: usize, cols: usize) -> (Vec<usize>, Vec<usize>) {
     let mut col_of_row = vec![NONE; rows];
     let mut row_of_col = vec![NONE; cols];
-    for r in 0..rows {
+    for (r, matched) in col_of_row.iter_mut().enumerate() {
         if let Some(&c) = adjacency.row(r).iter().find(|&&c| row_of_col[c] == NONE) {
-            col_of_row[r] = c;
+            *matched = c;
             row_of_col[c] = r;
         }
     }
