@@ -472,6 +472,12 @@ impl AssembledSystem {
         self.connection_rows.get(c).copied().flatten()
     }
 
+    /// Number of connections of the graph this system was assembled from.
+    #[must_use]
+    pub fn connection_count(&self) -> usize {
+        self.connection_rows.len()
+    }
+
     /// Global vector from per-subsystem vectors; endpoint entries take the partner port's value
     /// (positions for `q`, flows for `v`), which makes the initial state consistent.
     pub fn global_vector(

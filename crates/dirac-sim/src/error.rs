@@ -45,6 +45,14 @@ pub enum SimError {
     /// The interconnection could not be assembled.
     #[error(transparent)]
     Graph(#[from] dirac_graph::GraphError),
+    /// A recorded value is NaN or infinite (the state left the model's domain).
+    #[error("t = {t}: `{what}` is not finite (the state left the model's domain)")]
+    NonFinite {
+        /// The signal.
+        what: String,
+        /// The time of the row.
+        t: f64,
+    },
     /// A non-positive or non-finite step size.
     #[error("step size must be positive and finite, got {0}")]
     StepSize(f64),

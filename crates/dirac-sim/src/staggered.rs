@@ -97,6 +97,24 @@ impl Staggered {
         Ok(())
     }
 
+    /// The per-part integrators, in graph order.
+    #[must_use]
+    pub fn parts(&self) -> &[Integrator<FrozenCouplingModel, SharedConstraints>] {
+        &self.parts
+    }
+
+    /// The time of the current state.
+    #[must_use]
+    pub fn time(&self) -> f64 {
+        self.parts.first().map_or(0.0, Integrator::t)
+    }
+
+    /// Steps taken since initialisation.
+    #[must_use]
+    pub fn steps_taken(&self) -> usize {
+        self.parts.first().map_or(0, Integrator::steps_taken)
+    }
+
     /// Positions of every subsystem, concatenated in graph order.
     #[must_use]
     pub fn positions(&self) -> Vec<f64> {
