@@ -312,7 +312,6 @@ struct StepSystem<'a, M: ?Sized, C: ?Sized> {
     constraints: &'a C,
     step: &'a mut ForcedDiracStep,
     constant: bool,
-    scale: f64,
     /// When set, the first residual evaluation (at the guess) also writes the end momentum there.
     end_momentum: Option<&'a mut [f64]>,
 }
@@ -336,8 +335,14 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for StepSystem<
     fn jacobian_is_constant(&self) -> bool {
         self.constant
     }
-    fn residual_scale(&self) -> f64 {
-        self.scale
+    fn constant_magnitudes(&mut self, out: &mut [f64]) {
+        self.step.constant_magnitudes(self.constraints, out);
+    }
+    fn update_fraction(&mut self, x: &[f64], update: &[f64]) -> f64 {
+        if self.constant || !self.model.has_update_limit() {
+            return 1.0;
+        }
+        self.step.update_fraction(self.model, x, update)
     }
 }
 
@@ -672,8 +677,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             newton.invalidate_factorisation();
             *aux_size = size;
         }
-        let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
-        let result = self.solve_stage(i, scale, false, true);
+        let result = self.solve_stage(i, false, true);
         let stage = &mut self.stages[i];
         stage.step.set_step_size(nominal);
         stage.last_size = size;
@@ -710,7 +714,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     fn solve_stage(
         &mut self,
         i: usize,
-        scale: f64,
         end_momentum: bool,
         aux: bool,
     ) -> Result<NewtonStats, SimError> {
@@ -726,7 +729,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .step
                 .jacobian_is_constant(&self.model, &self.constraints),
             step: &mut stage.step,
-            scale,
             end_momentum: end_momentum.then_some(&mut stage.linear_end.at_guess[..]),
         };
         match newton.solve(&mut system, &mut stage.x) {
@@ -778,8 +780,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         if constant {
             stage.linear_end.guess.copy_from_slice(&stage.x);
         }
-        let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
-        let stats = self.solve_stage(i, scale, constant, false)?;
+        let stats = self.solve_stage(i, constant, false)?;
         let stage = &mut self.stages[i];
         if constant {
             let end = &mut stage.linear_end;
@@ -842,7 +843,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             let stage = &mut self.stages[0];
             stage.step.set_start(&column[..n], &column[n..], self.t);
             stage.x.fill(0.0);
-            let stats = self.solve_stage(0, 1.0, false, false)?;
+            let stats = self.solve_stage(0, false, false)?;
             self.stats.accumulate(&stats);
             let stage = &mut self.stages[0];
             stage

@@ -255,7 +255,6 @@ impl Readout {
             row_slot: &self.row_slot,
             work: &mut self.work,
             constant: self.constant,
-            scale,
         };
         if self.rows.is_empty() {
             system.scatter(&self.reduced);
@@ -659,7 +658,6 @@ struct System<'a, M: ?Sized, C: ?Sized> {
     row_slot: &'a [usize],
     work: &'a mut Work,
     constant: bool,
-    scale: f64,
 }
 
 impl<M: Model + ?Sized, C: Constraints + ?Sized> System<'_, M, C> {
@@ -723,7 +721,20 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for System<'_, 
         self.constant
     }
 
-    fn residual_scale(&self) -> f64 {
-        self.scale
+    fn update_fraction(&mut self, x: &[f64], update: &[f64]) -> f64 {
+        if self.constant || !self.model.has_update_limit() {
+            return 1.0;
+        }
+        let n = self.layout.n;
+        let mut v = vec![0.0; n];
+        let mut dv = vec![0.0; n];
+        for ((&c, &value), &u) in self.cols.iter().zip(x).zip(update) {
+            if c < n {
+                v[c] = value;
+                dv[c] = -u;
+            }
+        }
+        let dq = vec![0.0; n];
+        self.model.update_fraction(self.q, &v, &dq, &dv)
     }
 }
