@@ -3,7 +3,8 @@
 use std::collections::HashMap;
 
 use dirac_components::{
-    Capacitor, CoupledInductors, CurrentSource, Diode, Inductor, Resistor, VoltageSource, Waveform,
+    Capacitor, CoupledInductors, CurrentSource, Diode, DiodeParameters, Inductor, Resistor,
+    VoltageSource, Waveform,
 };
 use dirac_graph::{GraphError, Interconnection, PortRef, Subsystem};
 use thiserror::Error;
@@ -32,6 +33,14 @@ pub enum CircuitError {
     NoTran {
         /// File name.
         file: String,
+    },
+    /// A diode's model parameters cannot be used.
+    #[error("diode `{element}`: {source}")]
+    Diode {
+        /// The diode.
+        element: String,
+        /// What is wrong with its model.
+        source: dirac_components::DiodeError,
     },
     /// Assembling the graph failed.
     #[error(transparent)]
@@ -253,12 +262,16 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 vec![0.0, 0.0],
             ),
             Element::D { name, model, .. } => {
-                let diode = Diode {
-                    is: model.is,
-                    n: model.n,
-                    vt: Diode::VT_300K,
+                let card = DiodeParameters {
                     rs: model.rs,
+                    ..DiodeParameters::new(model.is, model.n)
                 };
+                let diode = Diode::at_temperature(&card, 27.0)
+                    .map_err(|e| CircuitError::Diode {
+                        element: name.clone(),
+                        source: e,
+                    })?
+                    .diode;
                 (
                     name,
                     diode.subsystem(name.clone()),

@@ -4,9 +4,9 @@
 use std::collections::HashMap;
 
 use dirac_components::{
-    Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource, Ground,
-    IdealGear, IdealTransformer, Inductor, Inertia, Mass, Pendulum, PlanarLinkage, Resistor,
-    RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
+    Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, DiodeParameters,
+    ForceSource, Ground, IdealGear, IdealTransformer, Inductor, Inertia, Mass, Pendulum,
+    PlanarLinkage, Resistor, RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
 };
 use dirac_core::Discretisation;
 use dirac_graph::{
@@ -438,16 +438,17 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
                 zeros(2),
             )
         }
-        PartKind::Diode(p) => (
-            Diode {
-                is: c.positive("is", p.is)?,
-                n: c.positive("n", p.n)?,
-                vt: c.positive("vt", p.vt)?,
+        PartKind::Diode(p) => {
+            let card = DiodeParameters {
                 rs: c.non_negative("rs", p.rs)?,
-            }
-            .subsystem(name),
-            zeros(2),
-        ),
+                tnom: p.temp,
+                ..DiodeParameters::new(c.positive("is", p.is)?, c.positive("n", p.n)?)
+            };
+            let diode = Diode::at_temperature(&card, p.temp)
+                .map_err(|e| c.fail("temp", e.value, e.reason))?
+                .diode;
+            (diode.subsystem(name), zeros(2))
+        }
         PartKind::SaturatingInductor(p) => {
             let l0 = c.positive("l0", p.l0)?;
             let l_inf = c.non_negative("l_inf", p.l_inf)?;

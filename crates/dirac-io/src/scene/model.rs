@@ -574,11 +574,12 @@ fn default_emission() -> f64 {
     1.0
 }
 
-fn default_vt() -> f64 {
-    dirac_components::Diode::VT_300K
+fn default_temp() -> f64 {
+    27.0
 }
 
-/// `diode`: `is` (A, > 0), `n` (default 1), `vt` (V, default kT/q at 300 K), `rs` (Ω, default 0).
+/// `diode`: `is` (A, > 0), `n` (default 1), `temp` (°C, default 27: the thermal voltage is
+/// `k·temp/q`), `rs` (Ω, default 0).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DiodeParams {
@@ -587,9 +588,9 @@ pub struct DiodeParams {
     /// Emission coefficient.
     #[serde(default = "default_emission")]
     pub n: f64,
-    /// Thermal voltage.
-    #[serde(default = "default_vt")]
-    pub vt: f64,
+    /// Junction temperature (°C); the parameters are taken as measured at it.
+    #[serde(default = "default_temp")]
+    pub temp: f64,
     /// Series resistance.
     #[serde(default)]
     pub rs: f64,
