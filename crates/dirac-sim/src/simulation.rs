@@ -78,6 +78,9 @@ pub enum RunError {
     /// (every value involved was given).
     #[error("contradictory initial data: {0}")]
     ContradictoryStart(String),
+    /// Algebraic relations of the model that contradict each other whatever the state.
+    #[error("inconsistent model: {0}")]
+    InconsistentModel(String),
     /// Step size, end time or start that cannot be run.
     #[error("{0}")]
     Settings(String),
@@ -529,6 +532,11 @@ impl Simulation {
             .map(|r| readout.describe_row(&model, integrator.active_constraints(), *r))
             .collect::<Vec<_>>()
             .join("; ");
+        if involved.is_empty() {
+            return Err(RunError::InconsistentModel(format!(
+                "{relation} cannot hold together with the model's other relations whatever the initial state (a cut set of current sources, or a loop of voltage sources, fixes one value twice)"
+            )));
+        }
         if candidates.is_empty() {
             return Err(RunError::ContradictoryStart(format!(
                 "{} (all given) violate {relation}",
@@ -645,6 +653,23 @@ impl Simulation {
         Ok(())
     }
 
+    /// Checks that this simulation can record `signals` (a staggered run has no multipliers).
+    ///
+    /// # Errors
+    /// [`RunError::UnknownSignal`] naming the first signal it cannot record.
+    pub fn check_signals(&self, signals: &[Signal]) -> Result<(), RunError> {
+        if let (Execution::Staggered(_), Some(signal)) = (
+            self.execution,
+            signals.iter().find(|s| s.probe.needs_multipliers()),
+        ) {
+            return Err(RunError::UnknownSignal(format!(
+                "`{}` is the multiplier of a node or joint, which a staggered run does not have; record it in the monolithic, constraint or force representation",
+                signal.name
+            )));
+        }
+        Ok(())
+    }
+
     /// Runs to `t_end` and collects `signals` at every output time.
     ///
     /// # Errors
@@ -687,6 +712,7 @@ impl Simulation {
         {
             self.track_residual = true;
         }
+        self.check_signals(signals)?;
         self.engine = None;
         self.prepare()?;
         let h = self.options.h;

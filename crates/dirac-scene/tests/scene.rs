@@ -4,13 +4,9 @@
 use std::path::PathBuf;
 
 use dirac_core::Discretisation;
-use dirac_graph::Representation;
-use dirac_io::scene::{RepresentationSpec, SplittingSpec};
-use dirac_io::{
-    Execution, Quantity, RunSettings, Scene, SceneError, SceneSimulation, recorded_columns,
-    run_circuit, run_scene, run_scene_recorded,
-};
-use dirac_sim::Scheme;
+use dirac_graph::{Representation, SubsystemId};
+use dirac_scene::{BuiltScene, RepresentationSpec, Scene, SceneError, SplittingSpec};
+use dirac_sim::{Execution, Probe, RunSummary, Simulation};
 
 /// Round-off allowance for order-one states over 1000 steps (as in the workspace's
 /// representation-equivalence tests).
@@ -39,10 +35,29 @@ fn bundled() -> Vec<String> {
     names
 }
 
+/// The scene's simulation, prepared.
+fn simulation(built: &BuiltScene) -> Simulation {
+    let mut sim = built.simulation().unwrap_or_else(|e| panic!("{e}"));
+    sim.prepare().unwrap_or_else(|e| panic!("{e}"));
+    sim
+}
+
+/// Every row of a run of `built` with its signals, and the run's summary.
+fn rows(built: &BuiltScene) -> (Vec<(f64, Vec<f64>)>, RunSummary) {
+    let mut sim = built.simulation().unwrap_or_else(|e| panic!("{e}"));
+    let (run, summary) = sim
+        .run(built.t_end, &built.signals)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let rows = (0..run.len())
+        .map(|k| (run.t()[k], run.row(k).to_vec()))
+        .collect();
+    (rows, summary)
+}
+
 /// Positions and momenta after each of `steps` steps.
 fn trajectory(scene: &Scene, steps: usize) -> Vec<(Vec<f64>, Vec<f64>)> {
     let built = scene.build().unwrap_or_else(|e| panic!("{e}"));
-    let mut sim = SceneSimulation::new(&built).unwrap_or_else(|e| panic!("{e}"));
+    let mut sim = simulation(&built);
     let mut out = vec![(sim.positions(), sim.momenta())];
     for _ in 0..steps {
         sim.step().unwrap_or_else(|e| panic!("{e}"));
@@ -107,13 +122,9 @@ fn seed_rlc_reproduces_the_paper() {
     );
     let names: Vec<&str> = built.signals.iter().map(|s| s.name.as_str()).collect();
     assert_eq!(names, ["C1.q", "L1.i"]);
-    let mut rows = Vec::new();
-    let summary = run_scene(&built, &built.signals, |t, v| {
-        rows.push((t, v.to_vec()));
-        Ok(())
-    })
-    .unwrap();
+    let (rows, summary) = rows(&built);
     assert_eq!(rows.len(), 1001);
+    // n3 restates n1 and n2 (KCL written at every node of the loop): the one warning.
     assert_eq!(summary.warnings.len(), 1, "{:?}", summary.warnings);
     let (l, c, r): (f64, f64, f64) = (0.75, 3.0, 0.1);
     let gamma = r / (2.0 * l);
@@ -128,10 +139,11 @@ fn seed_rlc_reproduces_the_paper() {
         (err - SEED_ERROR).abs() <= SEED_TOLERANCE * SEED_ERROR,
         "{err:e}"
     );
-    // The loop current: KCL at n3 makes the inductor's current the capacitor's, q̇_C.
+    // The loop current: KCL at n3 makes the inductor's current the capacitor's, q̇_C. Read at
+    // t_k from (q_k, p_k), row 0 included (it is the initial state, zero current).
+    assert_eq!(rows[0].1, [1.0, 0.0]);
     let current_err = rows
         .iter()
-        .skip(1)
         .map(|(t, v)| {
             let dq = (-gamma * t).exp() * (-(gamma * gamma / wd + wd) * (wd * t).sin());
             (v[1] - dq).abs()
@@ -141,33 +153,37 @@ fn seed_rlc_reproduces_the_paper() {
     assert!(current_err < 2.0 * SEED_ERROR, "{current_err:e}");
 }
 
-/// The scene's netlist form run by the netlist runner gives the same rows as the scene runner
-/// (same initial momenta: v₀ = 0), so a CLI can treat both alike.
+/// The two readers give one model: the seed scene and the same circuit written as a netlist
+/// (C1 = 3 F with IC = 1/3 V, i.e. the scene's q0 = 1 C) run through the one run layer to the same
+/// charges and currents, bit for bit.
 #[test]
-fn scene_and_circuit_runners_agree() {
+fn scene_and_netlist_readers_agree() {
     let built = load("seed_rlc.toml").build().unwrap();
-    let circuit = built.circuit();
-    assert_eq!((circuit.h, circuit.t_end), (Some(0.05), Some(50.0)));
-    let settings = RunSettings {
-        h: 0.05,
-        t_end: 50.0,
-        representation: Representation::Monolithic,
-        discretisation: Discretisation::midpoint(),
-        scheme: Scheme::Plus,
-    };
-    let mut a = Vec::new();
-    run_circuit(&circuit, &settings, &circuit.signals, |t, v| {
-        a.push((t, v.to_vec()));
-        Ok(())
-    })
-    .unwrap();
-    let mut b = Vec::new();
-    run_scene(&built, &built.signals, |t, v| {
-        b.push((t, v.to_vec()));
-        Ok(())
-    })
-    .unwrap();
-    assert_eq!(a, b);
+    let (scene_rows, _) = rows(&built);
+    let text = "seed\nC1 n2 n3 3 IC={1/3}\nL1 n3 n1 0.75\nR1 n1 n2 0.1\n.tran 0.05 50 uic\n.end\n";
+    let net = dirac_netlist::parse_netlist(text, "seed.cir").unwrap();
+    let circuit = dirac_netlist::build_circuit(&net, "seed.cir").unwrap();
+    let signals = [
+        circuit.signal("q(c1)").unwrap(),
+        circuit.signal("i(l1)").unwrap(),
+    ];
+    let mut sim = circuit
+        .simulation(
+            Execution::Assembled(Representation::Monolithic),
+            built.options.clone(),
+            circuit.start(),
+        )
+        .unwrap();
+    let (run, _) = sim.run(50.0, &signals).unwrap();
+    assert_eq!(run.len(), scene_rows.len());
+    for (k, (_, v)) in scene_rows.iter().enumerate() {
+        // The netlist's q0 = 3 F × (1/3) V differs from the scene's 1.0 by one rounding.
+        assert!(
+            (v[0] - run.row(k)[0]).abs() <= 4e-16 && (v[1] - run.row(k)[1]).abs() <= 4e-16,
+            "row {k}: {v:?} vs {:?}",
+            run.row(k)
+        );
+    }
 }
 
 /// Two-mass split: the constraint and force representations follow the monolithic trajectory to
@@ -215,12 +231,7 @@ fn staggered_scene_records_rows() {
     scene.simulation.representation = RepresentationSpec::Staggered;
     scene.simulation.t_end = 1.0;
     let built = scene.build().unwrap();
-    let mut rows = Vec::new();
-    run_scene(&built, &built.signals, |t, v| {
-        rows.push((t, v.to_vec()));
-        Ok(())
-    })
-    .unwrap();
+    let (rows, _) = rows(&built);
     assert_eq!(rows.len(), 11);
     assert_eq!(rows[0].1[..2], [1.0, 0.0]);
     assert!((rows[10].0 - 1.0).abs() < 1e-12);
@@ -432,19 +443,35 @@ forces = ["duffing", "shaft"]
     assert_eq!(built.q0[13], [0.5], "ground starts at its position");
     assert_eq!(built.q0[14], [1.0, -1.0], "pendulum starts hanging");
     assert_eq!(built.v0[1], [0.5]);
-    assert_eq!(built.recording.forces.len(), 2);
-    let kinds: Vec<(String, Quantity)> = built
+    let kinds: Vec<(&str, &str)> = built
         .signals
         .iter()
-        .map(|s| (s.name.clone(), s.quantity))
+        .map(|s| {
+            let kind = match s.probe {
+                Probe::Position { .. } => "value",
+                Probe::Velocity { .. } | Probe::Flow(_) => "rate",
+                Probe::Energy => "energy",
+                Probe::Power(_) => "power",
+                Probe::ConstraintResidual => "residual",
+                Probe::CouplingForce(_) => "coupling force",
+                Probe::Effort(_) => "multiplier",
+                _ => "other",
+            };
+            (s.name.as_str(), kind)
+        })
         .collect();
     assert_eq!(
         kinds,
         [
-            ("Link.rod.theta".to_string(), Quantity::Value),
-            ("Mo.i".to_string(), Quantity::Rate),
-            ("M.x'".to_string(), Quantity::Rate),
-            ("T.q2".to_string(), Quantity::Value),
+            ("Link.rod.theta", "value"),
+            ("Mo.i", "rate"),
+            ("M.x'", "rate"),
+            ("T.q2", "value"),
+            ("energy", "energy"),
+            ("power(R)", "power"),
+            ("constraint_residual", "residual"),
+            ("force(duffing)", "coupling force"),
+            ("force(shaft)", "multiplier"),
         ]
     );
     let out = scene.to_toml().unwrap();
@@ -469,10 +496,10 @@ pins = [{ body = "rod", point = [-0.5, 0.0], ground = [0.0, 0.0] }]
 q0 = { "rod.x" = 0.5, "rod.y" = 0.0, "rod.theta" = 0.0 }
 "#;
     let built = Scene::parse(text, "rod.toml").unwrap().build().unwrap();
-    let mut sim = SceneSimulation::new(&built).unwrap();
+    let mut sim = simulation(&built).track_residual(true);
     for _ in 0..100 {
         sim.step().unwrap();
-        assert!(sim.constraint_residual() < 1e-12);
+        assert!(sim.snapshot().unwrap().residual < 1e-12);
     }
     let q = sim.positions();
     // The free end falls: the rod turns clockwise from horizontal.
@@ -486,7 +513,7 @@ q0 = { "rod.x" = 0.5, "rod.y" = 0.0, "rod.theta" = 0.0 }
 #[test]
 fn documented_example_parses() {
     let source =
-        std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src/scene.rs"))
+        std::fs::read_to_string(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src/lib.rs"))
             .expect("source");
     let text: String = source
         .lines()
@@ -503,29 +530,42 @@ fn documented_example_parses() {
     assert!(text.contains("[simulation]"), "{text}");
     let scene = Scene::parse(&text, "doc.toml").unwrap_or_else(|e| panic!("{e}\n{text}"));
     let built = scene.build().unwrap();
-    let kinds: Vec<(&str, Quantity, usize)> = built
-        .signals
-        .iter()
-        .map(|s| (s.name.as_str(), s.quantity, s.index))
-        .collect();
+    let names: Vec<&str> = built.signals.iter().map(|s| s.name.as_str()).collect();
     assert_eq!(
-        kinds,
+        names,
         [
-            ("C1.q", Quantity::Value, 0),
-            ("L1.i", Quantity::Rate, 1),
-            ("L1.q'", Quantity::Rate, 1)
+            "C1.q",
+            "L1.i",
+            "L1.q'",
+            "energy",
+            "power(R1)",
+            "constraint_residual",
+            "force(n1)"
         ]
     );
+    let (c1, l1) = (SubsystemId(0), SubsystemId(1));
+    assert_eq!(
+        built.signals[0].probe,
+        Probe::Position {
+            part: c1,
+            coordinate: 0
+        }
+    );
+    assert!(matches!(built.signals[1].probe, Probe::Flow(p) if p.subsystem == l1));
+    assert_eq!(
+        built.signals[2].probe,
+        Probe::Velocity {
+            part: l1,
+            coordinate: 0
+        }
+    );
     assert_eq!(built.options.discretisation, Discretisation::gauss(2));
-    assert!(built.recording.energy && built.recording.residuals);
-    assert_eq!(built.recording.power.len(), 1);
-    assert_eq!(built.recording.forces.len(), 1);
     let run = trajectory(&scene, 100);
     assert!(run[100].0.iter().all(|x| x.is_finite()));
 }
 
-/// Without `signals`, every coordinate and every flow port is recorded; `recordable` adds the
-/// rates; `signal` resolves a name.
+/// Without `signals`, every coordinate and every flow port is recorded; `signal` resolves a name
+/// (a coordinate, its rate, a port's flow, a recorded quantity).
 #[test]
 fn default_and_recordable_signals() {
     let mut scene = load("seed_rlc.toml");
@@ -533,16 +573,18 @@ fn default_and_recordable_signals() {
     let built = scene.build().unwrap();
     let names: Vec<&str> = built.signals.iter().map(|s| s.name.as_str()).collect();
     assert_eq!(names, ["C1.q", "C1.i", "L1.q", "L1.i", "R1.q", "R1.i"]);
-    let all: Vec<String> = built.recordable().into_iter().map(|s| s.name).collect();
-    assert_eq!(
-        all,
-        [
-            "C1.q", "C1.q'", "C1.i", "L1.q", "L1.q'", "L1.i", "R1.q", "R1.q'", "R1.i"
-        ]
-    );
     let s = built.signal("R1.q'").unwrap();
-    assert_eq!((s.quantity, s.index), (Quantity::Rate, 2));
-    assert_eq!(built.signal("R1.i").unwrap().index, 2);
+    assert_eq!(
+        s.probe,
+        Probe::Velocity {
+            part: SubsystemId(2),
+            coordinate: 0
+        }
+    );
+    assert!(
+        matches!(built.signal("R1.i").unwrap().probe, Probe::Flow(p) if p.subsystem == SubsystemId(2))
+    );
+    assert_eq!(built.signal("energy").unwrap().probe, Probe::Energy);
     assert!(matches!(
         built.signal("R1.i'"),
         Err(SceneError::BadSignal { .. })
@@ -780,10 +822,10 @@ fn semantic_errors_name_line_and_column() {
 #[test]
 fn errors_without_a_file_name_the_item() {
     let mut scene = load("seed_rlc.toml");
-    if let dirac_io::scene::PartKind::Inductor(p) = &mut scene.parts[1].kind {
+    if let dirac_scene::PartKind::Inductor(p) = &mut scene.parts[1].kind {
         p.l = f64::NAN;
     }
-    scene.parts[1].origin = dirac_io::scene::Origin::default();
+    scene.parts[1].origin = dirac_scene::Origin::default();
     let e = scene.build().unwrap_err();
     assert_eq!(
         e.to_string(),
@@ -792,17 +834,23 @@ fn errors_without_a_file_name_the_item() {
     assert!(e.location().is_none());
 }
 
-/// A failed step is a numerical error (exit code 1), bad input is not.
+/// A failed step is a numerical error (exit code 1), bad input is not. A saturating inductor with
+/// no saturated inductance (L∞ = 0) holds at most L₀·I_sat = 1 Wb of flux; a 1 V source across it
+/// pushes the flux past that at t = 1 s, where the step has no solution whatever its size.
+/// Two ideal current sources in series fix one current twice: an inconsistent model, reported
+/// before the first step as bad input naming the node.
 #[test]
 fn numerical_and_input_errors_are_told_apart() {
-    // Two ideal current sources in series (a cut set of current sources) leave the circuit without
-    // a solution: the Newton matrix is singular at the first step.
     let text = format!(
-        "{HEAD}[[part]]\nname = \"I1\"\ntype = \"current_source\"\nwaveform = 1.0\n\n[[part]]\nname = \"I2\"\ntype = \"current_source\"\nwaveform = 2.0\n\n[[connection]]\ntype = \"node\"\nname = \"a\"\nports = [\"+I1.i\", \"-I2.i\"]\n\n[[connection]]\ntype = \"node\"\nname = \"b\"\nports = [\"-I1.i\", \"+I2.i\"]\n"
-    );
-    let built = Scene::parse(&text, "series.toml").unwrap().build().unwrap();
-    let failed = SceneSimulation::new(&built).and_then(|mut s| s.step());
-    let e = failed.unwrap_err();
+        "{HEAD}[[part]]\nname = \"V\"\ntype = \"voltage_source\"\nwaveform = 1.0\n\n[[part]]\nname = \"L\"\ntype = \"saturating_inductor\"\nl0 = 1.0\nl_inf = 0.0\ni_sat = 1.0\n\n[[connection]]\ntype = \"node\"\nname = \"a\"\nports = [\"-V.i\", \"-L.i\"]\n"
+    )
+    .replace("t_end = 1.0", "t_end = 2.0");
+    let built = Scene::parse(&text, "saturation.toml")
+        .unwrap()
+        .build()
+        .unwrap();
+    let mut sim = built.simulation().unwrap();
+    let e = sim.run(built.t_end, &built.signals).unwrap_err();
     println!("{e}");
     assert!(e.is_numerical(), "{e:?}");
     assert!(
@@ -811,6 +859,18 @@ fn numerical_and_input_errors_are_told_apart() {
         ))
         .is_numerical()
     );
+    let series = format!(
+        "{HEAD}[[part]]\nname = \"I1\"\ntype = \"current_source\"\nwaveform = 1.0\n\n[[part]]\nname = \"I2\"\ntype = \"current_source\"\nwaveform = 2.0\n\n[[connection]]\ntype = \"node\"\nname = \"a\"\nports = [\"+I1.i\", \"-I2.i\"]\n\n[[connection]]\ntype = \"node\"\nname = \"b\"\nports = [\"-I1.i\", \"+I2.i\"]\n"
+    );
+    let built = Scene::parse(&series, "series.toml")
+        .unwrap()
+        .build()
+        .unwrap();
+    let mut sim = built.simulation().unwrap();
+    let e = sim.prepare().unwrap_err();
+    println!("{e}");
+    assert!(!e.is_numerical(), "{e:?}");
+    assert!(e.to_string().contains("node `a`"), "{e}");
 }
 
 /// The DC motor scene settles at its static equilibrium: no speed, so no back-EMF and
@@ -820,12 +880,8 @@ fn numerical_and_input_errors_are_told_apart() {
 #[test]
 fn dc_motor_settles_at_static_equilibrium() {
     let built = load("dc_motor.toml").build().unwrap();
-    let mut last = Vec::new();
-    let summary = run_scene(&built, &built.signals, |_, v| {
-        last = v.to_vec();
-        Ok(())
-    })
-    .unwrap();
+    let (rows, summary) = rows(&built);
+    let last = rows.last().map(|r| r.1.clone()).unwrap_or_default();
     let names: Vec<&str> = built.signals.iter().map(|s| s.name.as_str()).collect();
     assert_eq!(names, ["M.i", "M.theta", "M.theta'", "J.theta", "J.theta'"]);
     println!("DC motor at t = 20 s: {last:?}, {} steps", summary.steps);
@@ -841,36 +897,30 @@ fn dc_motor_settles_at_static_equilibrium() {
 #[test]
 fn cartesian_pendulum_keeps_its_rod() {
     let built = load("cartesian_pendulum.toml").build().unwrap();
-    let mut worst: f64 = 0.0;
-    let summary = run_scene(&built, &built.signals, |_, v| {
-        worst = worst.max((v[0].hypot(v[1]) - 1.0).abs());
-        Ok(())
-    })
-    .unwrap();
-    println!(
-        "pendulum: max |rod − 1| = {worst:.2e}, max residual {:.2e}",
-        summary.max_constraint_residual
-    );
-    assert!(worst < 1e-12 && summary.max_constraint_residual < 1e-12);
+    let mut sim = built.simulation().unwrap().track_residual(true);
+    let (run, summary) = sim.run(built.t_end, &built.signals).unwrap();
+    let worst = (0..run.len())
+        .map(|k| (run.row(k)[0].hypot(run.row(k)[1]) - 1.0).abs())
+        .fold(0.0, f64::max);
+    let residual = summary.max_constraint_residual.unwrap_or(f64::NAN);
+    println!("pendulum: max |rod − 1| = {worst:.2e}, max residual {residual:.2e}");
+    assert!(worst < 1e-12 && residual < 1e-12);
 }
 
-/// Runs `built` with its `[record]` requests and returns the header of the extra columns and all
-/// rows (signals, then the extra columns).
-fn recorded(built: &dirac_io::BuiltScene) -> (Vec<String>, Vec<Vec<f64>>) {
-    let columns = recorded_columns(built, &built.recording).unwrap_or_else(|e| panic!("{e}"));
-    let mut rows = Vec::new();
-    run_scene_recorded(built, &built.signals, &built.recording, |_, v| {
-        rows.push(v.to_vec());
-        Ok(())
-    })
-    .unwrap_or_else(|e| panic!("{e}"));
-    (columns, rows)
+/// Runs `built` and returns the names of the columns after its `[record]` signals and every row.
+fn recorded(built: &BuiltScene, signals: usize) -> (Vec<String>, Vec<Vec<f64>>) {
+    let columns = built.signals[signals..]
+        .iter()
+        .map(|s| s.name.clone())
+        .collect();
+    let (rows, _) = rows(built);
+    (columns, rows.into_iter().map(|r| r.1).collect())
 }
 
-/// The two-mass split is linear and conservative: its recorded energy (midpoint-state estimate,
-/// coupling potential included) is constant to round-off under the midpoint rule (each normal
-/// mode keeps the constant factor (1 + cos θ)/2), and the energy and the spring force are the same
-/// in every representation. Constraint residuals are round-off.
+/// The two-mass split is linear and conservative: its recorded energy (the state's energy at
+/// t_k, coupling potential included) is the midpoint rule's exact invariant ½pᵀM⁻¹p + ½qᵀKq, so
+/// it is constant to round-off and row 0 is the initial energy 1 itself; the energy and the
+/// spring force are the same in every representation. Constraint residuals are round-off.
 #[test]
 fn recorded_energy_and_forces_agree_across_representations() {
     let mut energies = Vec::new();
@@ -886,17 +936,17 @@ fn recorded_energy_and_forces_agree_across_representations() {
         scene.record.residuals = true;
         scene.record.forces = vec!["spring".into()];
         let built = scene.build().unwrap();
-        let (columns, rows) = recorded(&built);
+        let ns = built.signals.len() - 3;
+        let (columns, rows) = recorded(&built, ns);
         assert_eq!(columns, ["energy", "constraint_residual", "force(spring)"]);
-        let ns = built.signals.len();
         let energy: Vec<f64> = rows.iter().map(|r| r[ns]).collect();
         let drift = energy
             .iter()
             .map(|e| (e - energy[0]).abs())
             .fold(0.0, f64::max);
         assert!(drift <= 1e-13, "{representation:?}: energy drift {drift:e}");
-        // Released from x = (1, 0): ½k₁x_A² + ½k(x_A − x_B)² = 1, less the O(h²) midpoint bias.
-        assert!((energy[0] - 1.0).abs() < 1e-2, "{}", energy[0]);
+        // Released at rest from x = (1, 0): ½k₁x_A² + ½k(x_A − x_B)² = 1.
+        assert!((energy[0] - 1.0).abs() <= 1e-15, "{}", energy[0]);
         let residual = rows.iter().map(|r| r[ns + 1]).fold(0.0, f64::max);
         assert!(
             residual <= 1e-13,
@@ -911,8 +961,7 @@ fn recorded_energy_and_forces_agree_across_representations() {
     }
 }
 
-/// The seed RLC loop: the resistor's recorded power is never positive (after the extrapolated row
-/// 0), and the energy lost over
+/// The seed RLC loop: the resistor's recorded power is never positive, and the energy lost over
 /// the run equals the dissipated work `−∫ power dt` (trapezoid over the rows) up to an O(h²)
 /// discrepancy: halving h divides it by 4 ± 15 %.
 #[test]
@@ -924,11 +973,10 @@ fn recorded_power_balances_the_energy_loss_to_second_order() {
         scene.record.energy = true;
         scene.record.power = vec!["R1".into()];
         let built = scene.build().unwrap();
-        let (columns, rows) = recorded(&built);
+        let ns = built.signals.len() - 2;
+        let (columns, rows) = recorded(&built, ns);
         assert_eq!(columns, ["energy", "power(R1)"]);
-        let ns = built.signals.len();
-        // Row 0 is extrapolated linearly from rows 1 and 2, which a quadratic −R i² may overshoot.
-        assert!(rows[1..].iter().all(|r| r[ns + 1] <= 0.0));
+        assert!(rows.iter().all(|r| r[ns + 1] <= 0.0));
         let work: f64 = rows
             .windows(2)
             .map(|w| 0.5 * h * (w[0][ns + 1] + w[1][ns + 1]))
@@ -947,18 +995,21 @@ fn recorded_power_balances_the_energy_loss_to_second_order() {
     assert!((ratio - 4.0).abs() < 0.6, "ratio {ratio}");
 }
 
-/// A node's force is its multiplier; a staggered run has none and says so.
+/// A node's force is its multiplier, read at t_k: n2 is C1's `+` terminal and n3 (its `−`
+/// terminal) restates n1 and n2, so its row is dropped and it is the reference: n2's potential is
+/// C1's voltage q/C at every row, to round-off. A staggered run has no multipliers and says so.
 #[test]
 fn node_forces_need_an_assembled_representation() {
     let mut scene = load("seed_rlc.toml");
     scene.record.forces = vec!["n2".into()];
     let built = scene.build().unwrap();
-    let (columns, rows) = recorded(&built);
+    let (columns, rows) = recorded(&built, 2);
     assert_eq!(columns, ["force(n2)"]);
-    // n2 joins R1 and C1; its multiplier over h is a potential of order the capacitor voltage.
-    assert!(rows.iter().all(|r| r.last().is_some_and(|f| f.abs() < 2.0)));
-    let mut staggered = built.clone();
-    staggered.execution = Execution::Staggered(dirac_sim::Splitting::GaussSeidel);
-    let error = recorded_columns(&staggered, &staggered.recording).unwrap_err();
+    for r in &rows {
+        assert!((r[2] - r[0] / 3.0).abs() <= 1e-15, "{r:?}");
+    }
+    scene.simulation.representation = RepresentationSpec::Staggered;
+    scene.connections.clear();
+    let error = scene.build().unwrap_err();
     assert!(error.to_string().contains("force(n2)"), "{error}");
 }

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use dirac_io::{Element, Netlist, SourceSpec, parse_netlist};
+use dirac_netlist::{Element, Netlist, SourceSpec, parse_netlist};
 
 fn dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/netlists")

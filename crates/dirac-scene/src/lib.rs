@@ -5,9 +5,9 @@
 //! type, an unknown part type, port or coordinate, a duplicate name, a parameter out of range —
 //! names `file:line:column`), [`Scene::to_toml`] writes it back (parsing the output gives an equal
 //! scene), [`Scene::build`] turns it into a [`BuiltScene`] (the interconnection, initial data,
-//! [`dirac_sim::IntegratorOptions`], representation and signals; [`BuiltScene::circuit`] gives the
-//! netlist path's [`crate::Circuit`]), and [`run_scene`] / [`SceneSimulation`] step it in any
-//! representation, staggered included.
+//! [`dirac_sim::IntegratorOptions`], representation, start and signals), and
+//! [`BuiltScene::simulation`] gives the [`dirac_sim::Simulation`] that runs it in any
+//! representation, staggered included. [`netlist_to_scene`] writes a netlist as a scene.
 //!
 //! # The format
 //!
@@ -21,6 +21,7 @@
 //! order = 4                     # even; 2 for midpoint/trapezoid/simpson; 2s for gauss/lobatto
 //! h = 0.05                      # step size (required)
 //! t_end = 50.0                  # end time (required): round(t_end / h) steps
+//! initial = "given"             # given (q0/v0, made consistent) | equilibrium (steady state)
 //!
 //! # ── Parts: `name` (unique, no dots), `type` (a stock part), its parameters, q0/v0 ─────────────
 //! [[part]]
@@ -79,10 +80,11 @@
 //!                                     # rate), `part.port` (the flow of a port that is not a
 //!                                     # coordinate, e.g. a current `i`); default: every coordinate
 //!                                     # and every such flow
-//! energy = true                       # the requests below are carried for the runner
-//! power = ["R1"]                      # parts whose power to record
-//! residuals = true                    # constraint residuals
-//! forces = ["n1"]                     # connections whose interaction forces to record
+//! energy = true                       # total energy (column `energy`)
+//! power = ["R1"]                      # power of each part's forces (`power(R1)`)
+//! residuals = true                    # the steps' constraint residual (`constraint_residual`)
+//! forces = ["n1"]                     # a node's potential, a joint's or coupling's force
+//!                                     # (`force(n1)`); every value is at the row's time t_k
 //! ```
 //!
 //! # Stock parts
@@ -117,7 +119,7 @@
 //! (no `period`: one pulse), `{ shape = "pwl", points = [[t, v], …] }`.
 //!
 //! ```
-//! use dirac_io::Scene;
+//! use dirac_scene::Scene;
 //!
 //! let scene = Scene::parse(
 //!     r#"
@@ -143,33 +145,29 @@
 //! assert_eq!(Scene::parse(&scene.to_toml().unwrap(), "again.toml").unwrap(), scene);
 //!
 //! let err = Scene::parse("[simulation]\nh = 0.1\nt_end = 1\nstep = 2\n", "bad.toml").unwrap_err();
-//! assert_eq!(err.to_string(), "bad.toml:4:1: unknown field `step`, expected one of `representation`, `splitting`, `scheme`, `discretisation`, `order`, `h`, `t_end`");
+//! assert_eq!(err.to_string(), "bad.toml:4:1: unknown field `step`, expected one of `representation`, `splitting`, `scheme`, `discretisation`, `initial`, `order`, `h`, `t_end`");
 //! ```
 
-mod build;
-mod error;
-mod model;
-mod parse;
-mod record;
-mod run;
+mod convert;
+mod scene;
 
-pub use build::{BuiltScene, Execution, MAX_ORDER, Quantity, Recording, SceneSignal};
-pub use error::{Location, Origin, SceneError};
-pub use model::{
+pub use convert::{ConvertError, netlist_to_scene};
+pub use scene::build::{BuiltScene, MAX_ORDER};
+pub use scene::error::{Location, Origin, SceneError};
+pub use scene::model::{
     ActuatorElement, BodySpec, CapacitorParams, Connection, ConnectionKind, CoupledInductorsParams,
     DamperElement, DamperParams, DcMotorParams, DiodeParams, DiscretisationSpec, ELEMENT_TYPES,
     ElementSpec, ForceSourceParams, GroundParams, IdealGearParams, IdealTransformerParams,
-    InductorParams, InertiaParams, Initial, MassParams, NodePort, PART_TYPES, Part, PartKind,
-    PendulumParams, PinSpec, PlanarLinkageParams, Record, RepresentationSpec, ResistorParams,
-    SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec,
-    SpringElement, SpringParams, WaveformSpec,
+    InductorParams, InertiaParams, Initial, InitialSpec, MassParams, NodePort, PART_TYPES, Part,
+    PartKind, PendulumParams, PinSpec, PlanarLinkageParams, Record, RepresentationSpec,
+    ResistorParams, SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams,
+    SplittingSpec, SpringElement, SpringParams, WaveformSpec,
 };
-pub use run::{SceneSimulation, recorded_columns, run_scene, run_scene_recorded};
 
 impl Scene {
     /// Parses and checks scene text read from `file` (the name used in error messages).
     pub fn parse(text: &str, file: &str) -> Result<Self, SceneError> {
-        parse::parse_scene(text, file)
+        scene::parse::parse_scene(text, file)
     }
 
     /// Reads, parses and checks the scene file at `path`.

@@ -1,5 +1,7 @@
-//! A SPICE-subset netlist front end: [`parse_netlist`] turns netlist text into a flat [`Netlist`]
-//! (subcircuits expanded, parameters evaluated to `f64`).
+//! The SPICE-subset netlist reader: [`parse_netlist`] turns netlist text into a flat [`Netlist`]
+//! (subcircuits expanded, parameters evaluated to `f64`), and [`build_circuit`] turns a netlist into
+//! a [`Circuit`]: an interconnection of stock parts with its initial state, its recorded signals
+//! and its analyses, ready for [`dirac_sim::Simulation`].
 //!
 //! # Supported subset
 //!
@@ -32,13 +34,18 @@
 //! - `.subckt NAME n1 n2 ... [params:] [a=1 ...]` ... `.ends [NAME]`, nestable;
 //! - `.end` (anything after it is ignored).
 //!
-//! Accepted and **ignored with a recorded [`Warning`]** (output control, so that netlists written for
-//! ngspice can be read unchanged): `.options`/`.option`/`.opt`, `.print`, `.plot`, `.probe`,
-//! `.save`, `.meas`/`.measure`, and whole `.control` ... `.endc` blocks.
+//! - `.op` (the DC operating point, [`Netlist::op`]);
+//! - `.options`/`.option`/`.opt` (kept as pairs in [`Netlist::options`]; [`build_circuit`] maps
+//!   `method` and warns about the rest);
+//! - `.print`, `.plot`, `.probe`, `.save` (the signals they name are kept in
+//!   [`Netlist::outputs`] and become the recorded signals).
+//!
+//! Accepted and **ignored with a recorded [`Warning`]**: `.meas`/`.measure`, and whole `.control`
+//! ... `.endc` blocks.
 //!
 //! Everything else is an error of kind [`ErrorKind::Unsupported`] whose message contains "not
 //! supported": other element types (`M Q J E F G H B T S W A U O Z`, ...), other dot-cards (`.ac`,
-//! `.dc`, `.op`, `.include`, `.lib`, `.global`, `.func`, `.nodeset`, `.temp`, ...), other source
+//! `.dc`, `.include`, `.lib`, `.global`, `.func`, `.nodeset`, `.temp`, ...), other source
 //! functions (`EXP`, `SFFM`, `AM`, `TRNOISE`, ...), `PWL` options (`r=`, `td=`), model types other
 //! than `D`, instance parameters other than `IC=` on `L`/`C`.
 //!
@@ -88,7 +95,11 @@ mod parser;
 mod source;
 mod units;
 
+mod circuit;
+
+pub use circuit::{Circuit, CircuitError, build_circuit, waveform};
 pub use error::{ErrorKind, NetlistError, Pos, Warning};
+pub use parser::{OptionCard, OutputRequest};
 pub use source::SourceSpec;
 pub use units::parse_spice_number;
 
@@ -288,6 +299,12 @@ pub struct Netlist {
     /// Node initial voltages from `.ic V(node)=value`, node names normalised, in card order (a
     /// repeated node keeps its first place and its last value).
     pub ic: Vec<(String, f64)>,
+    /// Whether an `.op` card asks for the operating point.
+    pub op: bool,
+    /// `.options` pairs in card order (interpreted by [`build_circuit`]).
+    pub options: Vec<OptionCard>,
+    /// Signals named by `.print`, `.probe`, `.save` and `.plot`, in card order.
+    pub outputs: Vec<OutputRequest>,
     /// Things accepted but ignored.
     pub warnings: Vec<Warning>,
 }

@@ -105,7 +105,103 @@ pub(crate) struct Parsed {
     pub title: String,
     pub top: Block,
     pub tran: Option<TranCard>,
+    pub op: bool,
+    pub options: Vec<OptionCard>,
+    pub outputs: Vec<OutputRequest>,
     pub warnings: Vec<Warning>,
+}
+
+/// One `key[=value]` of an `.options` card, lowercased.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OptionCard {
+    /// The option's name.
+    pub key: String,
+    /// Its value, if written `key=value`.
+    pub value: Option<String>,
+    /// Where it was written.
+    pub pos: Pos,
+}
+
+/// A signal named by `.print`, `.probe`, `.save` or `.plot` (`v(out)`, `v(a,b)`, `i(vin)`),
+/// lowercased, blanks removed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OutputRequest {
+    /// The signal as written, normalised (`v(a,b)`).
+    pub signal: String,
+    /// Where it was written.
+    pub pos: Pos,
+}
+
+/// The `key[=value]` pairs of an `.options` card (after its keyword).
+fn option_pairs(card: &Card, text: &str) -> Vec<OptionCard> {
+    let start = card.start();
+    let body = text.split_once(char::is_whitespace).map_or("", |(_, b)| b);
+    let mut out = Vec::new();
+    let normalised = body.replace(" =", "=").replace("= ", "=");
+    for word in normalised.split_whitespace() {
+        let (key, value) = match word.split_once('=') {
+            Some((k, v)) => (k.to_ascii_lowercase(), Some(v.to_ascii_lowercase())),
+            None => (word.to_ascii_lowercase(), None),
+        };
+        out.push(OptionCard {
+            key,
+            value,
+            pos: start,
+        });
+    }
+    out
+}
+
+/// The signals of an output card: every `name(args)` group, plus bare words other than an
+/// analysis name (`tran`, `dc`, `ac`, `op`, `noise`, `all`).
+fn output_requests(card: &Card, text: &str) -> Vec<OutputRequest> {
+    let start = card.start();
+    let body = text.split_once(char::is_whitespace).map_or("", |(_, b)| b);
+    let mut out = Vec::new();
+    let mut chars = body.chars().peekable();
+    let mut word = String::new();
+    while let Some(c) = chars.next() {
+        if c == '(' {
+            let mut group = format!("{}(", word.to_ascii_lowercase());
+            for d in chars.by_ref() {
+                if d == ')' {
+                    break;
+                }
+                if !d.is_whitespace() {
+                    group.push(d.to_ascii_lowercase());
+                }
+            }
+            group.push(')');
+            out.push(OutputRequest {
+                signal: group,
+                pos: start,
+            });
+            word.clear();
+        } else if c.is_whitespace() || c == ',' {
+            if !word.is_empty() {
+                let w = word.to_ascii_lowercase();
+                if !["tran", "dc", "ac", "op", "noise", "all"].contains(&w.as_str()) {
+                    out.push(OutputRequest {
+                        signal: w,
+                        pos: start,
+                    });
+                }
+                word.clear();
+            }
+        } else {
+            word.push(c);
+        }
+    }
+    if !word.is_empty() {
+        let w = word.to_ascii_lowercase();
+        if !["tran", "dc", "ac", "op", "noise", "all"].contains(&w.as_str()) {
+            out.push(OutputRequest {
+                signal: w,
+                pos: start,
+            });
+        }
+    }
+    out
 }
 
 /// Checks that a parameter name can be referred to in expressions (`[A-Za-z_][A-Za-z0-9_]*`).
@@ -127,10 +223,11 @@ fn param_name(s: &Spanned, card: &str) -> Result<Name, NetlistError> {
     }
 }
 
-/// Dot-cards accepted and ignored with a warning (output control).
-const IGNORED_DOT_CARDS: &[&str] = &[
-    ".options", ".option", ".opt", ".print", ".plot", ".probe", ".save", ".meas", ".measure",
-];
+/// Dot-cards accepted and ignored with a warning (measurements).
+const IGNORED_DOT_CARDS: &[&str] = &[".meas", ".measure"];
+
+/// Dot-cards that name the signals to record.
+const OUTPUT_DOT_CARDS: &[&str] = &[".print", ".plot", ".probe", ".save"];
 
 struct CardParser<'a> {
     card: &'a Card,
@@ -696,6 +793,9 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
     let mut top = Block::default();
     let mut stack: Vec<Open> = Vec::new();
     let mut tran: Option<TranCard> = None;
+    let mut op = false;
+    let mut options = Vec::new();
+    let mut outputs = Vec::new();
 
     for card in &lexed.cards {
         let mut p = CardParser::new(card);
@@ -805,6 +905,11 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
                         "`.endc` without `.control`",
                     ));
                 }
+                ".op" => op = true,
+                ".options" | ".option" | ".opt" => options.extend(option_pairs(card, &p.text)),
+                k if OUTPUT_DOT_CARDS.contains(&k) => {
+                    outputs.extend(output_requests(card, &p.text))
+                }
                 k if IGNORED_DOT_CARDS.contains(&k) => {
                     warnings.push(Warning::new(
                         start,
@@ -834,6 +939,9 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
         title: lexed.title,
         top,
         tran,
+        op,
+        options,
+        outputs,
         warnings,
     })
 }

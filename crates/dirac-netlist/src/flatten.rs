@@ -742,6 +742,9 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         origins: out.origins,
         tran,
         ic,
+        op: parsed.op,
+        options: parsed.options,
+        outputs: parsed.outputs,
         warnings,
     })
 }

@@ -1,17 +1,22 @@
 //! Netlist front end: every supported feature, and every error kind with its exact position.
 
-use dirac_io::{DiodeModel, Element, ErrorKind, Netlist, SourceSpec, Tran, parse_netlist};
+use dirac_netlist::{DiodeModel, Element, ErrorKind, Netlist, SourceSpec, Tran, parse_netlist};
 
 fn parse(src: &str) -> Netlist {
     parse_netlist(src, "t.cir").unwrap_or_else(|e| panic!("{e}"))
 }
 
-fn err(src: &str) -> dirac_io::NetlistError {
+fn err(src: &str) -> dirac_netlist::NetlistError {
     parse_netlist(src, "t.cir").expect_err("should fail")
 }
 
 /// Asserts kind and `line:column` of the error of `src`.
-fn assert_err(src: &str, kind: ErrorKind, line: usize, column: usize) -> dirac_io::NetlistError {
+fn assert_err(
+    src: &str,
+    kind: ErrorKind,
+    line: usize,
+    column: usize,
+) -> dirac_netlist::NetlistError {
     let e = err(src);
     assert_eq!(
         (e.kind, e.line, e.column),
@@ -105,7 +110,7 @@ fn engineering_suffixes_and_unit_letters() {
     assert_eq!(value_of(&net, "r7"), 3300.0);
     let net = parse("t\nV1 a 0 5V\nR1 a 0 1\n");
     assert_eq!(source_of(&net, "v1"), &SourceSpec::Dc(5.0));
-    assert_eq!(dirac_io::parse_spice_number("10uF"), Some(1e-5));
+    assert_eq!(dirac_netlist::parse_spice_number("10uF"), Some(1e-5));
 }
 
 #[test]
@@ -397,12 +402,57 @@ plot v(a)
 ",
     );
     assert_eq!(net.elements.len(), 1);
-    let lines: Vec<usize> = net.warnings.iter().map(|w| w.line).collect();
-    assert_eq!(lines, [3, 4, 5, 6, 7, 8, 9, 10]);
-    assert!(net.warnings[0].message.contains(".options"));
+    // `.options` are kept as pairs (the circuit builder maps `method` and warns about the rest);
+    // `.print`/`.plot`/`.probe`/`.save` name the recorded signals; `.meas` and `.control` are
+    // ignored with warnings.
+    let options: Vec<(&str, Option<&str>, usize)> = net
+        .options
+        .iter()
+        .map(|o| (o.key.as_str(), o.value.as_deref(), o.pos.line))
+        .collect();
     assert_eq!(
-        net.warnings[0].to_string(),
-        "3:1: warning: `.options` card ignored: `.options method=trap reltol=1e-6`"
+        options,
+        [
+            ("method", Some("trap"), 3),
+            ("reltol", Some("1e-6"), 3),
+            ("gmin", Some("1e-12"), 4)
+        ]
+    );
+    let outputs: Vec<(&str, usize)> = net
+        .outputs
+        .iter()
+        .map(|o| (o.signal.as_str(), o.pos.line))
+        .collect();
+    assert_eq!(
+        outputs,
+        [("v(a)", 5), ("v(a)", 6), ("v(a)", 7), ("v(a)", 8)]
+    );
+    let lines: Vec<usize> = net.warnings.iter().map(|w| w.line).collect();
+    assert_eq!(lines, [9, 10]);
+}
+
+/// `.op` anywhere asks for the operating point; `.print` lists with differences and currents
+/// are kept as written (lowercased, blanks dropped).
+#[test]
+fn operating_point_and_print_lists() {
+    let net = parse(
+        "t
+R1 a 0 1
+.op
+.print tran V(a) v(a, 0) I(R1)
+.end
+",
+    );
+    assert!(net.op);
+    let outputs: Vec<&str> = net.outputs.iter().map(|o| o.signal.as_str()).collect();
+    assert_eq!(outputs, ["v(a)", "v(a,0)", "i(r1)"]);
+    assert!(
+        !parse(
+            "t
+R1 a 0 1
+"
+        )
+        .op
     );
 }
 
@@ -578,7 +628,6 @@ fn unsupported_cards() {
         "J1 d g s jmod",
         ".ac dec 10 1 1meg",
         ".dc V1 0 1 0.1",
-        ".op",
         ".include models.lib",
         ".lib models.lib tt",
         ".global vdd",

@@ -8,7 +8,7 @@ use dirac_graph::GraphError;
 use dirac_sim::SimError;
 use thiserror::Error;
 
-use crate::run::RunError;
+use dirac_sim::RunError;
 
 /// A place in a scene file: file name, 1-based line and 1-based column (in characters).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]

@@ -3,9 +3,9 @@
 use std::collections::HashMap;
 use std::fmt::Write;
 
-use crate::circuit::CircuitError;
-use crate::netlist::{Element, Netlist, SourceSpec};
-use crate::scene::{Scene, SceneError};
+use dirac_netlist::{CircuitError, Element, Netlist, SourceSpec};
+
+use crate::{Scene, SceneError};
 
 /// Why a netlist could not be converted.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -95,7 +95,7 @@ fn waveform(spec: &SourceSpec) -> String {
 /// before it is returned, so it is always a valid scene.
 pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, ConvertError> {
     // Reuse the circuit builder's checks (coupling, nodes) so convert fails exactly where run would.
-    crate::circuit::build_circuit(netlist, file)?;
+    dirac_netlist::build_circuit(netlist, file)?;
     let tran = netlist
         .tran
         .as_ref()
@@ -115,6 +115,10 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
         number(tran.tstep),
         number(tran.tstop)
     );
+    if !tran.uic {
+        // Without UIC a SPICE transient starts from the DC operating point.
+        let _ = writeln!(out, "initial = \"equilibrium\"");
+    }
 
     // Inductors coupled by a K card: name → (K part, port).
     let mut coupled: HashMap<&str, (String, &str)> = HashMap::new();

@@ -2,7 +2,7 @@
 
 use std::f64::consts::PI;
 
-use dirac_io::SourceSpec;
+use dirac_netlist::SourceSpec;
 
 fn close(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-12 * (1.0 + b.abs())

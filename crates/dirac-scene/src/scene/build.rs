@@ -10,102 +10,24 @@ use dirac_components::{
 };
 use dirac_core::Discretisation;
 use dirac_graph::{
-    ConnectionId, Interconnection, LinearSpring, PortRef, Representation, Subsystem, SubsystemId,
+    Connection, ConnectionId, Interconnection, LinearSpring, PortRef, Representation, Subsystem,
+    SubsystemId,
 };
-use dirac_sim::{IntegratorOptions, Scheme, Splitting};
+use dirac_sim::{
+    Execution, IntegratorOptions, Probe, RunError, Scheme, Signal, Simulation, Splitting, Start,
+};
 
 use super::error::{Location, Origin, SceneError, listed};
 use super::model::{
-    ConnectionKind, DiscretisationSpec, ElementSpec, Initial, Part, PartKind, RepresentationSpec,
-    Scene, SchemeSpec, SplittingSpec, WaveformSpec,
+    ConnectionKind, DiscretisationSpec, ElementSpec, Initial, InitialSpec, Part, PartKind,
+    RepresentationSpec, Scene, SchemeSpec, SplittingSpec, WaveformSpec,
 };
-use crate::circuit::{Circuit, Signal, SignalKind};
 
 /// Largest order accepted for Gauss and Lobatto discretisations.
 pub const MAX_ORDER: usize = 20;
 
-/// How the built scene is to be stepped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Execution {
-    /// One assembled system in the given representation.
-    Assembled(Representation),
-    /// Staggered co-simulation of the parts with the given splitting.
-    Staggered(Splitting),
-}
-
-/// What a signal measures.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Quantity {
-    /// The coordinate's value `q_k` (a charge, a position, an angle).
-    Value,
-    /// The coordinate's rate (a current, a velocity): at `t_k` the mean of the two adjacent
-    /// steps' rates `(q_{k+1} − q_k)/h`.
-    Rate,
-}
-
-/// A recordable signal: a coordinate of a part, or its rate.
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub struct SceneSignal {
-    /// Column name, e.g. `C1.q`, `L1.i`, `A.x'`.
-    pub name: String,
-    /// Value or rate.
-    pub quantity: Quantity,
-    /// The part (subsystem index, in scene order).
-    pub subsystem: usize,
-    /// The part's local coordinate.
-    pub coordinate: usize,
-    /// Index in the global state: the same in every representation (endpoint coordinates of the
-    /// constraint representation come after all parts) and in a staggered run's concatenated
-    /// positions.
-    pub index: usize,
-}
-
-impl SceneSignal {
-    /// The signal from a global position vector `q` and rate vector `rate`.
-    #[must_use]
-    pub fn evaluate(&self, q: &[f64], rate: &[f64]) -> f64 {
-        match self.quantity {
-            Quantity::Value => q[self.index],
-            Quantity::Rate => rate[self.index],
-        }
-    }
-
-    /// The same column for [`crate::run_circuit`]: a value as [`SignalKind::Charge`] (a state),
-    /// a rate as [`SignalKind::BranchCurrent`].
-    #[must_use]
-    pub fn to_signal(&self) -> Signal {
-        let (subsystem, coordinate) = (self.subsystem, self.coordinate);
-        Signal {
-            name: self.name.clone(),
-            kind: match self.quantity {
-                Quantity::Value => SignalKind::Charge {
-                    subsystem,
-                    coordinate,
-                },
-                Quantity::Rate => SignalKind::BranchCurrent {
-                    subsystem,
-                    coordinate,
-                },
-            },
-        }
-    }
-}
-
-/// The `[record]` requests other than signals, resolved to graph handles.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct Recording {
-    /// Record the total energy.
-    pub energy: bool,
-    /// Parts whose power to record.
-    pub power: Vec<SubsystemId>,
-    /// Record constraint residuals.
-    pub residuals: bool,
-    /// Connections whose interaction forces to record.
-    pub forces: Vec<ConnectionId>,
-}
-
-/// A scene ready to run: the same things a netlist gives ([`Circuit`]) plus the integrator
-/// settings.
+/// A scene ready to run: the interconnection, its initial state, the integrator settings and the
+/// signals to record.
 #[derive(Debug, Clone)]
 pub struct BuiltScene {
     /// Parts (one subsystem each, in scene order) joined by the connections (in scene order).
@@ -114,16 +36,22 @@ pub struct BuiltScene {
     pub q0: Vec<Vec<f64>>,
     /// Initial velocities per part.
     pub v0: Vec<Vec<f64>>,
+    /// Which initial positions the scene states (the others may be moved to make the start
+    /// consistent).
+    pub given_q: Vec<Vec<bool>>,
+    /// Which initial velocities the scene states.
+    pub given_v: Vec<Vec<bool>>,
     /// Discretisation, scheme and step size.
     pub options: IntegratorOptions,
     /// Representation (or staggered splitting).
     pub execution: Execution,
+    /// Where the run starts (`initial = "given"` or `"equilibrium"`).
+    pub start: Start,
     /// End time.
     pub t_end: f64,
-    /// The signals `[record]` asks for (by default every coordinate and every flow port).
-    pub signals: Vec<SceneSignal>,
-    /// The other recording requests.
-    pub recording: Recording,
+    /// The signals `[record]` asks for (by default every coordinate and every flow port), then
+    /// `energy`, `power(<part>)`, `constraint_residual` and `force(<connection>)` when asked for.
+    pub signals: Vec<Signal>,
 }
 
 impl BuiltScene {
@@ -139,133 +67,153 @@ impl BuiltScene {
         (self.t_end / self.options.h).round() as usize
     }
 
-    /// The netlist path's form of this scene (graph, initial data, signals, `h`, `t_end`), for
-    /// [`crate::run_circuit`] in the assembled representations.
-    #[must_use]
-    pub fn circuit(&self) -> Circuit {
-        Circuit {
-            graph: self.graph.clone(),
-            q0: self.q0.clone(),
-            v0: self.v0.clone(),
-            signals: self.signals.iter().map(SceneSignal::to_signal).collect(),
-            h: Some(self.options.h),
-            t_end: Some(self.t_end),
-        }
+    /// A simulation of this scene (its execution, options, start and initial values).
+    ///
+    /// # Errors
+    /// When the initial values do not fit the parts (a programming error of this crate).
+    pub fn simulation(&self) -> Result<Simulation, RunError> {
+        self.simulation_with(self.execution, self.options.clone(), self.start)
     }
 
-    /// Every recordable signal: for each part, each coordinate's value (`P.c`) and rate
-    /// (`P.c'`), then the flow of each port that is not itself a coordinate (`P.i`).
-    #[must_use]
-    pub fn recordable(&self) -> Vec<SceneSignal> {
-        let mut out = Vec::new();
-        let mut offset = 0;
-        for (s, sub) in self.graph.subsystems().iter().enumerate() {
-            let model = sub.model();
-            let names: Vec<String> = (0..model.dim()).map(|i| model.coordinate_name(i)).collect();
-            for (i, c) in names.iter().enumerate() {
-                for (quantity, suffix) in [(Quantity::Value, ""), (Quantity::Rate, "'")] {
-                    out.push(SceneSignal {
-                        name: format!("{}.{c}{suffix}", sub.name()),
-                        quantity,
-                        subsystem: s,
-                        coordinate: i,
-                        index: offset + i,
-                    });
-                }
-            }
-            out.extend(flow_ports(sub, &names, s, offset));
-            offset += model.dim();
-        }
-        out
+    /// A simulation of this scene in another execution, with other options or start.
+    ///
+    /// # Errors
+    /// When the initial values do not fit the parts (a programming error of this crate).
+    pub fn simulation_with(
+        &self,
+        execution: Execution,
+        options: IntegratorOptions,
+        start: Start,
+    ) -> Result<Simulation, RunError> {
+        let mut sim = Simulation::new(self.graph.clone(), execution, options).start(start);
+        sim.set_initial(&self.q0, &self.v0, &self.given_q, &self.given_v)?;
+        Ok(sim)
     }
 
-    /// The signal named `name` (see [`BuiltScene::recordable`]).
-    pub fn signal(&self, name: &str) -> Result<SceneSignal, SceneError> {
-        resolve_signal(&self.graph, &self.graph.coordinate_offsets(), name, None)
+    /// The signal named `name`: `part.coordinate` (its value), `part.coordinate'` (its rate),
+    /// `part.port` (a port's flow), `energy`, `power(<part>)`, `constraint_residual` or
+    /// `force(<connection>)`.
+    ///
+    /// # Errors
+    /// [`SceneError::BadSignal`] or [`SceneError::UnknownPart`] saying what exists.
+    pub fn signal(&self, name: &str) -> Result<Signal, SceneError> {
+        resolve_signal(&self.graph, self.execution, name, None)
     }
 }
 
-/// Flow signals of the ports of `sub` that are single coordinates not named like a coordinate.
-fn flow_ports(sub: &Subsystem, names: &[String], s: usize, offset: usize) -> Vec<SceneSignal> {
+/// Flow signals of the ports of `sub` not named like one of its coordinates.
+fn flow_ports(sub: &Subsystem, names: &[String], s: usize) -> Vec<Signal> {
     sub.ports()
         .iter()
-        .filter(|p| !names.contains(&p.name))
-        .filter_map(|p| match p.coefficients.as_slice() {
-            [(c, k)] if *k == 1.0 => Some(SceneSignal {
-                name: format!("{}.{}", sub.name(), p.name),
-                quantity: Quantity::Rate,
-                subsystem: s,
-                coordinate: *c,
-                index: offset + c,
-            }),
-            _ => None,
+        .enumerate()
+        .filter(|(_, p)| !names.contains(&p.name))
+        .map(|(port, p)| {
+            Signal::new(
+                format!("{}.{}", sub.name(), p.name),
+                Probe::Flow(PortRef {
+                    subsystem: SubsystemId(s),
+                    port,
+                }),
+            )
         })
         .collect()
 }
 
-/// Resolves `part.coordinate`, `part.coordinate'` or `part.port` (a flow).
+/// Resolves `part.coordinate`, `part.coordinate'`, `part.port` (a flow), `energy`,
+/// `power(<part>)`, `constraint_residual` or `force(<connection>)`.
 fn resolve_signal(
     graph: &Interconnection,
-    offsets: &[usize],
+    execution: Execution,
     name: &str,
     at: Option<Location>,
-) -> Result<SceneSignal, SceneError> {
+) -> Result<Signal, SceneError> {
     let bad = |reason: String| SceneError::BadSignal {
         at: at.clone(),
         signal: name.to_string(),
         reason,
     };
+    match name {
+        "energy" => return Ok(Signal::new(name, Probe::Energy)),
+        "constraint_residual" => return Ok(Signal::new(name, Probe::ConstraintResidual)),
+        _ => {}
+    }
+    if let Some(part) = name
+        .strip_prefix("power(")
+        .and_then(|r| r.strip_suffix(')'))
+    {
+        let Some(id) = graph.subsystem_id(part) else {
+            return Err(SceneError::UnknownPart {
+                at,
+                reference: name.to_string(),
+                part: part.to_string(),
+            });
+        };
+        return Ok(Signal::new(name, Probe::Power(id)));
+    }
+    if let Some(c) = name
+        .strip_prefix("force(")
+        .and_then(|r| r.strip_suffix(')'))
+    {
+        let Some(id) = graph.connection_id(c) else {
+            return Err(bad(format!(
+                "no connection is named `{c}`; the connections are {}",
+                listed(graph.connections().iter().map(Connection::name))
+            )));
+        };
+        return match &graph.connections()[id.0] {
+            Connection::Coupling { .. } => Ok(Signal::new(name, Probe::CouplingForce(id))),
+            _ if matches!(execution, Execution::Staggered(_)) => Err(bad(
+                "the force of a node or joint is its multiplier, which a staggered run does not have; record it in the monolithic, constraint or force representation".into(),
+            )),
+            _ => Ok(Signal::new(name, Probe::Effort(id))),
+        };
+    }
     let Some((part, rest)) = name.split_once('.') else {
         return Err(bad(
-            "write `part.coordinate`, `part.coordinate'` or `part.port`".into(),
+            "write `part.coordinate`, `part.coordinate'`, `part.port`, `energy`, `power(part)`, `constraint_residual` or `force(connection)`".into(),
         ));
     };
     let (base, rate) = match rest.strip_suffix('\'') {
         Some(b) => (b, true),
         None => (rest, false),
     };
-    let Some(s) = graph.subsystems().iter().position(|x| x.name() == part) else {
+    let Some(id) = graph.subsystem_id(part) else {
         return Err(SceneError::UnknownPart {
             at,
             reference: name.to_string(),
             part: part.to_string(),
         });
     };
-    let sub = &graph.subsystems()[s];
+    let sub = &graph.subsystems()[id.0];
     let model = sub.model();
     let names: Vec<String> = (0..model.dim()).map(|i| model.coordinate_name(i)).collect();
-    let quantity = if rate {
-        Quantity::Rate
-    } else {
-        Quantity::Value
-    };
-    if let Some(i) = names.iter().position(|c| c == base) {
-        return Ok(SceneSignal {
-            name: name.to_string(),
-            quantity,
-            subsystem: s,
-            coordinate: i,
-            index: offsets[s] + i,
-        });
+    if let Some(coordinate) = names.iter().position(|c| c == base) {
+        let probe = if rate {
+            Probe::Velocity {
+                part: id,
+                coordinate,
+            }
+        } else {
+            Probe::Position {
+                part: id,
+                coordinate,
+            }
+        };
+        return Ok(Signal::new(name, probe));
     }
-    if let Some(port) = sub.ports().iter().find(|p| p.name == base) {
+    if let Some(port) = sub.port_index(base) {
         if rate {
             return Err(bad(format!(
                 "port `{base}` is already a flow; its derivative is not recordable"
             )));
         }
-        return match port.coefficients.as_slice() {
-            [(c, k)] if *k == 1.0 => Ok(SceneSignal {
-                name: name.to_string(),
-                quantity: Quantity::Rate,
-                subsystem: s,
-                coordinate: *c,
-                index: offsets[s] + c,
+        return Ok(Signal::new(
+            name,
+            Probe::Flow(PortRef {
+                subsystem: id,
+                port,
             }),
-            _ => Err(bad(format!(
-                "port `{base}` combines several coordinates; record the coordinates"
-            ))),
-        };
+        ));
     }
     Err(bad(format!(
         "part `{part}` has no coordinate or port `{base}`; its coordinates are {} and its ports {}",
@@ -641,7 +589,7 @@ fn initial(
     given: Option<&Initial>,
     names: &[String],
     default: Vec<f64>,
-) -> Result<Vec<f64>, SceneError> {
+) -> Result<(Vec<f64>, Vec<bool>), SceneError> {
     let c = Check {
         item: format!("part `{}` ({})", part.name, part.kind.type_name()),
         origin: &part.origin,
@@ -653,6 +601,8 @@ fn initial(
         got,
         coordinates: listed(names),
     };
+    let mut stated =
+        vec![given.is_some() && !matches!(given, Some(Initial::Named(_))); names.len()];
     let out = match given {
         None => default,
         Some(Initial::Value(v)) => {
@@ -679,6 +629,7 @@ fn initial(
                     });
                 };
                 out[i] = *v;
+                stated[i] = true;
             }
             out
         }
@@ -691,7 +642,7 @@ fn initial(
         };
         c.finite(&path, *v)?;
     }
-    Ok(out)
+    Ok((out, stated))
 }
 
 fn discretisation(scene: &Scene) -> Result<Discretisation, SceneError> {
@@ -803,6 +754,7 @@ impl Scene {
 
         let mut graph = Interconnection::new();
         let (mut q0, mut v0) = (Vec::new(), Vec::new());
+        let (mut given_q, mut given_v) = (Vec::new(), Vec::new());
         let mut seen: HashMap<&str, &Part> = HashMap::new();
         for part in &self.parts {
             if part.name.is_empty() || part.name.contains('.') || part.name.trim() != part.name {
@@ -825,8 +777,12 @@ impl Scene {
             let model = subsystem.model();
             let names: Vec<String> = (0..model.dim()).map(|i| model.coordinate_name(i)).collect();
             let zeros = vec![0.0; names.len()];
-            q0.push(initial(part, "q0", part.q0.as_ref(), &names, default_q)?);
-            v0.push(initial(part, "v0", part.v0.as_ref(), &names, zeros)?);
+            let (q, gq) = initial(part, "q0", part.q0.as_ref(), &names, default_q)?;
+            let (v, gv) = initial(part, "v0", part.v0.as_ref(), &names, zeros)?;
+            q0.push(q);
+            given_q.push(gq);
+            v0.push(v);
+            given_v.push(gv);
             graph.add_subsystem(subsystem)?;
         }
 
@@ -938,24 +894,23 @@ impl Scene {
             connections.insert(c.name.as_str(), (id, c));
         }
 
-        let offsets = graph.coordinate_offsets();
         let record = &self.record;
-        let signals = if record.signals.is_empty() {
+        let mut signals = if record.signals.is_empty() {
             let mut all = Vec::new();
             for (s, sub) in graph.subsystems().iter().enumerate() {
                 let model = sub.model();
                 let names: Vec<String> =
                     (0..model.dim()).map(|i| model.coordinate_name(i)).collect();
                 for (i, c) in names.iter().enumerate() {
-                    all.push(SceneSignal {
-                        name: format!("{}.{c}", sub.name()),
-                        quantity: Quantity::Value,
-                        subsystem: s,
-                        coordinate: i,
-                        index: offsets[s] + i,
-                    });
+                    all.push(Signal::new(
+                        format!("{}.{c}", sub.name()),
+                        Probe::Position {
+                            part: SubsystemId(s),
+                            coordinate: i,
+                        },
+                    ));
                 }
-                all.extend(flow_ports(sub, &names, s, offsets[s]));
+                all.extend(flow_ports(sub, &names, s));
             }
             all
         } else {
@@ -966,51 +921,55 @@ impl Scene {
                 .map(|(i, name)| {
                     resolve_signal(
                         &graph,
-                        &offsets,
+                        execution,
                         name,
                         record.origin.field(&format!("signals[{i}]")),
                     )
                 })
                 .collect::<Result<Vec<_>, _>>()?
         };
-        let mut recording = Recording {
-            energy: record.energy,
-            residuals: record.residuals,
-            ..Recording::default()
-        };
+        if record.energy {
+            signals.push(Signal::new("energy", Probe::Energy));
+        }
         for (i, name) in record.power.iter().enumerate() {
-            let Some(s) = graph.subsystems().iter().position(|x| x.name() == name) else {
-                return Err(SceneError::UnknownPart {
-                    at: record.origin.field(&format!("power[{i}]")),
-                    reference: name.clone(),
-                    part: name.clone(),
-                });
-            };
-            recording.power.push(SubsystemId(s));
+            let label = format!("power({name})");
+            signals.push(resolve_signal(
+                &graph,
+                execution,
+                &label,
+                record.origin.field(&format!("power[{i}]")),
+            )?);
+        }
+        if record.residuals {
+            signals.push(Signal::new(
+                "constraint_residual",
+                Probe::ConstraintResidual,
+            ));
         }
         for (i, name) in record.forces.iter().enumerate() {
-            let Some((id, _)) = connections.get(name.as_str()) else {
-                return Err(SceneError::BadSignal {
-                    at: record.origin.field(&format!("forces[{i}]")),
-                    signal: name.clone(),
-                    reason: format!(
-                        "no connection is named `{name}`; the connections are {}",
-                        listed(self.connections.iter().map(|c| c.name.as_str()))
-                    ),
-                });
-            };
-            recording.forces.push(*id);
+            let label = format!("force({name})");
+            signals.push(resolve_signal(
+                &graph,
+                execution,
+                &label,
+                record.origin.field(&format!("forces[{i}]")),
+            )?);
         }
-
+        let start = match sim.initial {
+            InitialSpec::Given => Start::Given,
+            InitialSpec::Equilibrium => Start::SteadyState,
+        };
         Ok(BuiltScene {
             graph,
             q0,
             v0,
+            given_q,
+            given_v,
             options: IntegratorOptions::new(discretisation, sim.h).scheme(scheme),
             execution,
+            start,
             t_end: sim.t_end,
             signals,
-            recording,
         })
     }
 }

@@ -1,4 +1,4 @@
-//! Line charts for the `dirac` examples: several series, solid/dashed/dotted styles, optional
+//! Line charts of trajectories and results: several series, solid/dashed/dotted styles, optional
 //! logarithmic axes, legend and axis labels, rendered to SVG or PNG with `plotters`.
 //!
 //! Text uses the vendored DejaVu Sans font (`assets/DejaVuSans.ttf`, Bitstream Vera licence in
@@ -6,7 +6,7 @@
 //! fonts are needed.
 //!
 //! ```no_run
-//! use dirac_plot::{LineChart, LineStyle, Series};
+//! use dirac_output::{LineChart, LineStyle, Series};
 //! let chart = LineChart::new("Convergence")
 //!     .x_label("steps per period")
 //!     .y_label("error")
@@ -15,7 +15,7 @@
 //!     .with_series(Series::new("paper", vec![(20.0, 0.23), (40.0, 0.056)]).style(LineStyle::Dotted));
 //! chart.save_svg("convergence.svg")?;
 //! chart.save_png("convergence.png")?;
-//! # Ok::<(), dirac_plot::PlotError>(())
+//! # Ok::<(), dirac_output::PlotError>(())
 //! ```
 
 use std::ops::Range;

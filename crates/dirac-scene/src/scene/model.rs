@@ -81,6 +81,25 @@ pub enum DiscretisationSpec {
     Lobatto,
 }
 
+/// Where a run starts (`initial = ...`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InitialSpec {
+    /// From the parts' `q0` and `v0` (`"given"`, the default), made consistent where the model's
+    /// algebraic relations fix values that were not given.
+    #[default]
+    Given,
+    /// From the steady state: static equilibrium of a mechanism, the DC operating point of a
+    /// circuit (`"equilibrium"`).
+    Equilibrium,
+}
+
+impl InitialSpec {
+    fn is_given(&self) -> bool {
+        *self == Self::Given
+    }
+}
+
 /// The `[simulation]` table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -97,6 +116,10 @@ pub struct Simulation {
     /// Discretisation (default midpoint).
     #[serde(default)]
     pub discretisation: DiscretisationSpec,
+    /// Where the run starts: the given `q0`/`v0` (default) or the static equilibrium / steady
+    /// state (MATH §7).
+    #[serde(default, skip_serializing_if = "InitialSpec::is_given")]
+    pub initial: InitialSpec,
     /// Order of the step map: even, 2 for midpoint, trapezoid and Simpson (the default), `2s`
     /// for Gauss and Lobatto of degree `s`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
