@@ -579,6 +579,15 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     for w in loaded.warnings() {
         eprintln!("warning: {w}");
     }
+    if let Loaded::Netlist { circuit, .. } = &loaded
+        && circuit.op
+        && circuit.tran.is_none()
+    {
+        // A netlist that asks only for `.op`: its analysis is the operating point.
+        let mut out = Output::open(args.out.as_deref())?;
+        operating_point(&loaded, false, &mut out.writer)?;
+        return out.commit();
+    }
     let execution = loaded.execution(args.model.representation)?;
     let (options, t_end) = loaded.settings(&args.model)?;
     let signals = match &args.signals {
@@ -651,8 +660,15 @@ fn op(args: &OpArgs) -> Result<(), Failure> {
     for w in loaded.warnings() {
         eprintln!("warning: {w}");
     }
+    let mut out = Output::open(None)?;
+    operating_point(&loaded, args.json, &mut out.writer)?;
+    out.commit()
+}
+
+/// Writes the operating point of `loaded` as a `signal,value` table or one JSON object.
+fn operating_point(loaded: &Loaded, json: bool, out: &mut impl Write) -> Result<(), Failure> {
     let model = ModelArgs {
-        file: args.file.clone(),
+        file: PathBuf::new(),
         representation: None,
         method: None,
         h: Some(1.0),
@@ -660,7 +676,7 @@ fn op(args: &OpArgs) -> Result<(), Failure> {
     };
     let (options, _) = loaded.settings(&model)?;
     let execution = loaded.execution(None)?;
-    let signals = match &loaded {
+    let signals = match loaded {
         Loaded::Netlist { circuit, .. } => circuit.operating_point_signals(),
         Loaded::Scene { scene, .. } => scene.signals.clone(),
     };
@@ -668,12 +684,13 @@ fn op(args: &OpArgs) -> Result<(), Failure> {
     let mut trajectory = Trajectory::new();
     sim.run_into(0.0, &signals, &mut trajectory)?;
     let values = trajectory.row(0);
-    if args.json {
+    let write = |e: std::io::Error| Failure::Input(format!("writing output: {e}"));
+    if json {
         let mut map = serde_json::Map::new();
         for (signal, value) in signals.iter().zip(values) {
             map.insert(signal.name.clone(), (*value).into());
         }
-        println!("{}", serde_json::Value::Object(map));
+        writeln!(out, "{}", serde_json::Value::Object(map)).map_err(write)?;
     } else {
         let quote = |f: &str| {
             if f.contains(',') || f.contains('"') {
@@ -682,9 +699,15 @@ fn op(args: &OpArgs) -> Result<(), Failure> {
                 f.to_string()
             }
         };
-        println!("signal,value");
+        writeln!(out, "signal,value").map_err(write)?;
         for (signal, value) in signals.iter().zip(values) {
-            println!("{},{value}", quote(&signal.name));
+            writeln!(
+                out,
+                "{},{}",
+                quote(&signal.name),
+                dirac_output::format_value(*value)
+            )
+            .map_err(write)?;
         }
     }
     Ok(())

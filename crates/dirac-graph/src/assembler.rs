@@ -472,6 +472,17 @@ impl AssembledSystem {
         self.connection_rows.get(c).copied().flatten()
     }
 
+    /// The coefficients `(global coordinate, coefficient)` of connection `c`'s constraint row, if
+    /// it has one.
+    #[must_use]
+    pub fn connection_entries(&self, c: usize) -> Option<&[(usize, f64)]> {
+        let row = self.connection_row(c)?;
+        self.constraints
+            .rows
+            .get(row - self.constraints.internal_rows)
+            .map(|r| r.entries.as_slice())
+    }
+
     /// Number of connections of the graph this system was assembled from.
     #[must_use]
     pub fn connection_count(&self) -> usize {

@@ -124,8 +124,9 @@ fn seed_rlc_reproduces_the_paper() {
     assert_eq!(names, ["C1.q", "L1.i"]);
     let (rows, summary) = rows(&built);
     assert_eq!(rows.len(), 1001);
-    // n3 restates n1 and n2 (KCL written at every node of the loop): the one warning.
-    assert_eq!(summary.warnings.len(), 1, "{:?}", summary.warnings);
+    // n3 restates n1 and n2 (KCL written at every node of the loop, always redundant): no
+    // warning for it.
+    assert!(summary.warnings.is_empty(), "{:?}", summary.warnings);
     let (l, c, r): (f64, f64, f64) = (0.75, 3.0, 0.1);
     let gamma = r / (2.0 * l);
     let wd = (1.0 / (l * c) - gamma * gamma).sqrt();
@@ -1012,4 +1013,24 @@ fn node_forces_need_an_assembled_representation() {
     scene.connections.clear();
     let error = scene.build().unwrap_err();
     assert!(error.to_string().contains("force(n2)"), "{error}");
+}
+
+/// Redundancy the user wrote still warns: the seed loop with a fourth node restating n1 keeps the
+/// silent drop of the always-redundant row and warns, naming the extra node.
+#[test]
+fn written_redundancy_warns() {
+    let mut scene = load("seed_rlc.toml");
+    let mut extra = scene.connections[0].clone();
+    extra.name = "n1_again".into();
+    scene.connections.push(extra);
+    let built = scene.build().unwrap();
+    let mut sim = built.simulation().unwrap();
+    sim.prepare().unwrap();
+    println!("{:?}", sim.warnings());
+    assert_eq!(sim.warnings().len(), 1, "{:?}", sim.warnings());
+    assert!(
+        sim.warnings()[0].contains("n1_again"),
+        "{:?}",
+        sim.warnings()
+    );
 }

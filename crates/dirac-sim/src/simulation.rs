@@ -446,15 +446,101 @@ impl Simulation {
             let given = self.given_global(&system);
             self.make_consistent(&mut integrator, &mut readout, &mut q, &mut v, &given)?;
         }
-        for w in integrator.warnings() {
-            self.warnings.push(w.clone());
-        }
+        self.warn_redundant(&system, &integrator);
         Ok(AssembledEngine {
             system,
             integrator,
             readout,
             connection_rows,
         })
+    }
+
+    /// Warns about constraint rows dropped as linearly dependent, except the one row per closed
+    /// group of nodes that is always redundant: KCL written at every node of a circuit (ground
+    /// included) sums to zero, so one of its rows restates the others by construction.
+    fn warn_redundant(
+        &mut self,
+        system: &AssembledSystem,
+        integrator: &Integrator<AssembledModel, AssembledConstraints>,
+    ) {
+        let kept = integrator.active_constraints().kept();
+        let all = integrator.constraints().count();
+        let dropped: Vec<usize> = (0..all).filter(|r| !kept.contains(r)).collect();
+        if dropped.is_empty() {
+            return;
+        }
+        // Groups of node connections that share a coordinate (union–find over their rows).
+        let nodes: Vec<usize> = (0..system.connection_count())
+            .filter(|&c| {
+                matches!(
+                    self.graph.connections()[c],
+                    dirac_graph::Connection::Node { .. }
+                )
+            })
+            .collect();
+        let mut parent: Vec<usize> = (0..nodes.len()).collect();
+        fn find(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        let mut owner: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
+        for (k, &c) in nodes.iter().enumerate() {
+            for &(i, _) in system.connection_entries(c).unwrap_or(&[]) {
+                if let Some(&other) = owner.get(&i) {
+                    let (a, b) = (find(&mut parent, k), find(&mut parent, other));
+                    parent[a] = b;
+                } else {
+                    owner.insert(i, k);
+                }
+            }
+        }
+        // A group is closed when its rows sum to zero (every branch enters one node and leaves
+        // another).
+        // Rows written twice (up to sign) count once here: the second copy is the user's.
+        let mut sums: std::collections::HashMap<usize, std::collections::HashMap<usize, f64>> =
+            std::collections::HashMap::new();
+        let mut seen: Vec<Vec<(usize, u64)>> = Vec::new();
+        for (k, &c) in nodes.iter().enumerate() {
+            let entries = system.connection_entries(c).unwrap_or(&[]);
+            let mut key: Vec<(usize, u64)> = entries
+                .iter()
+                .map(|&(i, v)| (i, v.abs().to_bits()))
+                .collect();
+            key.sort_unstable();
+            if seen.contains(&key) {
+                continue;
+            }
+            seen.push(key);
+            let g = find(&mut parent, k);
+            let sum = sums.entry(g).or_default();
+            for &(i, coefficient) in entries {
+                *sum.entry(i).or_insert(0.0) += coefficient;
+            }
+        }
+        let mut silent: std::collections::HashSet<usize> = sums
+            .iter()
+            .filter(|(_, sum)| sum.values().all(|v| v.abs() <= 1e-12))
+            .map(|(g, _)| *g)
+            .collect();
+        let constraints = integrator.constraints();
+        for row in dropped {
+            let group = nodes
+                .iter()
+                .position(|&c| system.connection_row(c) == Some(row))
+                .map(|k| find(&mut parent, k));
+            if let Some(g) = group
+                && silent.remove(&g)
+            {
+                continue;
+            }
+            self.warnings.push(format!(
+                "constraint `{}` is linearly dependent on the others at the initial point; dropped",
+                constraints.name(row)
+            ));
+        }
     }
 
     /// Which global positions and velocities were given (endpoint coordinates of the constraint
