@@ -63,6 +63,10 @@ pub struct IntegratorOptions {
     /// steps: LC tank energy 4.5e-11 after 10⁶ steps) where the Newton path's rounding is a random
     /// walk (5.5e-13). Off by default.
     pub affine_map: bool,
+    /// Land a substep on every source breakpoint ([`dirac_core::Model::next_breakpoint`]) inside a
+    /// step (on by default). Off, a corner inside a step is seen only through the quadrature of
+    /// the force, which costs `O(h·jump)` at that step whatever the order.
+    pub breakpoints: bool,
     /// The step as a composition of substeps `γᵢ h` (each one step of `scheme`); a single step by
     /// default. With the symmetric scheme (or no constraints) the compositions of
     /// [`Composition`] raise the order of a second-order discretisation to 4, 6 or 8.
@@ -80,8 +84,16 @@ impl IntegratorOptions {
             solver: SolverChoice::Auto,
             newton: NewtonOptions::default(),
             affine_map: false,
+            breakpoints: true,
             composition: Composition::single(),
         }
+    }
+
+    /// Lands substeps on source breakpoints (see [`IntegratorOptions::breakpoints`]).
+    #[must_use]
+    pub fn breakpoints(mut self, on: bool) -> Self {
+        self.breakpoints = on;
+        self
     }
 
     /// Composes the step from substeps `γᵢ h` (see [`IntegratorOptions::composition`]).
@@ -528,7 +540,11 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let mut stats = NewtonStats::default();
         loop {
             let t = self.t;
-            let mut corner = self.model.next_breakpoint(t);
+            let mut corner = if self.options.breakpoints {
+                self.model.next_breakpoint(t)
+            } else {
+                None
+            };
             while let Some(b) = corner.filter(|b| *b <= t + BREAKPOINT_SNAP * h) {
                 corner = self.model.next_breakpoint(b);
             }
