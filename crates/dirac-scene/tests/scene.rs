@@ -1086,3 +1086,47 @@ signals = ["M.x", "M.x'"]
         assert!(v[1].abs() <= 1e-15, "t = {t}: {v:?}");
     }
 }
+
+/// Row 0 of every bundled scene is its stated initial state: every position is `q0` and every
+/// stated rate is `v0` (the DC motor at rest reads zero current and zero speed; the old rows
+/// extrapolated from steps 1 and 2 read 0.07 A and −0.0085 rad/s).
+#[test]
+fn row_zero_is_the_stated_initial_state_of_every_scene() {
+    for name in bundled() {
+        let built = load(&name).build().unwrap();
+        let mut signals = Vec::new();
+        for sub in built.graph.subsystems() {
+            let model = sub.model();
+            for i in 0..model.dim() {
+                let c = model.coordinate_name(i);
+                signals.push(built.signal(&format!("{}.{c}", sub.name())).unwrap());
+                signals.push(built.signal(&format!("{}.{c}'", sub.name())).unwrap());
+            }
+        }
+        let mut sim = built.simulation().unwrap();
+        let (run, _) = sim
+            .run(0.0, &signals)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let row = run.row(0);
+        let mut k = 0;
+        for (s, (q0, v0)) in built.q0.iter().zip(&built.v0).enumerate() {
+            for i in 0..q0.len() {
+                assert_eq!(row[k], q0[i], "{name}: position {i} of part {s}");
+                if built.given_v[s][i] {
+                    assert!(
+                        (row[k + 1] - v0[i]).abs() <= 1e-15,
+                        "{name}: rate {i} of part {s}: {}",
+                        row[k + 1]
+                    );
+                }
+                k += 2;
+            }
+        }
+        if name == "dc_motor.toml" {
+            assert!(
+                row.iter().skip(1).step_by(2).all(|v| v.abs() <= 1e-15),
+                "{row:?}"
+            );
+        }
+    }
+}
