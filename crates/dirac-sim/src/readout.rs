@@ -153,29 +153,59 @@ impl Readout {
         let permuted: Vec<(usize, usize)> =
             pattern.iter().map(|&(r, c)| (permuted_row[r], c)).collect();
         let structure = Structure::analyse(size, size, &permuted, &priority);
+        // The equation each matched unknown is solved from, and the unknowns of every equation.
+        let mut row_of = vec![OUT; size];
+        for (c, r) in row_of.iter_mut().enumerate() {
+            if let Some(k) = structure.matched_row(c) {
+                *r = order[k];
+            }
+        }
+        let mut row_cols: Vec<Vec<usize>> = vec![Vec::new(); size];
+        for &(r, c) in &pattern {
+            row_cols[r].push(c);
+        }
+        // Solve only what the outputs (determined velocities and multipliers) depend on: their
+        // equations and, recursively, the unknowns those contain. Accelerations stay out unless a
+        // multiplier needs them (a node joining only inductors, a joint between masses).
+        let mut needed = vec![false; size];
+        let mut stack: Vec<usize> = (0..n)
+            .chain(2 * n + m..size)
+            .filter(|&c| row_of[c] != OUT && !structure.is_underdetermined_col(c))
+            .collect();
+        for &c in &stack {
+            needed[c] = true;
+        }
+        while let Some(c) = stack.pop() {
+            for &d in &row_cols[row_of[c]] {
+                if !needed[d] && row_of[d] != OUT {
+                    needed[d] = true;
+                    stack.push(d);
+                }
+            }
+        }
         let mut col_slot = vec![OUT; size];
         let mut cols = Vec::new();
         for (c, slot) in col_slot.iter_mut().enumerate() {
-            if structure.matched_row(c).is_some() {
+            if needed[c] {
                 *slot = cols.len();
                 cols.push(c);
             }
         }
-        let mut row_slot = vec![OUT; size];
-        let mut rows = Vec::new();
-        let mut redundant = Vec::new();
-        for (k, &r) in order.iter().enumerate() {
-            if structure.matched_col(k).is_some() {
-                row_slot[r] = rows.len();
-                rows.push(r);
-            } else {
-                redundant.push(r);
-            }
-        }
+        let mut rows: Vec<usize> = cols.iter().map(|&c| row_of[c]).collect();
         rows.sort_unstable();
+        let mut row_slot = vec![OUT; size];
         for (slot, &r) in rows.iter().enumerate() {
             row_slot[r] = slot;
         }
+        // Unmatched equations restate others: consistency checks, where they only involve what is
+        // solved (an unmatched acceleration-level row would read unsolved accelerations as 0).
+        let redundant: Vec<usize> = order
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| structure.matched_col(k).is_none())
+            .map(|(_, &r)| r)
+            .filter(|&r| row_cols[r].iter().all(|&c| needed[c] || row_of[c] == OUT))
+            .collect();
         let overdetermined = order
             .iter()
             .enumerate()
@@ -226,19 +256,21 @@ impl Readout {
         p: &[f64],
         t: f64,
     ) -> Result<(), ReadoutError> {
-        let n = self.n;
-        let guess = self.work.full[..n].to_vec();
-        model.lagrangian_gradient(q, &guess, &mut self.work.lq, &mut self.work.lv);
-        if model.has_force() {
-            model.force(q, &guess, t, &mut self.work.f);
+        if !self.constant {
+            // Term sizes at the guess: the scale of the residual test (a constant system is solved
+            // by one update, exact, with no test).
+            let n = self.n;
+            let guess = self.work.full[..n].to_vec();
+            model.lagrangian_gradient(q, &guess, &mut self.work.lq, &mut self.work.lv);
+            if model.has_force() {
+                model.force(q, &guess, t, &mut self.work.f);
+            }
         }
-        let scale = p
-            .iter()
-            .chain(&self.work.lq)
-            .chain(&self.work.lv)
-            .chain(&self.work.f)
-            .fold(f64::MIN_POSITIVE, |a, x| a.max(x.abs()));
-        self.scale = scale;
+        let scale = if self.constant {
+            1.0
+        } else {
+            term_scale(p, &self.work)
+        };
         let mut system = System {
             layout: Layout {
                 n: self.n,
@@ -256,10 +288,16 @@ impl Readout {
             work: &mut self.work,
             constant: self.constant,
             scale,
+            at_zero: false,
         };
         if self.rows.is_empty() {
             system.scatter(&self.reduced);
             return Ok(());
+        }
+        if self.constant {
+            // Affine: one update from zero is exact, and the residual at zero needs no products.
+            self.reduced.fill(0.0);
+            system.at_zero = true;
         }
         match self.newton.solve(&mut system, &mut self.reduced) {
             Ok(stats) => {
@@ -302,7 +340,8 @@ impl Readout {
         &self.work.full[o..o + self.m]
     }
 
-    /// Accelerations `a` (meaningful where determined; 0 for the free ones).
+    /// Accelerations `a`, where a multiplier needed them (0 elsewhere: only what the velocities and
+    /// multipliers depend on is solved).
     #[must_use]
     pub fn accelerations(&self) -> &[f64] {
         let o = self.n + self.m;
@@ -351,6 +390,7 @@ impl Readout {
         let full = std::mem::take(&mut self.work.full);
         let mut residual = std::mem::take(&mut self.work.residual);
         layout.residual(&mut self.work, model, q, p, t, &full, &mut residual);
+        self.scale = term_scale(p, &self.work);
         let out = self
             .redundant
             .iter()
@@ -365,8 +405,8 @@ impl Readout {
         self.velocities().to_vec()
     }
 
-    /// Magnitude of the terms of the last solve's equations (momenta, forces): the scale against
-    /// which a residual is small.
+    /// Magnitude of the terms of the equations at the last [`Readout::consistency_residuals`]
+    /// (momenta, forces): the scale against which a residual is small.
     #[must_use]
     pub fn scale(&self) -> f64 {
         self.scale
@@ -507,6 +547,15 @@ impl Readout {
             }
         }
     }
+}
+
+/// The largest momentum, Lagrangian derivative or force of the last evaluation.
+fn term_scale(p: &[f64], work: &Work) -> f64 {
+    p.iter()
+        .chain(&work.lq)
+        .chain(&work.lv)
+        .chain(&work.f)
+        .fold(f64::MIN_POSITIVE, |a, x| a.max(x.abs()))
 }
 
 /// Positions of the blocks in the full `(2n + 2m)`-square system.
@@ -660,6 +709,8 @@ struct System<'a, M: ?Sized, C: ?Sized> {
     work: &'a mut Work,
     constant: bool,
     scale: f64,
+    /// The next residual is evaluated at `x = 0` (then only `∂L/∂v − p` and `−∂L/∂q − f` remain).
+    at_zero: bool,
 }
 
 impl<M: Model + ?Sized, C: Constraints + ?Sized> System<'_, M, C> {
@@ -678,6 +729,30 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for System<'_, 
     }
 
     fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+        if std::mem::take(&mut self.at_zero) {
+            let (n, m) = (self.layout.n, self.layout.m);
+            let work = &mut *self.work;
+            work.full.fill(0.0);
+            self.model
+                .lagrangian_gradient(self.q, &work.full[..n], &mut work.lq, &mut work.lv);
+            if self.model.has_force() {
+                self.model
+                    .force(self.q, &work.full[..n], self.t, &mut work.f);
+            } else {
+                work.f.fill(0.0);
+            }
+            for (out, &row) in r.iter_mut().zip(self.rows) {
+                *out = if row < n {
+                    work.lv[row] - self.p[row]
+                } else if (n + m..2 * n + m).contains(&row) {
+                    let i = row - n - m;
+                    -work.lq[i] - work.f[i]
+                } else {
+                    0.0
+                };
+            }
+            return;
+        }
         self.scatter(x);
         let n = self.layout.n;
         if !self.constant {

@@ -199,7 +199,7 @@ fn coordinate_of(
 
 /// The state at one output time, in subsystem coordinates (every representation gives the same
 /// layout): what probes are evaluated on.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Snapshot {
     /// `t_k`.
     pub t: f64,

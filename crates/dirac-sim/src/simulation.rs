@@ -708,6 +708,14 @@ impl Simulation {
     /// # Errors
     /// Set-up failures, or a readout that cannot be computed.
     pub fn snapshot(&mut self) -> Result<Snapshot, RunError> {
+        let mut snapshot = Snapshot::default();
+        self.snapshot_into(&mut snapshot, true)?;
+        Ok(snapshot)
+    }
+
+    /// Fills `snapshot` with the current state (reusing its buffers); without `readout` only
+    /// the positions are current (velocities and multipliers are left as they were).
+    fn snapshot_into(&mut self, snapshot: &mut Snapshot, readout: bool) -> Result<(), RunError> {
         self.prepare()?;
         let residual = self.last_residual;
         let connections = self.graph.connections().len();
@@ -715,7 +723,7 @@ impl Simulation {
             .engine
             .as_mut()
             .ok_or_else(|| RunError::Settings("not prepared".into()))?;
-        engine.snapshot(connections, residual)
+        engine.snapshot(snapshot, connections, residual, readout)
     }
 
     /// The time of the current state.
@@ -810,8 +818,10 @@ impl Simulation {
         let mut max_residual: f64 = 0.0;
         let mut pending: Option<Snapshot> = None;
         let mut previous_mean: Option<StepMean> = None;
+        let readout = self.needs_readout(signals);
+        let mut snapshot = Snapshot::default();
         for k in 0..=steps {
-            let snapshot = self.snapshot()?;
+            self.snapshot_into(&mut snapshot, readout)?;
             let t_k = self.t0 + k as f64 * h;
             if deferred.is_empty() {
                 self.emit(k, t_k, &snapshot, signals, &mut values, sink)?;
@@ -826,7 +836,7 @@ impl Simulation {
             self.step()?;
             max_residual = max_residual.max(self.last_residual);
             let mean = self.step_mean(&before, h)?;
-            let mut row = snapshot;
+            let mut row = snapshot.clone();
             for &entry in &deferred {
                 let value = match &previous_mean {
                     Some(previous) => 0.5 * (previous.get(entry) + mean.get(entry)),
@@ -877,6 +887,20 @@ impl Simulation {
             }));
         }
         sink.row(k, t, values).map_err(RunError::Output)
+    }
+
+    /// Whether any of `signals` reads a velocity or a multiplier (else rows need no readout).
+    fn needs_readout(&self, signals: &[Signal]) -> bool {
+        let needs = std::cell::Cell::new(false);
+        for signal in signals {
+            signal.probe.visit(
+                &self.graph,
+                &self.offsets,
+                &mut |_| needs.set(true),
+                &mut |_| needs.set(true),
+            );
+        }
+        needs.get()
     }
 
     /// Entries of the snapshot that `signals` read and the algebraic relations do not fix.
@@ -1116,54 +1140,59 @@ impl Engine {
         }
     }
 
-    fn snapshot(&mut self, connections: usize, residual: f64) -> Result<Snapshot, RunError> {
+    fn snapshot(
+        &mut self,
+        out: &mut Snapshot,
+        connections: usize,
+        residual: f64,
+        readout: bool,
+    ) -> Result<(), RunError> {
+        out.residual = residual;
+        out.efforts.resize(connections, None);
         match self {
             Self::Assembled(e) => {
                 let integrator = &e.integrator;
-                e.readout.solve(
-                    integrator.model(),
-                    integrator.active_constraints(),
-                    integrator.q(),
-                    integrator.p(),
-                    integrator.t(),
-                )?;
                 let parts = e.system.subsystem_coordinates();
-                let lambda = e.readout.multipliers();
-                Ok(Snapshot {
-                    t: integrator.t(),
-                    q: integrator.q()[..parts].to_vec(),
-                    v: e.readout.velocities()[..parts].to_vec(),
-                    efforts: e
-                        .connection_rows
-                        .iter()
-                        .map(|row| row.map(|r| lambda[r]))
-                        .chain(std::iter::repeat(None))
-                        .take(connections)
-                        .collect(),
-                    residual,
-                })
+                out.t = integrator.t();
+                out.q.clear();
+                out.q.extend_from_slice(&integrator.q()[..parts]);
+                out.v.resize(parts, 0.0);
+                if readout {
+                    e.readout.solve(
+                        integrator.model(),
+                        integrator.active_constraints(),
+                        integrator.q(),
+                        integrator.p(),
+                        integrator.t(),
+                    )?;
+                    out.v.copy_from_slice(&e.readout.velocities()[..parts]);
+                    let lambda = e.readout.multipliers();
+                    for (effort, row) in out.efforts.iter_mut().zip(&e.connection_rows) {
+                        *effort = row.map(|r| lambda[r]);
+                    }
+                }
+                Ok(())
             }
             Self::Staggered(e) => {
-                let mut q = Vec::new();
-                let mut v = Vec::new();
-                for (part, readout) in e.staggered.parts().iter().zip(&mut e.readouts) {
-                    readout.solve(
-                        part.model(),
-                        part.active_constraints(),
-                        part.q(),
-                        part.p(),
-                        part.t(),
-                    )?;
-                    q.extend_from_slice(part.q());
-                    v.extend_from_slice(readout.velocities());
+                out.t = e.staggered.time();
+                out.q.clear();
+                out.v.clear();
+                for (part, readout_of) in e.staggered.parts().iter().zip(&mut e.readouts) {
+                    out.q.extend_from_slice(part.q());
+                    if readout {
+                        readout_of.solve(
+                            part.model(),
+                            part.active_constraints(),
+                            part.q(),
+                            part.p(),
+                            part.t(),
+                        )?;
+                        out.v.extend_from_slice(readout_of.velocities());
+                    } else {
+                        out.v.extend(std::iter::repeat_n(0.0, part.q().len()));
+                    }
                 }
-                Ok(Snapshot {
-                    t: e.staggered.time(),
-                    q,
-                    v,
-                    efforts: vec![None; connections],
-                    residual,
-                })
+                Ok(())
             }
         }
     }
