@@ -515,9 +515,15 @@ impl AssembledSystem {
 
     /// Interaction impulses of the connection rows: for each connection with a constraint row
     /// (node, joint, or coupling endpoint in the constraint form), `(connection index, global
-    /// coordinate, impulse Λ·c)` for every coordinate the row touches. `multipliers` holds one
-    /// value per constraint row (see `Integrator::last_multipliers_full`). Divided by `h` these
-    /// are the interaction forces; for a joint they act equal and opposite on its two ports.
+    /// coordinate, impulse)` for every coordinate the row touches, where the impulse is what the
+    /// connection adds to that coordinate's momentum over the step: `−Λ·c` for the row's
+    /// multiplier `Λ` and coefficient `c` (the step equations read
+    /// `p_k + D₁L_d + f_d⁻ − Σ Λ·A = 0`, MATH §4). `multipliers` holds one value per constraint
+    /// row (see `Integrator::last_multipliers_full`). Divided by `h` these are the interaction
+    /// forces; for a joint they act equal and opposite on its two ports. A coupling's endpoint row
+    /// (constraint form) delivers the coupling's impulse to the partner less the change of the
+    /// endpoint's own momentum, which [`AssembledSystem::subsystem_momenta`] pulls back onto the
+    /// partner.
     #[must_use]
     pub fn interaction_impulses(&self, multipliers: &[f64]) -> Vec<(usize, usize, f64)> {
         let mut out = Vec::new();
@@ -525,7 +531,7 @@ impl AssembledSystem {
             let Some(row) = row else { continue };
             let entries = &self.constraints.rows[row - self.constraints.internal_rows].entries;
             for &(i, k) in entries {
-                out.push((c, i, multipliers[*row] * k));
+                out.push((c, i, -multipliers[*row] * k));
             }
         }
         out
