@@ -1299,4 +1299,143 @@ mod tests {
             assert!(worst <= DIFFERENCES, "{rep}: derivatives off by {worst:e}");
         }
     }
+
+    /// The constraint rows, written out: P's internal row at P's offset, then one row per node,
+    /// joint and (constraint form) coupling endpoint, with the ports' coefficients and signs.
+    #[test]
+    fn constraint_rows_are_the_internal_rows_and_the_connections() {
+        let g = graph();
+        // (name, entries) per row; coordinates: P = 0, 1; A = 2; B = 3; C = 4; endpoints 5, 6, 7.
+        let internal = ("P/slide", vec![(0, 1.0), (1, -2.0)]);
+        let joint = ("joint `j`", vec![(2, 1.0), (4, 1.5)]);
+        let node = (
+            "node `n` (KCL)",
+            vec![(0, 0.5), (1, 2.0), (2, -1.0), (3, 1.0)],
+        );
+        for rep in [
+            Representation::Monolithic,
+            Representation::Constraint,
+            Representation::InteractionForce,
+        ] {
+            let system = Assembler::assemble(&g, rep).unwrap();
+            let mut want = vec![internal.clone()];
+            // Connections in order: s, cubic, d, j, n.
+            let mut rows_of = vec![None, None, None, Some(1), Some(2)];
+            if rep == Representation::Constraint {
+                want.push(("joint `s` (endpoint)", vec![(5, 1.0), (0, -0.5), (1, -2.0)]));
+                want.push(("joint `cubic` (endpoint)", vec![(6, 1.0), (3, -1.0)]));
+                want.push(("joint `d` (endpoint)", vec![(7, 1.0), (4, 1.5)]));
+                rows_of = vec![Some(1), Some(2), Some(3), Some(4), Some(5)];
+            }
+            want.push(joint.clone());
+            want.push(node.clone());
+            let c = &system.constraints;
+            assert_eq!(c.count(), want.len(), "{rep}");
+            let n = system.coordinates();
+            let mut forms = Triplets::new();
+            forms.begin();
+            c.forms(&vec![0.3; n], &mut forms);
+            for (a, (name, entries)) in want.iter().enumerate() {
+                assert_eq!(&c.name(a), name, "{rep}: row {a}");
+                assert_eq!(c.kind(a), ConstraintKind::OneForm);
+                let mut got: Vec<(usize, f64)> = forms
+                    .iter()
+                    .filter(|(r, _, _)| *r == a)
+                    .map(|(_, j, v)| (j, v))
+                    .collect();
+                got.sort_by_key(|x| x.0);
+                let mut entries = entries.clone();
+                entries.sort_by_key(|x| x.0);
+                assert_eq!(got, entries, "{rep}: row {a} ({name})");
+            }
+            for (connection, row) in rows_of.iter().enumerate() {
+                assert_eq!(
+                    system.connection_row(connection),
+                    *row,
+                    "{rep}: {connection}"
+                );
+            }
+            assert!(c.is_constant());
+        }
+    }
+
+    /// Initial data: endpoint entries take the partner port's value; a wrong length is a typed
+    /// error naming the subsystem. Momenta: each endpoint's momentum is added to its partner
+    /// port's coordinates with the port's coefficients.
+    #[test]
+    fn endpoints_take_and_return_their_partners_values() {
+        let g = graph();
+        let system = Assembler::assemble(&g, Representation::Constraint).unwrap();
+        let names: Vec<String> = ["P", "A", "B", "C"].map(String::from).to_vec();
+        let per = vec![vec![0.2, -0.4], vec![1.0], vec![-0.5], vec![0.6]];
+        let q = system.global_vector(&per, &names).unwrap();
+        // Partners: s → P.y = 0.5·0.2 + 2·(−0.4); cubic → B.x; d → C.x = −1.5·0.6.
+        assert_eq!(
+            q,
+            vec![
+                0.2,
+                -0.4,
+                1.0,
+                -0.5,
+                0.6,
+                0.5 * 0.2 + 2.0 * -0.4,
+                -0.5,
+                -1.5 * 0.6
+            ]
+        );
+        let bad = vec![vec![0.2], vec![1.0], vec![-0.5], vec![0.6]];
+        assert_eq!(
+            system.global_vector(&bad, &names),
+            Err(GraphError::InitialDimension {
+                subsystem: "P".into(),
+                got: 1,
+                expected: 2
+            })
+        );
+        let p = [1.0, 2.0, 3.0, 4.0, 5.0, 10.0, 20.0, 30.0];
+        assert_eq!(
+            system.subsystem_momenta(&p),
+            vec![
+                1.0 + 0.5 * 10.0,
+                2.0 + 2.0 * 10.0,
+                3.0,
+                4.0 + 20.0,
+                5.0 - 1.5 * 30.0
+            ]
+        );
+        assert_eq!(system.subsystem_positions(&p), &p[..5]);
+        assert_eq!(system.subsystem_coordinates(), 5);
+        assert_eq!(system.global_index(crate::SubsystemId(2), 0), 3);
+    }
+
+    /// Staggered co-simulation needs couplings only; a subsystem's frozen-coupling model applies
+    /// the coupling's force with the partner held at the frozen value, on its own side.
+    #[test]
+    fn staggered_plan_freezes_the_partner() {
+        assert_eq!(
+            Assembler::staggered(&graph()).err(),
+            Some(GraphError::StaggeredNeedsCouplings("j".into()))
+        );
+        let mut g = Interconnection::new();
+        g.add_subsystem(Subsystem::new("A", A).with_port("x", 0))
+            .unwrap();
+        g.add_subsystem(Subsystem::new("B", B).with_combination_port("x", vec![(0, 2.0)]))
+            .unwrap();
+        let (a, b) = (g.port("A", "x").unwrap(), g.port("B", "x").unwrap());
+        g.coupling("s", a, b, LinearSpring { k: 3.0, rest: 0.2 });
+        let plan = Assembler::staggered(&g).unwrap();
+        let (ma, mb) = (&plan.models[0], &plan.models[1]);
+        ma.freeze(0, 0.7, 0.0);
+        mb.freeze(0, -0.4, 0.0);
+        let mut f = [f64::NAN];
+        // A at x = 0.1 against B.x frozen at 0.7: own force plus −k(x_a − x_b − ℓ).
+        ma.force(&[0.1], &[0.5], 0.0, &mut f);
+        let want = A.f(0.1, 0.5) - 3.0 * (0.1 - 0.7 - 0.2);
+        assert!((f[0] - want).abs() <= 1e-15, "{} vs {want}", f[0]);
+        // B (port 2·x) at x = 0.3 against A.x frozen at −0.4: 2·k(x_a − x_b − ℓ).
+        mb.force(&[0.3], &[0.0], 0.0, &mut f);
+        let want = 2.0 * 3.0 * (-0.4 - 0.6 - 0.2);
+        assert!((f[0] - want).abs() <= 1e-15, "{} vs {want}", f[0]);
+        assert_eq!(ma.links()[0].partner, crate::SubsystemId(1));
+    }
 }
