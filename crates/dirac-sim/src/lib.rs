@@ -15,6 +15,8 @@ mod signal;
 mod simulation;
 mod staggered;
 mod steady;
+#[cfg(test)]
+mod test_models;
 mod trajectory;
 
 pub use composition::{Composition, CompositionError};
