@@ -264,3 +264,158 @@ pub fn solve3(a: &Mat3, b: &[f64; 3]) -> [f64; 3] {
         so3::det(&m) / d
     })
 }
+
+/// Sums a triplet stream into a dense matrix.
+pub fn dense(t: &dirac_core::Triplets, rows: usize, cols: usize) -> Vec<Vec<f64>> {
+    let mut out = vec![vec![0.0; cols]; rows];
+    for (r, c, v) in t.iter() {
+        out[r][c] += v;
+    }
+    out
+}
+
+/// Step of the central differences in the derivative checks, and the relative agreement
+/// required (truncation ~1e-12 for these polynomial and trigonometric functions; cancellation in
+/// the quotient costs ~1e-10).
+pub const FD_STEP: f64 = 1e-6;
+pub const FD_AGREE: f64 = 1e-7;
+
+fn central(x: &[f64], j: usize, f: &mut dyn FnMut(&[f64]) -> Vec<f64>) -> Vec<f64> {
+    let (mut xp, mut xm) = (x.to_vec(), x.to_vec());
+    xp[j] += FD_STEP;
+    xm[j] -= FD_STEP;
+    let (fp, fm) = (f(&xp), f(&xm));
+    fp.iter()
+        .zip(&fm)
+        .map(|(a, b)| (a - b) / (2.0 * FD_STEP))
+        .collect()
+}
+
+fn close(a: f64, b: f64, what: &str) {
+    assert!(
+        (a - b).abs() <= FD_AGREE * (1.0 + a.abs().max(b.abs())),
+        "{what}: hand-written {a:e} vs difference {b:e}"
+    );
+}
+
+/// Checks a constraint set at `q`: covectors of holonomic rows against differences of `g`,
+/// `multiplier_hessian` against differences of `Σ λₐ Aᵃ`, `contracted_derivative` against
+/// differences of `A·w`, and that a second pass stamps the same pattern.
+pub fn check_constraints<C: dirac_core::Constraints + ?Sized>(
+    c: &C,
+    q: &[f64],
+    lambda: &[f64],
+    w: &[f64],
+) {
+    use dirac_core::{ConstraintKind, Triplets};
+    let (m, n) = (c.count(), q.len());
+    let forms = |x: &[f64]| {
+        let mut t = Triplets::new();
+        t.begin();
+        c.forms(x, &mut t);
+        dense(&t, m, n)
+    };
+    let a = forms(q);
+    for j in 0..n {
+        let dg = central(q, j, &mut |x| {
+            let mut g = vec![0.0; m];
+            c.values(x, &mut g);
+            g
+        });
+        for (row, (ar, d)) in a.iter().zip(&dg).enumerate() {
+            assert_eq!(c.kind(row), ConstraintKind::Holonomic);
+            close(ar[j], *d, &format!("∂g{row}/∂q{j} ({})", c.name(row)));
+        }
+    }
+    let mut hess = Triplets::new();
+    for pass in 0..2 {
+        hess.begin();
+        c.multiplier_hessian(q, lambda, &mut hess);
+        if pass == 0 {
+            hess.freeze();
+        } else {
+            hess.finish().expect("fixed multiplier Hessian pattern");
+        }
+    }
+    let hess = dense(&hess, n, n);
+    let mut contracted = Triplets::new();
+    contracted.begin();
+    c.contracted_derivative(q, w, &mut contracted);
+    let contracted = dense(&contracted, m, n);
+    for l in 0..n {
+        let dl = central(q, l, &mut |x| {
+            let ax = forms(x);
+            (0..n)
+                .map(|j| (0..m).map(|r| lambda[r] * ax[r][j]).sum())
+                .collect()
+        });
+        let dw = central(q, l, &mut |x| {
+            let ax = forms(x);
+            (0..m)
+                .map(|r| (0..n).map(|j| w[j] * ax[r][j]).sum())
+                .collect()
+        });
+        for j in 0..n {
+            close(hess[j][l], dl[j], &format!("Σλ ∂A_{j}/∂q{l}"));
+        }
+        for r in 0..m {
+            close(contracted[r][l], dw[r], &format!("Σw ∂A{r}/∂q{l}"));
+        }
+    }
+}
+
+/// A deterministic pseudo-random vector in [−1, 1] (a linear congruential sequence).
+pub fn pseudo_random(n: usize, seed: u64) -> Vec<f64> {
+    let mut s = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+    (0..n)
+        .map(|_| {
+            s = s
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((s >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+        })
+        .collect()
+}
+
+/// The complete elliptic integral of the first kind `K(k)`, `k² = m < 1`, by the arithmetic-
+/// geometric mean: `K = π / (2 AGM(1, √(1 − m)))` (converges quadratically to round-off).
+pub fn elliptic_k(m: f64) -> f64 {
+    let (mut a, mut b) = (1.0_f64, (1.0 - m).sqrt());
+    for _ in 0..40 {
+        let (an, bn) = (0.5 * (a + b), (a * b).sqrt());
+        if (an - bn).abs() <= 1e-16 * an {
+            a = an;
+            break;
+        }
+        (a, b) = (an, bn);
+    }
+    std::f64::consts::PI / (2.0 * a)
+}
+
+/// Times at which `samples` (values at `t₀ + k h`) cross zero upwards, by cubic interpolation
+/// through the four samples around each sign change.
+pub fn upward_crossings(samples: &[f64], h: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    for k in 1..samples.len().saturating_sub(2) {
+        if samples[k] < 0.0 && samples[k + 1] >= 0.0 {
+            let y = [samples[k - 1], samples[k], samples[k + 1], samples[k + 2]];
+            // Lagrange cubic through nodes −1, 0, 1, 2; Newton iterations from the linear guess.
+            let p = |s: f64| {
+                -y[0] * s * (s - 1.0) * (s - 2.0) / 6.0 + y[1] * (s + 1.0) * (s - 1.0) * (s - 2.0) / 2.0
+                    - y[2] * (s + 1.0) * s * (s - 2.0) / 2.0
+                    + y[3] * (s + 1.0) * s * (s - 1.0) / 6.0
+            };
+            let mut s = -y[1] / (y[2] - y[1]);
+            for _ in 0..20 {
+                let d = (p(s + 1e-7) - p(s - 1e-7)) / 2e-7;
+                let step = p(s) / d;
+                s -= step;
+                if step.abs() < 1e-15 {
+                    break;
+                }
+            }
+            out.push((k as f64 + s) * h);
+        }
+    }
+    out
+}
