@@ -17,6 +17,7 @@
 mod body;
 mod error;
 mod joint;
+pub mod mechanisms;
 mod rows;
 pub mod so3;
 

@@ -19,9 +19,12 @@ use dirac_rigid::{Joint, JointFrame, JointKind, Orthonormality, RigidBody, Side,
 
 #[test]
 fn body_lagrangian_derivatives_match_differences() {
-    let body = RigidBody::new(1.3, [[0.4, 0.05, -0.02], [0.05, 0.6, 0.01], [-0.02, 0.01, 0.7]])
-        .expect("body")
-        .with_gravity([0.1, -0.2, -9.8]);
+    let body = RigidBody::new(
+        1.3,
+        [[0.4, 0.05, -0.02], [0.05, 0.6, 0.01], [-0.02, 0.01, 0.7]],
+    )
+    .expect("body")
+    .with_gravity([0.1, -0.2, -9.8]);
     let q = pseudo_random(12, 1);
     let v = pseudo_random(12, 2);
     let (mut lq, mut lv) = (vec![0.0; 12], vec![0.0; 12]);
@@ -40,14 +43,23 @@ fn body_lagrangian_derivatives_match_differences() {
         vm[j] -= e;
         let dq = (body.lagrangian(&qp, &v) - body.lagrangian(&qm, &v)) / (2.0 * e);
         let dv = (body.lagrangian(&q, &vp) - body.lagrangian(&q, &vm)) / (2.0 * e);
-        assert!((lq[j] - dq).abs() <= FD_AGREE * (1.0 + dq.abs()), "∂L/∂q{j}");
-        assert!((lv[j] - dv).abs() <= FD_AGREE * (1.0 + dv.abs()), "∂L/∂v{j}");
+        assert!(
+            (lq[j] - dq).abs() <= FD_AGREE * (1.0 + dq.abs()),
+            "∂L/∂q{j}"
+        );
+        assert!(
+            (lv[j] - dv).abs() <= FD_AGREE * (1.0 + dv.abs()),
+            "∂L/∂v{j}"
+        );
         let (mut gp, mut gm, mut scratch) = (vec![0.0; 12], vec![0.0; 12], vec![0.0; 12]);
         body.lagrangian_gradient(&q, &vp, &mut scratch, &mut gp);
         body.lagrangian_gradient(&q, &vm, &mut scratch, &mut gm);
         for i in 0..12 {
             let d = (gp[i] - gm[i]) / (2.0 * e);
-            assert!((vv[i][j] - d).abs() <= FD_AGREE * (1.0 + d.abs()), "∂²L/∂v{i}∂v{j}");
+            assert!(
+                (vv[i][j] - d).abs() <= FD_AGREE * (1.0 + d.abs()),
+                "∂²L/∂v{i}∂v{j}"
+            );
         }
     }
     // ½ tr(Ṙ J_d Ṙᵀ) is ½ Ωᵀ J Ω on SO(3).
@@ -64,7 +76,12 @@ fn body_lagrangian_derivatives_match_differences() {
 #[test]
 fn orthonormality_rows_match_differences() {
     let q = pseudo_random(12, 3);
-    check_constraints(&Orthonormality, &q, &pseudo_random(6, 4), &pseudo_random(12, 5));
+    check_constraints(
+        &Orthonormality,
+        &q,
+        &pseudo_random(6, 4),
+        &pseudo_random(12, 5),
+    );
 }
 
 /// Two bodies with every joint kind between them (and to the ground), plus the angle coupling of
@@ -73,7 +90,10 @@ fn orthonormality_rows_match_differences() {
 fn joint_rows_match_differences() {
     let body = RigidBody::principal(1.0, [0.3, 0.4, 0.5]).expect("body");
     let frame_a = JointFrame::new([0.1, -0.2, 0.3], so3::from_axis_angle([1.0, 0.5, 0.2], 0.8));
-    let frame_b = JointFrame::new([-0.3, 0.1, 0.2], so3::from_axis_angle([0.3, -1.0, 0.4], 1.3));
+    let frame_b = JointFrame::new(
+        [-0.3, 0.1, 0.2],
+        so3::from_axis_angle([0.3, -1.0, 0.4], 1.3),
+    );
     let kinds = [
         JointKind::Spherical,
         JointKind::Revolute,
@@ -115,7 +135,12 @@ fn joint_rows_match_differences() {
             let n = system.coordinates();
             let seed = 10 * k as u64 + u64::from(ground);
             let q = pseudo_random(n, seed);
-            check_constraints(c, &q, &pseudo_random(c.count(), seed + 100), &pseudo_random(n, seed + 200));
+            check_constraints(
+                c,
+                &q,
+                &pseudo_random(c.count(), seed + 100),
+                &pseudo_random(n, seed + 200),
+            );
         }
     }
 }

@@ -71,7 +71,10 @@ fn free_body_conserves_spatial_momentum_to_roundoff() {
         worst_e = worst_e.max(((energy(q, p) - e0) / e0).abs());
     }
     println!("spatial momentum {worst_pi:.2e}, energy {worst_e:.2e}, RᵀR − I {worst_orth:.2e}");
-    assert!(worst_pi <= MOMENTUM_ROUNDOFF, "spatial angular momentum changed by {worst_pi:e}");
+    assert!(
+        worst_pi <= MOMENTUM_ROUNDOFF,
+        "spatial angular momentum changed by {worst_pi:e}"
+    );
     assert!(worst_e <= ENERGY_ROUNDOFF, "energy changed by {worst_e:e}");
     assert!(worst_orth <= ORTHONORMAL, "RᵀR − I = {worst_orth:e}");
 }
@@ -123,5 +126,8 @@ fn dzhanibekov_flip_period_matches_the_elliptic_closed_form() {
         errors[0] / errors[1]
     );
     assert!(errors[1] <= PERIOD_ERROR, "period error {:e}", errors[1]);
-    assert!(RATIO.contains(&(errors[0] / errors[1])), "not order 2: {errors:?}");
+    assert!(
+        RATIO.contains(&(errors[0] / errors[1])),
+        "not order 2: {errors:?}"
+    );
 }

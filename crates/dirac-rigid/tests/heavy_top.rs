@@ -13,8 +13,8 @@
 mod common;
 
 use common::{Run, heavy_top, norm, pivot_momentum, pivoted_state, trapezoid};
-use dirac_rigid::{RigidBody, so3};
 use dirac_graph::Representation;
+use dirac_rigid::{RigidBody, so3};
 
 const MASS: f64 = 1.2;
 /// Moments about the centre of mass: `A₀ = J₁ = J₂`, `C = J₃`.
@@ -65,7 +65,13 @@ fn heavy_top_keeps_its_momenta_to_roundoff() {
     let r0 = so3::from_axis_angle([1.0, 0.0, 0.0], 0.6);
     let (q0, v0) = pivoted_state(&r0, PIVOT, [0.0, 0.0, 40.0]);
     let g = heavy_top(&top(), PIVOT);
-    let mut run = Run::new(&g, Representation::Monolithic, trapezoid(1e-3), &[q0], &[v0]);
+    let mut run = Run::new(
+        &g,
+        Representation::Monolithic,
+        trapezoid(1e-3),
+        &[q0],
+        &[v0],
+    );
     let (q, p) = (run.body_q(0), run.body_p(0));
     let lz0 = RigidBody::spatial_angular_momentum(q, p)[2];
     let spin0 = pivot_momentum(q, p, PIVOT)[2];
@@ -90,10 +96,16 @@ fn heavy_top_keeps_its_momenta_to_roundoff() {
         "vertical momentum {dlz:.2e}, spin {dspin:.2e}, energy band {worst_e:.2e} (first tenth {:.2e}, last {:.2e}), pivot {pivot:.1e}, RᵀR − I {orth:.1e}",
         band[0], band[9]
     );
-    assert!(dlz <= MOMENTUM_ROUNDOFF, "vertical angular momentum changed by {dlz:e}");
+    assert!(
+        dlz <= MOMENTUM_ROUNDOFF,
+        "vertical angular momentum changed by {dlz:e}"
+    );
     assert!(dspin <= MOMENTUM_ROUNDOFF, "spin changed by {dspin:e}");
     assert!(worst_e <= ENERGY_BAND, "energy band {worst_e:e}");
-    assert!((band[9] - band[0]).abs() <= ENERGY_DRIFT, "energy drifts: {band:?}");
+    assert!(
+        (band[9] - band[0]).abs() <= ENERGY_DRIFT,
+        "energy drifts: {band:?}"
+    );
     assert!(pivot <= PIVOT_HELD, "pivot moved by {pivot:e}");
     assert!(orth <= ORTHONORMAL, "RᵀR − I = {orth:e}");
 }
@@ -158,9 +170,19 @@ fn fast_top_precesses_at_the_closed_form_rate() {
             phi / t_end,
             c / b
         );
-        assert!(nutation <= NUTATION * (h / 1e-3).powi(2), "tilt changed by {nutation:e} rad");
+        assert!(
+            nutation <= NUTATION * (h / 1e-3).powi(2),
+            "tilt changed by {nutation:e} rad"
+        );
         errors.push(error);
     }
-    assert!(errors[1] <= RATE_ERROR, "precession rate error {:e}", errors[1]);
-    assert!(RATIO.contains(&(errors[0] / errors[1])), "not order 2: {errors:?}");
+    assert!(
+        errors[1] <= RATE_ERROR,
+        "precession rate error {:e}",
+        errors[1]
+    );
+    assert!(
+        RATIO.contains(&(errors[0] / errors[1])),
+        "not order 2: {errors:?}"
+    );
 }

@@ -401,7 +401,8 @@ pub fn upward_crossings(samples: &[f64], h: f64) -> Vec<f64> {
             let y = [samples[k - 1], samples[k], samples[k + 1], samples[k + 2]];
             // Lagrange cubic through nodes −1, 0, 1, 2; Newton iterations from the linear guess.
             let p = |s: f64| {
-                -y[0] * s * (s - 1.0) * (s - 2.0) / 6.0 + y[1] * (s + 1.0) * (s - 1.0) * (s - 2.0) / 2.0
+                -y[0] * s * (s - 1.0) * (s - 2.0) / 6.0
+                    + y[1] * (s + 1.0) * (s - 1.0) * (s - 2.0) / 2.0
                     - y[2] * (s + 1.0) * s * (s - 2.0) / 2.0
                     + y[3] * (s + 1.0) * s * (s - 1.0) / 6.0
             };
