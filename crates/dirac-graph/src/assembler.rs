@@ -502,11 +502,7 @@ impl Constraints for AssembledConstraints {
             return format!("{}/{}", p.name, p.constraints.name(a - p.row_offset));
         }
         match self.holonomic_of_row(a) {
-            Some(h) => format!(
-                "constraint `{}` ({})",
-                h.name,
-                h.constraint.row_name(a - h.first_row)
-            ),
+            Some(h) => format!("{} ({})", h.name, h.constraint.row_name(a - h.first_row)),
             None => self.rows[a - self.internal_rows].name.clone(),
         }
     }
