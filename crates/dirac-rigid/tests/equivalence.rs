@@ -37,13 +37,11 @@ fn pivot_joint(body: &str, at: [f64; 3]) -> Joint {
     )
 }
 
+/// Per step: the whole body's coordinates and its body angular momentum about the pivot.
+type Trajectory = Vec<(Vec<f64>, [f64; 3])>;
+
 /// Positions per step of the whole body, and its body angular momentum about the pivot.
-fn whole(
-    options: &IntegratorOptions,
-    r0: &so3::Mat3,
-    omega: [f64; 3],
-    steps: usize,
-) -> Vec<(Vec<f64>, [f64; 3])> {
+fn whole(options: &IntegratorOptions, r0: &so3::Mat3, omega: [f64; 3], steps: usize) -> Trajectory {
     let body = RigidBody::cuboid(2.0, SIDES)
         .expect("body")
         .with_gravity(GRAVITY);
@@ -79,7 +77,7 @@ fn split(
     r0: &so3::Mat3,
     omega: [f64; 3],
     steps: usize,
-) -> (Vec<(Vec<f64>, [f64; 3])>, f64) {
+) -> (Trajectory, f64) {
     let half = RigidBody::cuboid(1.0, [0.2, 0.1 * 2.0, 0.1])
         .expect("half")
         .with_gravity(GRAVITY);

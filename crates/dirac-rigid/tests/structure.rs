@@ -29,7 +29,7 @@ fn top_run(h: f64) -> (Run, Vec<f64>, Vec<f64>) {
         &g,
         Representation::Monolithic,
         trapezoid(h),
-        &[q0.clone()],
+        std::slice::from_ref(&q0),
         &[v0],
     );
     let p0 = run.sim.p().to_vec();

@@ -149,17 +149,12 @@ fn cayley<D: DualNum<Primitive = f64> + Copy>(f: &[D; 3]) -> [[D; 3]; 3] {
     let hat = [[z, -f[2], f[1]], [f[2], z, -f[0]], [-f[1], f[0], z]];
     let n2 = f[0] * f[0] + f[1] * f[1] + f[2] * f[2];
     let c = D::from(2.0) / (D::from(1.0) + n2);
-    let mut out = [[z; 3]; 3];
-    for i in 0..3 {
-        for j in 0..3 {
-            let mut h2 = z;
-            for k in 0..3 {
-                h2 += hat[i][k] * hat[k][j];
-            }
-            out[i][j] = c * (hat[i][j] + h2) + D::from(if i == j { 1.0 } else { 0.0 });
-        }
-    }
-    out
+    [0, 1, 2].map(|i| {
+        [0, 1, 2].map(|j| {
+            let h2 = hat[i][0] * hat[0][j] + hat[i][1] * hat[1][j] + hat[i][2] * hat[2][j];
+            c * (hat[i][j] + h2) + D::from(if i == j { 1.0 } else { 0.0 })
+        })
+    })
 }
 
 impl Lgvi {
@@ -201,16 +196,13 @@ impl Lgvi {
     /// `vee(F J_d − J_d Fᵀ)` at Cayley parameters `f`.
     fn torque_map<D: DualNum<Primitive = f64> + Copy>(&self, f: &[D; 3]) -> [D; 3] {
         let fm = cayley(f);
-        let z = D::from(0.0);
-        let mut a = [[z; 3]; 3];
-        for i in 0..3 {
-            for j in 0..3 {
-                for k in 0..3 {
-                    a[i][j] += fm[i][k] * self.jd[k][j] - fm[j][k] * self.jd[i][k];
-                }
-            }
-        }
-        [a[2][1], a[0][2], a[1][0]]
+        // (F J_d − J_d Fᵀ)_ij = Σ_k F_ik J_d,kj − J_d,ik F_jk.
+        let entry = |i: usize, j: usize| {
+            (0..3)
+                .map(|k| fm[i][k] * self.jd[k][j] - fm[j][k] * self.jd[i][k])
+                .fold(D::from(0.0), |acc, x| acc + x)
+        };
+        [entry(2, 1), entry(0, 2), entry(1, 0)]
     }
 
     /// One step from `(R_k, Π_k)`.
@@ -226,18 +218,14 @@ impl Lgvi {
             if res.iter().all(|x| x.abs() <= 1e-16 * (1.0 + norm(&rhs))) {
                 break;
             }
-            let mut jac = [[0.0; 3]; 3];
-            for c in 0..3 {
+            // Column c of the Jacobian from a dual number seeded in direction c.
+            let columns = [0, 1, 2].map(|c| {
                 let fd = [0, 1, 2].map(|i| Dual64::new(f[i], if i == c { 1.0 } else { 0.0 }));
-                let gd = self.torque_map(&fd);
-                for r in 0..3 {
-                    jac[r][c] = gd[r].eps;
-                }
-            }
+                self.torque_map(&fd).map(|g| g.eps)
+            });
+            let jac = [0, 1, 2].map(|r| columns.map(|col| col[r]));
             let delta = solve3(&jac, &res);
-            for i in 0..3 {
-                f[i] -= delta[i];
-            }
+            f = [0, 1, 2].map(|i| f[i] - delta[i]);
             if delta.iter().all(|d| d.abs() <= 1e-17) {
                 break;
             }
