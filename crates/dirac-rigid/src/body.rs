@@ -36,7 +36,7 @@ pub const fn rotation_index(i: usize, j: usize) -> usize {
 /// the discrete Lagrangian is `(m/2h)|Δx|² + (1/h) tr((I − F) J_d) + (h/2) m g·(x_k + x_{k+1})`
 /// with `F = R_kᵀ R_{k+1}`: the Lie group variational integrator of Lee, Leok & McClamroch, whose
 /// constrained discrete Euler–Lagrange equations in `ℝ¹²` are the group equations because the
-/// constraint forces are normal to `SO(3)` (docs/math.md §7).
+/// constraint forces are normal to `SO(3)` (docs/math.md §10).
 ///
 /// `J_d` must be positive definite (strict triangle inequalities `J₁ < J₂ + J₃`, …): a body whose
 /// mass lies on a line or a point has a rotation no kinetic term determines.

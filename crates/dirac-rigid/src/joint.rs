@@ -101,7 +101,7 @@ pub enum JointKind {
 /// (`ConstraintKind::Holonomic`). Rows are chosen so their number equals the constrained degrees
 /// of freedom near the reference configuration: axis alignment is written as two orthogonality
 /// rows, not as the three components of `R_a e − R_b e`, whose dependent combination turns with
-/// the axis (docs/math.md §7.4).
+/// the axis (docs/math.md §10.4).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Joint {
     /// The kind.

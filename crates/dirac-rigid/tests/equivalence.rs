@@ -5,7 +5,7 @@
 //! halves' discrete Lagrangians (with the parallel-axis second moments) sum exactly to the
 //! whole's, and the fixed joint's constraint manifold is the image of the whole's configuration
 //! space. The constrained discrete Euler–Lagrange equations on the two are therefore the same
-//! equations (docs/math.md §7.3).
+//! equations (docs/math.md §10.3).
 //!
 //! (2) A spring between two bodies written as a potential in the Lagrangian (monolithic), on a
 //! massless endpoint tied by a joint (constraint) or as equal and opposite forces (interaction

@@ -4,7 +4,7 @@
 //! `ℝ¹²` (with `RᵀR = I` as holonomic constraints) has the discrete Lagrangian
 //! `(1/h) tr((I − R_kᵀR_{k+1}) J_d) − (h/2)(U_k + U_{k+1})` on `SO(3)`, and its constraint forces
 //! are normal to `SO(3)`, so its positions solve the LGVI equations of Lee, Leok & McClamroch
-//! (docs/math.md §7). These tests run an independently coded LGVI on `SO(3)` (Newton on the Cayley
+//! (docs/math.md §10). These tests run an independently coded LGVI on `SO(3)` (Newton on the Cayley
 //! parameters, `tests/common`) beside the embedded integrator: each step of the embedded
 //! integrator is compared with the LGVI step from the same `(R_k, Π_k)`, so the comparison is of
 //! the two step maps (a trajectory comparison would add the chaotic growth of round-off).
