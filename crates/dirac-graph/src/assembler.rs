@@ -8,7 +8,10 @@ use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, 
 
 use crate::coupling::CouplingElement;
 use crate::error::GraphError;
-use crate::interconnection::{Connection, Interconnection, PortRef, SubsystemId};
+use crate::interconnection::{
+    Connection, Interconnection, MAX_CONSTRAINT_PORTS, PortRef, SubsystemId,
+};
+use crate::port_constraint::PortConstraint;
 
 /// How couplings and connections become equations.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -311,12 +314,34 @@ struct ConnectionRow {
     entries: Coefficients,
 }
 
-/// Internal constraints of every subsystem (at their offsets) plus the connection rows.
+/// A holonomic connection placed on global coordinates: its rows start at `first_row`.
+#[derive(Clone)]
+struct PlacedHolonomic {
+    name: String,
+    constraint: Arc<dyn PortConstraint>,
+    /// The coefficients of each port it reads, in the constraint's port order.
+    ports: Vec<Coefficients>,
+    first_row: usize,
+}
+
+impl PlacedHolonomic {
+    /// Gathers the port values of `q` into `x` (the first `ports.len()` entries).
+    fn gather(&self, q: &[f64], x: &mut [f64; MAX_CONSTRAINT_PORTS]) {
+        for (xi, port) in x.iter_mut().zip(&self.ports) {
+            *xi = combine(q, port);
+        }
+    }
+}
+
+/// Internal constraints of every subsystem (at their offsets), the one-form connection rows, then
+/// the rows of holonomic connections.
 #[derive(Clone)]
 pub struct AssembledConstraints {
     parts: Vec<Placed>,
     internal_rows: usize,
     rows: Vec<ConnectionRow>,
+    holonomic: Vec<PlacedHolonomic>,
+    holonomic_rows: usize,
     constant: bool,
 }
 
@@ -331,16 +356,33 @@ impl AssembledConstraints {
             .get(i)
             .filter(|p| a >= p.row_offset && a < p.row_offset + p.rows)
     }
+
+    /// First row of the holonomic connections.
+    fn holonomic_start(&self) -> usize {
+        self.internal_rows + self.rows.len()
+    }
+
+    /// The holonomic connection owning row `a`, if any.
+    fn holonomic_of_row(&self, a: usize) -> Option<&PlacedHolonomic> {
+        if a < self.holonomic_start() {
+            return None;
+        }
+        let i = self
+            .holonomic
+            .partition_point(|h| h.first_row + h.constraint.rows() <= a);
+        self.holonomic.get(i)
+    }
 }
 
 impl Constraints for AssembledConstraints {
     fn count(&self) -> usize {
-        self.internal_rows + self.rows.len()
+        self.internal_rows + self.rows.len() + self.holonomic_rows
     }
 
     fn kind(&self, a: usize) -> ConstraintKind {
         match self.part_of_row(a) {
             Some(p) => p.constraints.kind(a - p.row_offset),
+            None if a >= self.holonomic_start() => ConstraintKind::Holonomic,
             None => ConstraintKind::OneForm,
         }
     }
@@ -356,6 +398,16 @@ impl Constraints for AssembledConstraints {
                 out.add(self.internal_rows + r, j, c);
             }
         }
+        let mut x = [0.0; MAX_CONSTRAINT_PORTS];
+        for h in &self.holonomic {
+            h.gather(q, &mut x);
+            // ∂gᵃ/∂q_j = Σᵢ ∂gᵃ/∂xᵢ · cᵢⱼ.
+            h.constraint.jacobian(&x[..h.ports.len()], &mut |a, i, v| {
+                for &(j, c) in &h.ports[i] {
+                    out.add(h.first_row + a, j, c * v);
+                }
+            });
+        }
     }
 
     fn values(&self, q: &[f64], out: &mut [f64]) {
@@ -365,6 +417,12 @@ impl Constraints for AssembledConstraints {
                 &q[p.offset..p.offset + p.dim],
                 &mut out[p.row_offset..p.row_offset + p.rows],
             );
+        }
+        let mut x = [0.0; MAX_CONSTRAINT_PORTS];
+        for h in &self.holonomic {
+            h.gather(q, &mut x);
+            let rows = h.first_row..h.first_row + h.constraint.rows();
+            h.constraint.values(&x[..h.ports.len()], &mut out[rows]);
         }
     }
 
@@ -386,6 +444,20 @@ impl Constraints for AssembledConstraints {
             );
         }
         out.set_offset(0, 0);
+        let mut x = [0.0; MAX_CONSTRAINT_PORTS];
+        for h in self.holonomic.iter().filter(|h| !h.constraint.is_linear()) {
+            h.gather(q, &mut x);
+            let rows = h.first_row..h.first_row + h.constraint.rows();
+            // Σₐ λₐ ∂²gᵃ/∂q_j∂q_l = Σᵢₖ Hᵢₖ cᵢⱼ cₖₗ.
+            h.constraint
+                .hessian(&x[..h.ports.len()], &lambda[rows], &mut |i, k, v| {
+                    for &(j, ci) in &h.ports[i] {
+                        for &(l, ck) in &h.ports[k] {
+                            out.add(j, l, ci * ck * v);
+                        }
+                    }
+                });
+        }
     }
 
     fn contracted_derivative(&self, q: &[f64], w: &[f64], out: &mut Triplets) {
@@ -402,11 +474,35 @@ impl Constraints for AssembledConstraints {
             );
         }
         out.set_offset(0, 0);
+        let mut x = [0.0; MAX_CONSTRAINT_PORTS];
+        let mut wx = [0.0; MAX_CONSTRAINT_PORTS];
+        let mut unit = Vec::new();
+        for h in self.holonomic.iter().filter(|h| !h.constraint.is_linear()) {
+            h.gather(q, &mut x);
+            h.gather(w, &mut wx);
+            let rows = h.constraint.rows();
+            unit.clear();
+            unit.resize(rows, 0.0);
+            // Σⱼ wⱼ ∂Aᵃⱼ/∂q_l = Σᵢₖ Hᵃᵢₖ (cᵢ·w) cₖₗ, one row at a time (λ = eₐ).
+            for a in 0..rows {
+                unit[a] = 1.0;
+                h.constraint
+                    .hessian(&x[..h.ports.len()], &unit, &mut |i, k, v| {
+                        for &(l, ck) in &h.ports[k] {
+                            out.add(h.first_row + a, l, wx[i] * ck * v);
+                        }
+                    });
+                unit[a] = 0.0;
+            }
+        }
     }
 
     fn name(&self, a: usize) -> String {
-        match self.part_of_row(a) {
-            Some(p) => format!("{}/{}", p.name, p.constraints.name(a - p.row_offset)),
+        if let Some(p) = self.part_of_row(a) {
+            return format!("{}/{}", p.name, p.constraints.name(a - p.row_offset));
+        }
+        match self.holonomic_of_row(a) {
+            Some(h) => format!("{} ({})", h.name, h.constraint.row_name(a - h.first_row)),
             None => self.rows[a - self.internal_rows].name.clone(),
         }
     }
@@ -466,7 +562,8 @@ impl AssembledSystem {
         self.constraints.count()
     }
 
-    /// The constraint row of connection `c` (joints, nodes, and couplings in constraint form).
+    /// The constraint row of connection `c` (joints, nodes, and couplings in constraint form; the
+    /// first of its rows for a holonomic constraint).
     #[must_use]
     pub fn connection_row(&self, c: usize) -> Option<usize> {
         self.connection_rows.get(c).copied().flatten()
@@ -513,7 +610,7 @@ impl AssembledSystem {
         Ok(out)
     }
 
-    /// Interaction impulses of the connection rows: for each connection with a constraint row
+    /// Interaction impulses of the one-form connection rows: for each connection with such a row
     /// (node, joint, or coupling endpoint in the constraint form), `(connection index, global
     /// coordinate, impulse)` for every coordinate the row touches, where the impulse is what the
     /// connection adds to that coordinate's momentum over the step: `−Λ·c` for the row's
@@ -529,6 +626,9 @@ impl AssembledSystem {
         let mut out = Vec::new();
         for (c, row) in self.connection_rows.iter().enumerate() {
             let Some(row) = row else { continue };
+            if *row >= self.constraints.holonomic_start() {
+                continue;
+            }
             let entries = &self.constraints.rows[row - self.constraints.internal_rows].entries;
             for &(i, k) in entries {
                 out.push((c, i, -multipliers[*row] * k));
@@ -624,8 +724,28 @@ impl Assembler {
         let mut rows = Vec::new();
         let mut endpoints = Vec::new();
         let mut connection_rows = Vec::with_capacity(graph.connections().len());
+        let mut holonomic = Vec::new();
+        let mut holonomic_rows = 0;
         for (index, connection) in graph.connections().iter().enumerate() {
             match connection {
+                Connection::Holonomic {
+                    name,
+                    ports,
+                    constraint,
+                } => {
+                    // Placed after every one-form row; the row index is fixed below.
+                    connection_rows.push(Some(holonomic_rows));
+                    holonomic.push(PlacedHolonomic {
+                        name: name.clone(),
+                        constraint: constraint.clone(),
+                        ports: ports
+                            .iter()
+                            .map(|&p| port_coefficients(graph, &offsets, p))
+                            .collect(),
+                        first_row: holonomic_rows,
+                    });
+                    holonomic_rows += constraint.rows();
+                }
                 Connection::Node { name, ports } => {
                     let mut entries = Vec::new();
                     for &(p, sign) in ports {
@@ -698,6 +818,15 @@ impl Assembler {
                 }
             }
         }
+        let holonomic_start = internal_rows + rows.len();
+        for h in &mut holonomic {
+            h.first_row += holonomic_start;
+        }
+        for (row, connection) in connection_rows.iter_mut().zip(graph.connections()) {
+            if let (Some(r), Connection::Holonomic { .. }) = (row.as_mut(), connection) {
+                *r += holonomic_start;
+            }
+        }
         let dim = offset + endpoints.len();
         let has_force = parts.iter().any(|p| p.model.has_force())
             || couplings.iter().any(|c| {
@@ -707,7 +836,8 @@ impl Assembler {
             && couplings.iter().all(|c| c.element.is_linear());
         let constant = parts
             .iter()
-            .all(|p| p.rows == 0 || p.constraints.is_constant());
+            .all(|p| p.rows == 0 || p.constraints.is_constant())
+            && holonomic.iter().all(|h| h.constraint.is_linear());
         let autonomous = parts.iter().all(|p| p.model.is_autonomous())
             && couplings.iter().all(|c| c.element.is_autonomous());
         let model = AssembledModel {
@@ -731,6 +861,8 @@ impl Assembler {
             parts,
             internal_rows,
             rows,
+            holonomic,
+            holonomic_rows,
             constant,
         };
         Ok(AssembledSystem {

@@ -7,6 +7,7 @@ use petgraph::graph::{NodeIndex, UnGraph};
 
 use crate::coupling::CouplingElement;
 use crate::error::GraphError;
+use crate::port_constraint::PortConstraint;
 use crate::subsystem::Subsystem;
 
 /// Handle of a subsystem in an [`Interconnection`].
@@ -56,16 +57,30 @@ pub enum Connection {
         /// The element.
         element: Arc<dyn CouplingElement>,
     },
+    /// A holonomic constraint `g(x) = 0` on the values of several ports (a joint between rigid
+    /// bodies), enforced at position level.
+    Holonomic {
+        /// Constraint name.
+        name: String,
+        /// The ports whose values `x` the constraint reads, in its order.
+        ports: Vec<PortRef>,
+        /// The constraint.
+        constraint: Arc<dyn PortConstraint>,
+    },
 }
+
+/// Most ports a [`Connection::Holonomic`] may read (their values are gathered on the stack).
+pub const MAX_CONSTRAINT_PORTS: usize = 32;
 
 impl Connection {
     /// The connection's name.
     #[must_use]
     pub fn name(&self) -> &str {
         match self {
-            Self::Node { name, .. } | Self::Joint { name, .. } | Self::Coupling { name, .. } => {
-                name
-            }
+            Self::Node { name, .. }
+            | Self::Joint { name, .. }
+            | Self::Coupling { name, .. }
+            | Self::Holonomic { name, .. } => name,
         }
     }
 
@@ -74,6 +89,7 @@ impl Connection {
     pub fn ports(&self) -> Vec<PortRef> {
         match self {
             Self::Node { ports, .. } => ports.iter().map(|(p, _)| *p).collect(),
+            Self::Holonomic { ports, .. } => ports.clone(),
             Self::Joint { a, b, .. } | Self::Coupling { a, b, .. } => vec![*a, *b],
         }
     }
@@ -104,6 +120,16 @@ impl std::fmt::Debug for Connection {
                 .field("a", a)
                 .field("b", b)
                 .field("element", &element.describe())
+                .finish(),
+            Self::Holonomic {
+                name,
+                ports,
+                constraint,
+            } => f
+                .debug_struct("Holonomic")
+                .field("name", name)
+                .field("ports", ports)
+                .field("rows", &constraint.rows())
                 .finish(),
         }
     }
@@ -224,6 +250,30 @@ impl Interconnection {
             b,
             element: Arc::new(element),
         })
+    }
+
+    /// A holonomic constraint `g(x) = 0` on the values `x` of `ports` (in that order), such as a
+    /// joint between rigid bodies. Fails when it reads no port, more than
+    /// [`MAX_CONSTRAINT_PORTS`], or has no rows.
+    pub fn holonomic(
+        &mut self,
+        name: impl Into<String>,
+        ports: Vec<PortRef>,
+        constraint: impl PortConstraint + 'static,
+    ) -> Result<ConnectionId, GraphError> {
+        let name = name.into();
+        if ports.is_empty() || ports.len() > MAX_CONSTRAINT_PORTS || constraint.rows() == 0 {
+            return Err(GraphError::ConstraintShape {
+                connection: name,
+                ports: ports.len(),
+                rows: constraint.rows(),
+            });
+        }
+        Ok(self.add_connection(Connection::Holonomic {
+            name,
+            ports,
+            constraint: Arc::new(constraint),
+        }))
     }
 
     /// The subsystem named `name`.
