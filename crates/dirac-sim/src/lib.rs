@@ -20,7 +20,7 @@ mod trajectory;
 
 pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
-pub use error::SimError;
+pub use error::{SimError, Time};
 pub use integrator::{Integrator, IntegratorOptions, Scheme, StepCounters, StepReport};
 pub use linear::{AutoLu, SolverChoice};
 pub use modes::{

@@ -222,7 +222,7 @@ impl NaturalModes {
                 .take(NAMED_MODES)
             {
                 mode.coordinate = reduced
-                    .dominant_coordinate(*s)
+                    .dominant_coordinate(*s, &lin)
                     .map(|i| model.coordinate_name(i));
             }
         }
@@ -257,7 +257,7 @@ impl NaturalModes {
             let response = MethodResponse::oscillation(options, mode.im);
             let effect = match response {
                 MethodResponse::Phase { frequency_error } => format!(
-                    "a variational integrator keeps its amplitude bounded (no blow-up) but its phase drifts: the discrete frequency is off by {:.2}% , {:.2} rad per period",
+                    "a variational integrator keeps its amplitude bounded (no blow-up) but its phase drifts: the discrete frequency is off by {:+.2} % ({:.2} rad of phase per period)",
                     100.0 * frequency_error,
                     std::f64::consts::TAU * frequency_error.abs()
                 ),
@@ -792,9 +792,10 @@ impl Reduced {
         Ok(schur.complex_eigenvalues().iter().copied().collect())
     }
 
-    /// The coordinate with the largest scaled amplitude in the eigenvector of `s`, by two steps of
-    /// inverse iteration.
-    fn dominant_coordinate(&self, s: Complex<f64>) -> Option<usize> {
+    /// The coordinate that holds the most of the mode: the largest `|xᵢ|²(|Mᵢᵢ||s|² + |Dᵢᵢ||s| +
+    /// |Kᵢᵢ|)` (an energy-like weight that does not depend on the scaling) over the eigenvector
+    /// `x` of `s`, found by two steps of inverse iteration.
+    fn dominant_coordinate(&self, s: Complex<f64>, lin: &Linearisation) -> Option<usize> {
         let size = self.t.nrows();
         let shift = s * (1.0 + 1e-10) + Complex::new(1e-12, 1e-12);
         let matrix = DMatrix::from_fn(size, size, |i, j| {
@@ -819,6 +820,13 @@ impl Reduced {
         let r = self.basis.ncols();
         let y = DVector::from_fn(r, |i, _| z[i] * self.cols[i]);
         let q = self.basis.map(|e| Complex::new(e, 0.0)) * y;
-        (0..q.len()).max_by(|&i, &j| q[i].norm().total_cmp(&q[j].norm()))
+        let rate = s.norm();
+        let weight = |i: usize| {
+            q[i].norm_sqr()
+                * (lin.m[(i, i)].abs() * rate * rate
+                    + lin.d[(i, i)].abs() * rate
+                    + lin.k[(i, i)].abs())
+        };
+        (0..q.len()).max_by(|&i, &j| weight(i).total_cmp(&weight(j)))
     }
 }

@@ -864,7 +864,11 @@ impl Simulation {
         let readout = self.needs_readout(signals);
         let mut snapshot = Snapshot::default();
         for k in 0..=steps {
-            self.snapshot_into(&mut snapshot, readout)?;
+            self.snapshot_into(&mut snapshot, readout)
+                .map_err(|e| match e {
+                    RunError::Readout(r) => RunError::Readout(r.at_step(k)),
+                    other => other,
+                })?;
             let t_k = self.t0 + k as f64 * h;
             if deferred.is_empty() {
                 self.emit(k, t_k, &snapshot, signals, &mut values, sink)?;

@@ -4,7 +4,8 @@
 //! The modal analysis reduces `M s² + D s + K` to the kernel of the constraints, splits off the
 //! directions without kinetic term and eliminates the algebraic ones; its eigenvalues must be the
 //! exact natural frequencies of circuits and mechanisms whose spectra are known in closed form.
-//! Mutations that make these tests fail are listed in `tests/mutations.md` (modes rows).
+//! Each test names a mutation that makes it fail (run with `cargo test --release -p dirac-sim
+//! --test modes` after applying it).
 
 use std::f64::consts::{PI, TAU};
 
@@ -95,7 +96,8 @@ fn lc_tank_and_seed_loop_have_their_closed_form_frequencies() {
 /// An RC ladder of N sections (series R, shunt C to ground) driven by a voltage source, open at
 /// its far end, has the time constants `τ_k = RC / (4 sin²((2k−1)π/(4N+2)))`, k = 1…N (the
 /// Dirichlet–Neumann path Laplacian); the source's own coordinate is algebraic once linearised.
-/// Mutation: the far end shorted (Dirichlet–Dirichlet spectrum) fails on every τ.
+/// Mutation: `D` without `−∂f/∂v` (modes.rs) leaves no decay at all (fails; the seed loop and
+/// warning tests fail too).
 #[test]
 fn rc_ladder_time_constants_are_the_path_laplacian_spectrum() {
     let (r, c, n) = (2.0, 0.5, 6);
@@ -155,8 +157,8 @@ fn rc_ladder(n: usize, r: f64, c: f64) -> Interconnection {
 /// A chain of N unit masses with springs k between neighbours and to both walls vibrates at
 /// `ω_j = 2√(k/m) sin(jπ/(2(N+1)))`. In the constraint representation every spring acts on a
 /// massless endpoint joined to its mass: the same spectrum after the degenerate directions are
-/// eliminated. Mutation: dropping the right wall spring fails (the spectrum becomes
-/// `2 sin((2j−1)π/(4N+2))`).
+/// eliminated. Mutation: the constraint kernel replaced by the identity (modes.rs `kernel`) fails
+/// in the constraint representation (and every constrained test).
 #[test]
 fn spring_chain_frequencies_in_two_representations() {
     let (m, k, n) = (2.0, 8.0, 7);
@@ -219,7 +221,7 @@ fn pendulum_frequency_comes_from_the_constraint_curvature() {
 /// a first-order mode `τq̇ + q = 0` by `R = (1 − h/2τ)/(1 + h/2τ)`; Gauss with two nodes damps it
 /// by the (2,2) Padé approximant of `e^{−h/τ}`, which tends to +1 for fast modes. The probes
 /// run the integrator itself, so they reproduce these closed forms to round-off. Mutation: the
-/// probe's oscillator with `k = 1.001 ω²` fails the phase check by 5e-4.
+/// probe's oscillator with `k = 1.001 ω²` fails the phase check.
 #[test]
 fn method_responses_are_the_closed_form_stability_functions() {
     const RESPONSE_TOL: f64 = 1e-12; // linear steps solved by LU: round-off only
