@@ -920,34 +920,61 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     }
 
     fn likely_cause(&self, error: &NewtonError) -> String {
+        let linear = self.model.is_linear();
+        let first = self.k == 0;
         match error {
-            NewtonError::Linear { source, .. } => match source {
+            NewtonError::Linear {
+                source,
+                worst_equation,
+                ..
+            } => match source {
                 LinearSolveError::EmptyRow { row } => format!(
-                    "{} has no entries (an empty constraint row)",
+                    "singular model: {} has no entries (an empty constraint row)",
                     self.describe_equation(*row)
                 ),
                 LinearSolveError::EmptyColumn { col } => format!(
-                    "{} appears in no equation (a degenerate direction with neither potential nor constraint)",
+                    "singular model: {} appears in no equation (a degenerate direction with neither potential nor constraint)",
                     self.describe_unknown(*col)
                 ),
                 LinearSolveError::NumericallySingular { index }
                 | LinearSolveError::StructurallySingular { index }
-                | LinearSolveError::NonFinite { index } => format!(
-                    "singular Newton matrix near {}: a coordinate no equation determines, or redundant or contradicting constraints",
-                    self.describe_unknown(
-                        (*index).min(self.stages[0].step.unknowns().saturating_sub(1))
-                    )
-                ),
+                | LinearSolveError::NonFinite { index } => {
+                    let unknown = self.describe_unknown(
+                        (*index).min(self.stages[0].step.unknowns().saturating_sub(1)),
+                    );
+                    let equation = self.describe_equation(*worst_equation);
+                    if linear || matches!(source, LinearSolveError::StructurallySingular { .. }) {
+                        format!(
+                            "singular model: the Newton matrix is singular near {unknown} (largest residual in {equation}): a coordinate no equation determines, or redundant or contradicting constraints"
+                        )
+                    } else if first {
+                        format!(
+                            "the Newton matrix is singular near {unknown} at the start (largest residual in {equation}): a coordinate no equation determines, redundant or contradicting constraints, or initial data at a singular point of a nonlinear part"
+                        )
+                    } else {
+                        format!(
+                            "the Newton matrix became singular near {unknown} (largest residual in {equation}), having been regular on the steps before: a nonlinear part reached a singular point of its characteristic (an inductor at its saturation flux, say) or the step is too large for it"
+                        )
+                    }
+                }
                 LinearSolveError::Pattern(_) => {
                     "a model or constraint emitted a different derivative pattern between calls"
                         .into()
                 }
                 LinearSolveError::Backend(_) => "the sparse solver failed".into(),
             },
-            NewtonError::NotConverged { worst_equation, .. } => format!(
-                "largest residual in {}: step too large for the nonlinearity, or constraints that cannot all hold",
-                self.describe_equation(*worst_equation)
-            ),
+            NewtonError::NotConverged { worst_equation, .. } => {
+                let equation = self.describe_equation(*worst_equation);
+                if first {
+                    format!(
+                        "largest residual in {equation}: initial data inconsistent with a nonlinear part, a step too large for the nonlinearity, or constraints that cannot all hold"
+                    )
+                } else {
+                    format!(
+                        "largest residual in {equation}: step too large for a nonlinear part, or constraints that cannot all hold"
+                    )
+                }
+            }
             NewtonError::NonFiniteResidual { equation, .. } => format!(
                 "the model returned NaN or infinity in {}: the state left the model's domain",
                 self.describe_equation(*equation)
