@@ -33,7 +33,9 @@
 //! and the caller reads those from the steps instead.
 
 use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
-use dirac_solve::{Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Structure};
+use dirac_solve::{
+    LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Structure,
+};
 
 use crate::linear::{AutoLu, SolverChoice};
 
@@ -93,16 +95,46 @@ struct Work {
     contracted: Triplets,
 }
 
-/// A readout that could not be computed.
+/// A readout that could not be computed: the state `(q_k, p_k)` the steps reached has no
+/// velocities and multipliers that satisfy the model's algebraic relations.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("values at t = {t} could not be computed: {source} (largest residual in {equation})")]
+#[error(
+    "{}values at t = {} could not be computed: {source}; {equation}; {likely_cause}",
+    StepPrefix(*.step),
+    crate::error::Time(*.t)
+)]
 pub struct ReadoutError {
+    /// The output row (step index) whose values failed, when known.
+    pub step: Option<usize>,
     /// Time of the state.
     pub t: f64,
     /// The solver's report.
     pub source: NewtonError,
-    /// The equation with the largest residual, named.
+    /// The equation with the largest residual, or the unknown no equation fixes, named.
     pub equation: String,
+    /// What usually produces this failure.
+    pub likely_cause: String,
+}
+
+impl ReadoutError {
+    /// The same error located at output row `step`.
+    #[must_use]
+    pub fn at_step(mut self, step: usize) -> Self {
+        self.step = Some(step);
+        self
+    }
+}
+
+/// `"step k: "` when the step is known.
+struct StepPrefix(Option<usize>);
+
+impl std::fmt::Display for StepPrefix {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(k) => write!(f, "step {k}: "),
+            None => Ok(()),
+        }
+    }
 }
 
 impl Readout {
@@ -153,29 +185,59 @@ impl Readout {
         let permuted: Vec<(usize, usize)> =
             pattern.iter().map(|&(r, c)| (permuted_row[r], c)).collect();
         let structure = Structure::analyse(size, size, &permuted, &priority);
+        // The equation each matched unknown is solved from, and the unknowns of every equation.
+        let mut row_of = vec![OUT; size];
+        for (c, r) in row_of.iter_mut().enumerate() {
+            if let Some(k) = structure.matched_row(c) {
+                *r = order[k];
+            }
+        }
+        let mut row_cols: Vec<Vec<usize>> = vec![Vec::new(); size];
+        for &(r, c) in &pattern {
+            row_cols[r].push(c);
+        }
+        // Solve only what the outputs (determined velocities and multipliers) depend on: their
+        // equations and, recursively, the unknowns those contain. Accelerations stay out unless a
+        // multiplier needs them (a node joining only inductors, a joint between masses).
+        let mut needed = vec![false; size];
+        let mut stack: Vec<usize> = (0..n)
+            .chain(2 * n + m..size)
+            .filter(|&c| row_of[c] != OUT && !structure.is_underdetermined_col(c))
+            .collect();
+        for &c in &stack {
+            needed[c] = true;
+        }
+        while let Some(c) = stack.pop() {
+            for &d in &row_cols[row_of[c]] {
+                if !needed[d] && row_of[d] != OUT {
+                    needed[d] = true;
+                    stack.push(d);
+                }
+            }
+        }
         let mut col_slot = vec![OUT; size];
         let mut cols = Vec::new();
         for (c, slot) in col_slot.iter_mut().enumerate() {
-            if structure.matched_row(c).is_some() {
+            if needed[c] {
                 *slot = cols.len();
                 cols.push(c);
             }
         }
-        let mut row_slot = vec![OUT; size];
-        let mut rows = Vec::new();
-        let mut redundant = Vec::new();
-        for (k, &r) in order.iter().enumerate() {
-            if structure.matched_col(k).is_some() {
-                row_slot[r] = rows.len();
-                rows.push(r);
-            } else {
-                redundant.push(r);
-            }
-        }
+        let mut rows: Vec<usize> = cols.iter().map(|&c| row_of[c]).collect();
         rows.sort_unstable();
+        let mut row_slot = vec![OUT; size];
         for (slot, &r) in rows.iter().enumerate() {
             row_slot[r] = slot;
         }
+        // Unmatched equations restate others: consistency checks, where they only involve what is
+        // solved (an unmatched acceleration-level row would read unsolved accelerations as 0).
+        let redundant: Vec<usize> = order
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| structure.matched_col(k).is_none())
+            .map(|(_, &r)| r)
+            .filter(|&r| row_cols[r].iter().all(|&c| needed[c] || row_of[c] == OUT))
+            .collect();
         let overdetermined = order
             .iter()
             .enumerate()
@@ -226,19 +288,6 @@ impl Readout {
         p: &[f64],
         t: f64,
     ) -> Result<(), ReadoutError> {
-        let n = self.n;
-        let guess = self.work.full[..n].to_vec();
-        model.lagrangian_gradient(q, &guess, &mut self.work.lq, &mut self.work.lv);
-        if model.has_force() {
-            model.force(q, &guess, t, &mut self.work.f);
-        }
-        let scale = p
-            .iter()
-            .chain(&self.work.lq)
-            .chain(&self.work.lv)
-            .chain(&self.work.f)
-            .fold(f64::MIN_POSITIVE, |a, x| a.max(x.abs()));
-        self.scale = scale;
         let mut system = System {
             layout: Layout {
                 n: self.n,
@@ -255,10 +304,16 @@ impl Readout {
             row_slot: &self.row_slot,
             work: &mut self.work,
             constant: self.constant,
+            at_zero: false,
         };
         if self.rows.is_empty() {
             system.scatter(&self.reduced);
             return Ok(());
+        }
+        if self.constant {
+            // Affine: one update from zero is exact, and the residual at zero needs no products.
+            self.reduced.fill(0.0);
+            system.at_zero = true;
         }
         match self.newton.solve(&mut system, &mut self.reduced) {
             Ok(stats) => {
@@ -267,22 +322,13 @@ impl Readout {
                 Ok(())
             }
             Err(source) => {
-                let worst = match &source {
-                    NewtonError::NotConverged { worst_equation, .. }
-                    | NewtonError::NonFiniteResidual {
-                        equation: worst_equation,
-                        ..
-                    } => self.rows.get(*worst_equation).copied(),
-                    NewtonError::Linear { .. } => None,
-                };
-                let equation = worst.map_or_else(
-                    || "the readout system (singular at this state)".to_string(),
-                    |r| self.describe(model, constraints, r),
-                );
+                let (equation, likely_cause) = self.explain(model, constraints, &source);
                 Err(ReadoutError {
+                    step: None,
                     t,
                     source,
                     equation,
+                    likely_cause,
                 })
             }
         }
@@ -301,7 +347,8 @@ impl Readout {
         &self.work.full[o..o + self.m]
     }
 
-    /// Accelerations `a` (meaningful where determined; 0 for the free ones).
+    /// Accelerations `a`, where a multiplier needed them (0 elsewhere: only what the velocities and
+    /// multipliers depend on is solved).
     #[must_use]
     pub fn accelerations(&self) -> &[f64] {
         let o = self.n + self.m;
@@ -350,6 +397,7 @@ impl Readout {
         let full = std::mem::take(&mut self.work.full);
         let mut residual = std::mem::take(&mut self.work.residual);
         layout.residual(&mut self.work, model, q, p, t, &full, &mut residual);
+        self.scale = term_scale(p, &self.work);
         let out = self
             .redundant
             .iter()
@@ -364,8 +412,8 @@ impl Readout {
         self.velocities().to_vec()
     }
 
-    /// Magnitude of the terms of the last solve's equations (momenta, forces): the scale against
-    /// which a residual is small.
+    /// Magnitude of the terms of the equations at the last [`Readout::consistency_residuals`]
+    /// (momenta, forces): the scale against which a residual is small.
     #[must_use]
     pub fn scale(&self) -> f64 {
         self.scale
@@ -485,6 +533,87 @@ impl Readout {
     }
 
     /// Names equation `r` of the full system.
+    /// The equation or unknown at fault in a failed solve, named, and the likely cause.
+    fn explain<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+        error: &NewtonError,
+    ) -> (String, String) {
+        let domain = "the state left the model's domain: the step before it was too large for a nonlinear part, or a part was driven past its limit (a saturating inductor past its saturation flux, say)";
+        match error {
+            NewtonError::NotConverged { worst_equation, .. } => (
+                self.rows.get(*worst_equation).map_or_else(
+                    || "no equation named".to_string(),
+                    |&r| {
+                        format!(
+                            "largest residual in {}",
+                            self.describe(model, constraints, r)
+                        )
+                    },
+                ),
+                format!("no velocities satisfy the relations at this state: {domain}"),
+            ),
+            NewtonError::NonFiniteResidual { equation, .. } => (
+                self.rows.get(*equation).map_or_else(
+                    || "no equation named".to_string(),
+                    |&r| {
+                        format!(
+                            "NaN or infinity in {}",
+                            self.describe(model, constraints, r)
+                        )
+                    },
+                ),
+                domain.to_string(),
+            ),
+            NewtonError::Linear { source, .. } => {
+                let index = match source {
+                    LinearSolveError::NumericallySingular { index }
+                    | LinearSolveError::StructurallySingular { index }
+                    | LinearSolveError::NonFinite { index } => Some(*index),
+                    LinearSolveError::EmptyColumn { col } => Some(*col),
+                    _ => None,
+                };
+                (
+                    index.and_then(|c| self.cols.get(c)).map_or_else(
+                        || "the readout system is singular at this state".to_string(),
+                        |&c| {
+                            format!(
+                                "{} is not determined by the relations at this state",
+                                self.describe_unknown(model, constraints, c)
+                            )
+                        },
+                    ),
+                    format!(
+                        "the relations are singular here although they were not at the start: {domain}"
+                    ),
+                )
+            }
+        }
+    }
+
+    /// Names full unknown `c` of `(v, γ, a, λ)`.
+    fn describe_unknown<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+        c: usize,
+    ) -> String {
+        let (n, m) = (self.n, self.m);
+        if c < n {
+            format!("the rate of `{}`", model.coordinate_name(c))
+        } else if c < n + m {
+            format!("the impulse of constraint `{}`", constraints.name(c - n))
+        } else if c < 2 * n + m {
+            format!("the acceleration of `{}`", model.coordinate_name(c - n - m))
+        } else {
+            format!(
+                "the multiplier of constraint `{}`",
+                constraints.name(c - 2 * n - m)
+            )
+        }
+    }
+
     fn describe<M: Model + ?Sized, C: Constraints + ?Sized>(
         &self,
         model: &M,
@@ -506,6 +635,15 @@ impl Readout {
             }
         }
     }
+}
+
+/// The largest momentum, Lagrangian derivative or force of the last evaluation.
+fn term_scale(p: &[f64], work: &Work) -> f64 {
+    p.iter()
+        .chain(&work.lq)
+        .chain(&work.lv)
+        .chain(&work.f)
+        .fold(f64::MIN_POSITIVE, |a, x| a.max(x.abs()))
 }
 
 /// Positions of the blocks in the full `(2n + 2m)`-square system.
@@ -658,6 +796,8 @@ struct System<'a, M: ?Sized, C: ?Sized> {
     row_slot: &'a [usize],
     work: &'a mut Work,
     constant: bool,
+    /// The next residual is evaluated at `x = 0` (then only `∂L/∂v − p` and `−∂L/∂q − f` remain).
+    at_zero: bool,
 }
 
 impl<M: Model + ?Sized, C: Constraints + ?Sized> System<'_, M, C> {
@@ -676,6 +816,30 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for System<'_, 
     }
 
     fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+        if std::mem::take(&mut self.at_zero) {
+            let (n, m) = (self.layout.n, self.layout.m);
+            let work = &mut *self.work;
+            work.full.fill(0.0);
+            self.model
+                .lagrangian_gradient(self.q, &work.full[..n], &mut work.lq, &mut work.lv);
+            if self.model.has_force() {
+                self.model
+                    .force(self.q, &work.full[..n], self.t, &mut work.f);
+            } else {
+                work.f.fill(0.0);
+            }
+            for (out, &row) in r.iter_mut().zip(self.rows) {
+                *out = if row < n {
+                    work.lv[row] - self.p[row]
+                } else if (n + m..2 * n + m).contains(&row) {
+                    let i = row - n - m;
+                    -work.lq[i] - work.f[i]
+                } else {
+                    0.0
+                };
+            }
+            return;
+        }
         self.scatter(x);
         let n = self.layout.n;
         if !self.constant {

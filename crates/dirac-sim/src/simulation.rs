@@ -19,6 +19,7 @@ use thiserror::Error;
 
 use crate::error::SimError;
 use crate::integrator::{Integrator, IntegratorOptions};
+use crate::modes::{ModesError, NaturalModes};
 use crate::readout::{Readout, ReadoutError, ReadoutRow};
 use crate::signal::{Signal, Snapshot};
 use crate::staggered::{Splitting, Staggered};
@@ -78,12 +79,18 @@ pub enum RunError {
     /// (every value involved was given).
     #[error("contradictory initial data: {0}")]
     ContradictoryStart(String),
+    /// Algebraic relations of the model that contradict each other whatever the state.
+    #[error("inconsistent model: {0}")]
+    InconsistentModel(String),
     /// Step size, end time or start that cannot be run.
     #[error("{0}")]
     Settings(String),
     /// The sink refused a row.
     #[error("writing output: {0}")]
     Output(String),
+    /// The natural modes could not be computed.
+    #[error("natural modes: {0}")]
+    Modes(#[from] ModesError),
 }
 
 impl RunError {
@@ -443,15 +450,101 @@ impl Simulation {
             let given = self.given_global(&system);
             self.make_consistent(&mut integrator, &mut readout, &mut q, &mut v, &given)?;
         }
-        for w in integrator.warnings() {
-            self.warnings.push(w.clone());
-        }
+        self.warn_redundant(&system, &integrator);
         Ok(AssembledEngine {
             system,
             integrator,
             readout,
             connection_rows,
         })
+    }
+
+    /// Warns about constraint rows dropped as linearly dependent, except the one row per closed
+    /// group of nodes that is always redundant: KCL written at every node of a circuit (ground
+    /// included) sums to zero, so one of its rows restates the others by construction.
+    fn warn_redundant(
+        &mut self,
+        system: &AssembledSystem,
+        integrator: &Integrator<AssembledModel, AssembledConstraints>,
+    ) {
+        let kept = integrator.active_constraints().kept();
+        let all = integrator.constraints().count();
+        let dropped: Vec<usize> = (0..all).filter(|r| !kept.contains(r)).collect();
+        if dropped.is_empty() {
+            return;
+        }
+        // Groups of node connections that share a coordinate (union–find over their rows).
+        let nodes: Vec<usize> = (0..system.connection_count())
+            .filter(|&c| {
+                matches!(
+                    self.graph.connections()[c],
+                    dirac_graph::Connection::Node { .. }
+                )
+            })
+            .collect();
+        let mut parent: Vec<usize> = (0..nodes.len()).collect();
+        fn find(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        let mut owner: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
+        for (k, &c) in nodes.iter().enumerate() {
+            for &(i, _) in system.connection_entries(c).unwrap_or(&[]) {
+                if let Some(&other) = owner.get(&i) {
+                    let (a, b) = (find(&mut parent, k), find(&mut parent, other));
+                    parent[a] = b;
+                } else {
+                    owner.insert(i, k);
+                }
+            }
+        }
+        // A group is closed when its rows sum to zero (every branch enters one node and leaves
+        // another).
+        // Rows written twice (up to sign) count once here: the second copy is the user's.
+        let mut sums: std::collections::HashMap<usize, std::collections::HashMap<usize, f64>> =
+            std::collections::HashMap::new();
+        let mut seen: Vec<Vec<(usize, u64)>> = Vec::new();
+        for (k, &c) in nodes.iter().enumerate() {
+            let entries = system.connection_entries(c).unwrap_or(&[]);
+            let mut key: Vec<(usize, u64)> = entries
+                .iter()
+                .map(|&(i, v)| (i, v.abs().to_bits()))
+                .collect();
+            key.sort_unstable();
+            if seen.contains(&key) {
+                continue;
+            }
+            seen.push(key);
+            let g = find(&mut parent, k);
+            let sum = sums.entry(g).or_default();
+            for &(i, coefficient) in entries {
+                *sum.entry(i).or_insert(0.0) += coefficient;
+            }
+        }
+        let mut silent: std::collections::HashSet<usize> = sums
+            .iter()
+            .filter(|(_, sum)| sum.values().all(|v| v.abs() <= 1e-12))
+            .map(|(g, _)| *g)
+            .collect();
+        let constraints = integrator.constraints();
+        for row in dropped {
+            let group = nodes
+                .iter()
+                .position(|&c| system.connection_row(c) == Some(row))
+                .map(|k| find(&mut parent, k));
+            if let Some(g) = group
+                && silent.remove(&g)
+            {
+                continue;
+            }
+            self.warnings.push(format!(
+                "constraint `{}` is linearly dependent on the others at the initial point; dropped",
+                constraints.name(row)
+            ));
+        }
     }
 
     /// Which global positions and velocities were given (endpoint coordinates of the constraint
@@ -529,6 +622,11 @@ impl Simulation {
             .map(|r| readout.describe_row(&model, integrator.active_constraints(), *r))
             .collect::<Vec<_>>()
             .join("; ");
+        if involved.is_empty() {
+            return Err(RunError::InconsistentModel(format!(
+                "{relation} cannot hold together with the model's other relations whatever the initial state (a cut set of current sources, or a loop of voltage sources, fixes one value twice)"
+            )));
+        }
         if candidates.is_empty() {
             return Err(RunError::ContradictoryStart(format!(
                 "{} (all given) violate {relation}",
@@ -603,6 +701,45 @@ impl Simulation {
         Ok(())
     }
 
+    /// The natural modes of the model linearised at the current state (after
+    /// [`Simulation::prepare`]: the initial or operating point), with the step size as time
+    /// scale; see [`NaturalModes::analyse`].
+    ///
+    /// # Errors
+    /// Set-up failures, a staggered execution (analyse an assembled one), a readout that cannot
+    /// be computed, or [`ModesError`].
+    pub fn natural_modes(&mut self) -> Result<NaturalModes, RunError> {
+        self.prepare()?;
+        let h = self.options.h;
+        match &mut self.engine {
+            Some(Engine::Assembled(e)) => {
+                let integrator = &e.integrator;
+                e.readout.solve(
+                    integrator.model(),
+                    integrator.active_constraints(),
+                    integrator.q(),
+                    integrator.p(),
+                    integrator.t(),
+                )?;
+                Ok(NaturalModes::analyse(
+                    integrator.model(),
+                    integrator.active_constraints(),
+                    (
+                        integrator.q(),
+                        e.readout.velocities(),
+                        e.readout.multipliers(),
+                    ),
+                    integrator.t(),
+                    h,
+                )?)
+            }
+            _ => Err(RunError::Settings(
+                "natural modes need an assembled representation (monolithic, constraint or force)"
+                    .into(),
+            )),
+        }
+    }
+
     /// The warnings of the set-up (call after [`Simulation::prepare`] or a run).
     #[must_use]
     pub fn warnings(&self) -> &[String] {
@@ -614,6 +751,14 @@ impl Simulation {
     /// # Errors
     /// Set-up failures, or a readout that cannot be computed.
     pub fn snapshot(&mut self) -> Result<Snapshot, RunError> {
+        let mut snapshot = Snapshot::default();
+        self.snapshot_into(&mut snapshot, true)?;
+        Ok(snapshot)
+    }
+
+    /// Fills `snapshot` with the current state (reusing its buffers); without `readout` only
+    /// the positions are current (velocities and multipliers are left as they were).
+    fn snapshot_into(&mut self, snapshot: &mut Snapshot, readout: bool) -> Result<(), RunError> {
         self.prepare()?;
         let residual = self.last_residual;
         let connections = self.graph.connections().len();
@@ -621,7 +766,7 @@ impl Simulation {
             .engine
             .as_mut()
             .ok_or_else(|| RunError::Settings("not prepared".into()))?;
-        engine.snapshot(connections, residual)
+        engine.snapshot(snapshot, connections, residual, readout)
     }
 
     /// The time of the current state.
@@ -642,6 +787,23 @@ impl Simulation {
             .as_mut()
             .ok_or_else(|| RunError::Settings("not prepared".into()))?;
         self.last_residual = engine.step(track)?;
+        Ok(())
+    }
+
+    /// Checks that this simulation can record `signals` (a staggered run has no multipliers).
+    ///
+    /// # Errors
+    /// [`RunError::UnknownSignal`] naming the first signal it cannot record.
+    pub fn check_signals(&self, signals: &[Signal]) -> Result<(), RunError> {
+        if let (Execution::Staggered(_), Some(signal)) = (
+            self.execution,
+            signals.iter().find(|s| s.probe.needs_multipliers()),
+        ) {
+            return Err(RunError::UnknownSignal(format!(
+                "`{}` is the multiplier of a node or joint, which a staggered run does not have; record it in the monolithic, constraint or force representation",
+                signal.name
+            )));
+        }
         Ok(())
     }
 
@@ -687,6 +849,7 @@ impl Simulation {
         {
             self.track_residual = true;
         }
+        self.check_signals(signals)?;
         self.engine = None;
         self.prepare()?;
         let h = self.options.h;
@@ -698,8 +861,14 @@ impl Simulation {
         let mut max_residual: f64 = 0.0;
         let mut pending: Option<Snapshot> = None;
         let mut previous_mean: Option<StepMean> = None;
+        let readout = self.needs_readout(signals);
+        let mut snapshot = Snapshot::default();
         for k in 0..=steps {
-            let snapshot = self.snapshot()?;
+            self.snapshot_into(&mut snapshot, readout)
+                .map_err(|e| match e {
+                    RunError::Readout(r) => RunError::Readout(r.at_step(k)),
+                    other => other,
+                })?;
             let t_k = self.t0 + k as f64 * h;
             if deferred.is_empty() {
                 self.emit(k, t_k, &snapshot, signals, &mut values, sink)?;
@@ -714,7 +883,7 @@ impl Simulation {
             self.step()?;
             max_residual = max_residual.max(self.last_residual);
             let mean = self.step_mean(&before, h)?;
-            let mut row = snapshot;
+            let mut row = snapshot.clone();
             for &entry in &deferred {
                 let value = match &previous_mean {
                     Some(previous) => 0.5 * (previous.get(entry) + mean.get(entry)),
@@ -765,6 +934,20 @@ impl Simulation {
             }));
         }
         sink.row(k, t, values).map_err(RunError::Output)
+    }
+
+    /// Whether any of `signals` reads a velocity or a multiplier (else rows need no readout).
+    fn needs_readout(&self, signals: &[Signal]) -> bool {
+        let needs = std::cell::Cell::new(false);
+        for signal in signals {
+            signal.probe.visit(
+                &self.graph,
+                &self.offsets,
+                &mut |_| needs.set(true),
+                &mut |_| needs.set(true),
+            );
+        }
+        needs.get()
     }
 
     /// Entries of the snapshot that `signals` read and the algebraic relations do not fix.
@@ -1004,54 +1187,59 @@ impl Engine {
         }
     }
 
-    fn snapshot(&mut self, connections: usize, residual: f64) -> Result<Snapshot, RunError> {
+    fn snapshot(
+        &mut self,
+        out: &mut Snapshot,
+        connections: usize,
+        residual: f64,
+        readout: bool,
+    ) -> Result<(), RunError> {
+        out.residual = residual;
+        out.efforts.resize(connections, None);
         match self {
             Self::Assembled(e) => {
                 let integrator = &e.integrator;
-                e.readout.solve(
-                    integrator.model(),
-                    integrator.active_constraints(),
-                    integrator.q(),
-                    integrator.p(),
-                    integrator.t(),
-                )?;
                 let parts = e.system.subsystem_coordinates();
-                let lambda = e.readout.multipliers();
-                Ok(Snapshot {
-                    t: integrator.t(),
-                    q: integrator.q()[..parts].to_vec(),
-                    v: e.readout.velocities()[..parts].to_vec(),
-                    efforts: e
-                        .connection_rows
-                        .iter()
-                        .map(|row| row.map(|r| lambda[r]))
-                        .chain(std::iter::repeat(None))
-                        .take(connections)
-                        .collect(),
-                    residual,
-                })
+                out.t = integrator.t();
+                out.q.clear();
+                out.q.extend_from_slice(&integrator.q()[..parts]);
+                out.v.resize(parts, 0.0);
+                if readout {
+                    e.readout.solve(
+                        integrator.model(),
+                        integrator.active_constraints(),
+                        integrator.q(),
+                        integrator.p(),
+                        integrator.t(),
+                    )?;
+                    out.v.copy_from_slice(&e.readout.velocities()[..parts]);
+                    let lambda = e.readout.multipliers();
+                    for (effort, row) in out.efforts.iter_mut().zip(&e.connection_rows) {
+                        *effort = row.map(|r| lambda[r]);
+                    }
+                }
+                Ok(())
             }
             Self::Staggered(e) => {
-                let mut q = Vec::new();
-                let mut v = Vec::new();
-                for (part, readout) in e.staggered.parts().iter().zip(&mut e.readouts) {
-                    readout.solve(
-                        part.model(),
-                        part.active_constraints(),
-                        part.q(),
-                        part.p(),
-                        part.t(),
-                    )?;
-                    q.extend_from_slice(part.q());
-                    v.extend_from_slice(readout.velocities());
+                out.t = e.staggered.time();
+                out.q.clear();
+                out.v.clear();
+                for (part, readout_of) in e.staggered.parts().iter().zip(&mut e.readouts) {
+                    out.q.extend_from_slice(part.q());
+                    if readout {
+                        readout_of.solve(
+                            part.model(),
+                            part.active_constraints(),
+                            part.q(),
+                            part.p(),
+                            part.t(),
+                        )?;
+                        out.v.extend_from_slice(readout_of.velocities());
+                    } else {
+                        out.v.extend(std::iter::repeat_n(0.0, part.q().len()));
+                    }
                 }
-                Ok(Snapshot {
-                    t: e.staggered.time(),
-                    q,
-                    v,
-                    efforts: vec![None; connections],
-                    residual,
-                })
+                Ok(())
             }
         }
     }

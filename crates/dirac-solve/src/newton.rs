@@ -288,6 +288,7 @@ impl<S: LinearSolver> Newton<S> {
                     .map_err(|source| NewtonError::Linear {
                         source,
                         residual: rnorm,
+                        worst_equation: worst,
                     })?;
             }
             // The residual test, after an update from a Jacobian at its own iterate (an iterate of
@@ -308,6 +309,7 @@ impl<S: LinearSolver> Newton<S> {
                 self.factor().map_err(|source| NewtonError::Linear {
                     source,
                     residual: rnorm,
+                    worst_equation: worst,
                 })?;
                 stats.factorisations += 1;
                 kept_iterations = 0;
@@ -334,6 +336,7 @@ impl<S: LinearSolver> Newton<S> {
                 .map_err(|source| NewtonError::Linear {
                     source,
                     residual: rnorm,
+                    worst_equation: worst,
                 })?;
             stats.iterations += 1;
             if residual_converged {
