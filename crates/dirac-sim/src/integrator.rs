@@ -1,8 +1,8 @@
 //! The integrator: state, initialisation and the step loop.
 
 use dirac_core::{
-    ConstraintKind, Constraints, Discretisation, Flavour, ForcedDiracStep, Model, RowSubset,
-    Triplets, analyse_rows,
+    ConstraintKind, Constraints, Discretisation, Flavour, ForcedDiracStep, LagrangianHessian,
+    Model, RowSubset, Triplets, analyse_rows,
 };
 use dirac_solve::{
     LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem,
@@ -170,6 +170,9 @@ pub struct Integrator<M, C> {
     saved_p: Vec<f64>,
     saved_impulse: Vec<f64>,
     counters: StepCounters,
+    /// Coordinates whose momentum is a constant of the model, with that constant (see
+    /// [`Integrator::free_momenta`]).
+    free_momenta: Vec<(usize, f64)>,
 }
 
 /// How often steps were split: at source breakpoints and after Newton failures.
@@ -389,6 +392,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             saved_p: vec![0.0; n],
             saved_impulse: Vec::new(),
             counters: StepCounters::default(),
+            free_momenta: Vec::new(),
         })
     }
 
@@ -480,6 +484,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.q.copy_from_slice(q);
         self.p.copy_from_slice(p);
         self.v0.fill(0.0);
+        self.free_momenta = self.free_momenta(q, p);
         self.t0 = t;
         self.t = t;
         self.k = 0;
@@ -507,10 +512,50 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.q.copy_from_slice(q);
         self.p.copy_from_slice(&p);
         self.v0.copy_from_slice(&projected);
+        self.free_momenta = self.free_momenta(q, &p);
         self.t0 = t;
         self.t = t;
         self.k = 0;
         Ok(())
+    }
+
+    /// Coordinates whose velocity enters neither a second derivative of `L` nor a constraint row
+    /// (the junction flux of a diode without charge, a current source's flux), with their
+    /// momentum `p = ∂L/∂v`, which is then a constant. Such a coordinate's step equations say
+    /// its force vanishes and leave its momentum at that constant; a solved step leaves its
+    /// round-off there instead, which the next step would have to cancel, so the error would
+    /// random-walk and, through a tiny conductance (a reverse-biased junction's GMIN), move a
+    /// voltage by millivolts. The momentum is reset to the constant after every substep.
+    fn free_momenta(&self, q: &[f64], p: &[f64]) -> Vec<(usize, f64)> {
+        let n = q.len();
+        let mut involved = vec![false; n];
+        let mut hessian = LagrangianHessian::default();
+        hessian.begin();
+        self.model.lagrangian_hessian(q, &self.v0, &mut hessian);
+        for (i, j, _) in hessian.vv.iter() {
+            involved[i] = true;
+            involved[j] = true;
+        }
+        for (_, j, _) in hessian.qv.iter() {
+            involved[j] = true;
+        }
+        let mut forms = Triplets::new();
+        forms.begin();
+        self.constraints.inner().forms(q, &mut forms);
+        for (_, j, _) in forms.iter() {
+            involved[j] = true;
+        }
+        (0..n)
+            .filter(|&i| !involved[i])
+            .map(|i| (i, p[i]))
+            .collect()
+    }
+
+    /// Puts the constant momenta back after a substep (see [`Integrator::free_momenta`]).
+    fn reset_free_momenta(&mut self) {
+        for &(i, p) in &self.free_momenta {
+            self.p[i] = p;
+        }
     }
 
     /// Advances one step (one or two substeps, depending on the scheme).
@@ -708,6 +753,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         stage.older.copy_from_slice(&stage.x);
         Self::add_impulse(&mut self.impulse, stage);
         std::mem::swap(&mut self.p, &mut self.p_next);
+        self.reset_free_momenta();
         self.t += size;
         Ok(stats)
     }
@@ -818,6 +864,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         Self::add_impulse(&mut self.impulse, stage);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.t += stage.step.step_size();
+        self.reset_free_momenta();
         Ok(stats)
     }
 
