@@ -253,14 +253,22 @@ impl Circuit {
     }
 
     /// The signals of the operating point: `v(<node>)` for every non-ground node, `i(<name>)`
-    /// for every inductor and voltage source (as SPICE's `.op` prints them).
+    /// for every inductor and voltage source (as SPICE's `.op` prints them), then those of
+    /// `.print`/`.probe`/`.save` not among them (`i(d1)`, `v(a,b)`).
     #[must_use]
     pub fn operating_point_signals(&self) -> Vec<Signal> {
-        self.defaults
+        let mut out: Vec<Signal> = self
+            .defaults
             .iter()
             .filter(|s| !s.name.starts_with("q("))
             .cloned()
-            .collect()
+            .collect();
+        for signal in &self.signals {
+            if !out.iter().any(|s| s.name == signal.name) {
+                out.push(signal.clone());
+            }
+        }
+        out
     }
 
     /// The contract's default signals (whatever `.print`/`.probe`/`.save` chose instead).
@@ -383,7 +391,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         }
     }
     let conditions = DeviceConditions::read(netlist, file)?;
-    let mut diode_warnings = Vec::new();
+    let mut notes = Vec::new();
     let mut graph = Interconnection::new();
     let mut q0 = Vec::new();
     let mut v0 = Vec::new();
@@ -505,7 +513,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                         source: e,
                     }
                 })?;
-                diode_warnings.extend(
+                notes.extend(
                     built
                         .warnings
                         .into_iter()
@@ -541,7 +549,24 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let mut nodes = HashMap::new();
     let mut signals = Vec::new();
     for node in &node_names {
-        let ports = terminals.remove(node.as_str()).unwrap_or_default();
+        let mut ports = terminals.remove(node.as_str()).unwrap_or_default();
+        if ports.len() == 1 {
+            // A node on a single element (ngspice warns and solves it): KCL says that element
+            // carries no current. A 0 A source from the node to ground keeps that row and gives
+            // the node its potential (the source's voltage, a multiplier of the row).
+            let name = format!("open({node})");
+            notes.push(format!(
+                "node `{node}` connects to a single element ({}), which therefore carries no current",
+                graph.subsystems()[ports[0].0.subsystem.0].name()
+            ));
+            add(
+                &mut graph,
+                CurrentSource::new(Waveform::Dc(0.0)).subsystem(name.clone()),
+                none(2),
+                none(2),
+            )?;
+            ports.push((graph.port(&name, "i")?, -1.0));
+        }
         let connection = graph.node(node.clone(), ports)?;
         nodes.insert(node.clone(), connection);
         signals.push(Signal::new(format!("v({node})"), Probe::Effort(connection)));
@@ -563,7 +588,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         holds,
         method: None,
         conditions,
-        warnings: diode_warnings,
+        warnings: notes,
         defaults: Vec::new(),
         nodes,
         branches,

@@ -137,6 +137,8 @@ struct Ctx<'a, 'p> {
     /// Port name → caller's node.
     ports: HashMap<String, String>,
     def: Option<&'a SubcktDef>,
+    /// Nodes named on `.global` cards: the same node inside every subcircuit.
+    globals: &'a HashSet<String>,
 }
 
 impl Ctx<'_, '_> {
@@ -154,6 +156,7 @@ impl Ctx<'_, '_> {
         }
         match self.ports.get(&n.norm) {
             Some(mapped) => mapped.clone(),
+            None if self.globals.contains(&n.norm) => n.norm.clone(),
             None => Self::join(&self.prefix, &n.norm),
         }
     }
@@ -666,6 +669,7 @@ fn instantiate(
         orig_prefix: orig,
         ports,
         def: Some(def),
+        globals: ctx.globals,
     };
     expand(&inner, out)
 }
@@ -724,6 +728,7 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         warnings: parsed.warnings.clone(),
         ..Out::default()
     };
+    let globals: HashSet<String> = parsed.globals.iter().cloned().collect();
     let root = Ctx {
         block: &parsed.top,
         scope: &global,
@@ -732,6 +737,7 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         orig_prefix: String::new(),
         ports: HashMap::new(),
         def: None,
+        globals: &globals,
     };
     expand(&root, &mut out)?;
     // Evaluate the top-level parameters nobody used, so their errors are not hidden.

@@ -35,6 +35,7 @@
 //!   `TM1`, `TM2`, `LEVEL=1`), parentheses optional, parameters separated by blanks or commas;
 //!   any other parameter is kept in [`DiodeModel::ignored`] with a warning saying what it would
 //!   change;
+//! - `.global n1 ...` (nodes that keep their name inside subcircuits; `gnd` is ground anyway);
 //! - `.temp T` and `.options temp=T tnom=T gmin=G` (circuit temperature, the default `TNOM` and
 //!   the junction conductance, see [`DeviceConditions`]);
 //! - `.subckt NAME n1 n2 ... [params:] [a=1 ...]` ... `.ends [NAME]`, nestable;
@@ -51,7 +52,7 @@
 //!
 //! Everything else is an error of kind [`ErrorKind::Unsupported`] whose message contains "not
 //! supported": other element types (`M Q J E F G H B T S W A U O Z`, ...), other dot-cards (`.ac`,
-//! `.dc`, `.include`, `.lib`, `.global`, `.func`, `.nodeset`, ...), other source
+//! `.dc`, `.include`, `.lib`, `.func`, `.nodeset`, ...), other source
 //! functions (`EXP`, `SFFM`, `AM`, `TRNOISE`, ...), `PWL` options (`r=`, `td=`), model types other
 //! than `D`, instance parameters other than `IC=` on `L`/`C`.
 //!

@@ -641,7 +641,6 @@ fn unsupported_cards() {
         ".dc V1 0 1 0.1",
         ".include models.lib",
         ".lib models.lib tt",
-        ".global vdd",
         ".func f(x) {x*2}",
         ".nodeset V(a)=1",
     ] {
