@@ -40,6 +40,16 @@ impl JointFrame {
         }
     }
 
+    /// The frame at `origin` whose `z` axis is along `z` and whose `x` axis is `x` with its
+    /// component along `z` removed (`x` must not be parallel to `z`).
+    #[must_use]
+    pub fn oriented(origin: [f64; 3], z: [f64; 3], x: [f64; 3]) -> Self {
+        Self {
+            origin,
+            axes: so3::frame_with_zx(z, x),
+        }
+    }
+
     /// The frame at `origin` with axes `axes` (columns).
     #[must_use]
     pub fn new(origin: [f64; 3], axes: Mat3) -> Self {

@@ -19,8 +19,9 @@ use dirac_sim::{
 
 use super::error::{Location, Origin, SceneError, listed};
 use super::model::{
-    ConnectionKind, DiscretisationSpec, ElementSpec, Initial, InitialSpec, Part, PartKind,
-    RepresentationSpec, Scene, SchemeSpec, SplittingSpec, WaveformSpec,
+    ConnectionKind, DiscretisationSpec, ElementSpec, InertiaSpec, Initial, InitialSpec, Part,
+    PartKind, RepresentationSpec, RigidBodyParams, RigidJointSpec, RotationSpec, Scene, SchemeSpec,
+    SplittingSpec, WaveformSpec,
 };
 
 /// Largest order accepted for Gauss and Lobatto discretisations.
@@ -579,6 +580,183 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
             .subsystem(name),
             zeros(4),
         ),
+        PartKind::RigidBody(p) => {
+            let body = rigid_body(part, p, &c)?;
+            let (q, _) = rigid_initial(p, &c)?;
+            (body.subsystem(name), q)
+        }
+    })
+}
+
+/// The rigid body of a `rigid_body` part.
+fn rigid_body(
+    part: &Part,
+    p: &RigidBodyParams,
+    c: &Check<'_>,
+) -> Result<dirac_rigid::RigidBody, SceneError> {
+    let m = c.positive("m", p.m)?;
+    let inertia = match p.inertia {
+        InertiaSpec::Principal(j) => {
+            let mut t = [[0.0; 3]; 3];
+            for (i, ji) in j.iter().enumerate() {
+                t[i][i] = c.finite(&format!("inertia[{i}]"), *ji)?;
+            }
+            t
+        }
+        InertiaSpec::Tensor(t) => t,
+    };
+    let bad = |reason: String| SceneError::BadRigid {
+        at: part.origin.field("inertia"),
+        item: c.item.clone(),
+        reason,
+    };
+    let mut body = dirac_rigid::RigidBody::new(m, inertia).map_err(|e| bad(e.to_string()))?;
+    let g = p.gravity;
+    for (i, gi) in g.iter().enumerate() {
+        c.finite(&format!("gravity[{i}]"), *gi)?;
+    }
+    body = body.with_gravity(g);
+    for (name, r) in &p.points {
+        if name.is_empty() || name.contains('.') {
+            return Err(SceneError::BadName {
+                at: part.origin.key(&format!("points.{name}")),
+                what: "body point",
+                name: name.clone(),
+                reason: "point names must be non-empty and without `.`",
+            });
+        }
+        for (i, ri) in r.iter().enumerate() {
+            c.finite(&format!("points.{name}[{i}]"), *ri)?;
+        }
+        body = body.with_point(name.clone(), *r);
+    }
+    Ok(body)
+}
+
+/// The rotation of a [`RotationSpec`], checked to be one.
+fn rotation(spec: &RotationSpec, c: &Check<'_>) -> Result<dirac_rigid::so3::Mat3, SceneError> {
+    use dirac_rigid::so3;
+    let r = match spec {
+        RotationSpec::AxisAngle { axis, angle } => {
+            let n = so3::dot(axis, axis).sqrt();
+            if !(n.is_finite() && n > 0.0 && angle.is_finite()) {
+                return Err(c.fail(
+                    "rotation.axis",
+                    n,
+                    "must be a finite non-zero axis with a finite angle",
+                ));
+            }
+            so3::from_axis_angle(*axis, *angle)
+        }
+        RotationSpec::Quaternion(q) => {
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(n.is_finite() && n > 0.0) {
+                return Err(c.fail("rotation", n, "must be a finite non-zero quaternion"));
+            }
+            so3::from_quaternion(*q)
+        }
+        RotationSpec::Matrix(m) => *m,
+    };
+    let error = so3::orthonormality_error(&r);
+    if !(error <= 1e-12 && so3::det(&r) > 0.0) {
+        return Err(c.fail(
+            "rotation",
+            error,
+            "is not a rotation (‖RᵀR − I‖ must be below 1e-12 and det R = +1)",
+        ));
+    }
+    Ok(r)
+}
+
+/// The initial coordinates and rates a `rigid_body` part states through `position`, `rotation`,
+/// `velocity` and `angular_velocity` (defaults: at rest at the origin, unrotated).
+fn rigid_initial(p: &RigidBodyParams, c: &Check<'_>) -> Result<(Vec<f64>, Vec<f64>), SceneError> {
+    use dirac_rigid::{RigidBody, so3};
+    let r = match &p.rotation {
+        Some(spec) => rotation(spec, c)?,
+        None => so3::IDENTITY,
+    };
+    let x = p.position.unwrap_or([0.0; 3]);
+    let v = p.velocity.unwrap_or([0.0; 3]);
+    let w = p.angular_velocity.unwrap_or([0.0; 3]);
+    for (key, vector) in [("position", x), ("velocity", v), ("angular_velocity", w)] {
+        for (i, value) in vector.iter().enumerate() {
+            c.finite(&format!("{key}[{i}]"), *value)?;
+        }
+    }
+    Ok((RigidBody::coordinates(x, &r), RigidBody::rates(&r, v, w)))
+}
+
+/// The joint frame on one side of a rigid joint.
+fn joint_frame(
+    origin: Option<[f64; 3]>,
+    axis: Option<[f64; 3]>,
+    reference: Option<[f64; 3]>,
+    side: char,
+    c: &Check<'_>,
+) -> Result<dirac_rigid::JointFrame, SceneError> {
+    use dirac_rigid::{JointFrame, so3};
+    let origin = origin.unwrap_or([0.0; 3]);
+    let z = axis.unwrap_or([0.0, 0.0, 1.0]);
+    let nz = so3::dot(&z, &z).sqrt();
+    for (i, v) in origin.iter().enumerate() {
+        c.finite(&format!("origin_{side}[{i}]"), *v)?;
+    }
+    if !(nz.is_finite() && nz > 0.0) {
+        return Err(c.fail(
+            &format!("axis_{side}"),
+            nz,
+            "must be a finite non-zero vector",
+        ));
+    }
+    let z = z.map(|v| v / nz);
+    let x = match reference {
+        Some(x) => {
+            let along = so3::dot(&x, &z);
+            let rest = [0, 1, 2].map(|i| x[i] - along * z[i]);
+            let n = so3::dot(&rest, &rest).sqrt();
+            if !(n.is_finite() && n > 1e-9 * so3::dot(&x, &x).sqrt()) {
+                return Err(c.fail(
+                    &format!("ref_{side}"),
+                    n,
+                    "must be finite and not parallel to the axis",
+                ));
+            }
+            x
+        }
+        None => so3::perpendicular(&z),
+    };
+    Ok(JointFrame::oriented(origin, z, x))
+}
+
+/// The rigid joint a connection describes.
+fn rigid_joint(
+    kind: dirac_rigid::JointKind,
+    spec: &RigidJointSpec,
+    c: &Check<'_>,
+) -> Result<dirac_rigid::Joint, SceneError> {
+    use dirac_rigid::{Joint, Side};
+    let fa = joint_frame(spec.origin_a, spec.axis_a, spec.ref_a, 'a', c)?;
+    let fb = joint_frame(spec.origin_b, spec.axis_b, spec.ref_b, 'b', c)?;
+    let a = match &spec.a {
+        Some(body) => Side::body(body.clone(), fa),
+        None => Side::ground(fa),
+    };
+    Ok(Joint::new(kind, a, Side::body(spec.b.clone(), fb)))
+}
+
+/// The joint kind and spec of a rigid-joint connection.
+fn rigid_kind(kind: &ConnectionKind) -> Option<(dirac_rigid::JointKind, &RigidJointSpec)> {
+    use dirac_rigid::JointKind;
+    Some(match kind {
+        ConnectionKind::Spherical(s) => (JointKind::Spherical, s),
+        ConnectionKind::Revolute(s) => (JointKind::Revolute, s),
+        ConnectionKind::Universal(s) => (JointKind::Universal, s),
+        ConnectionKind::Cylindrical(s) => (JointKind::Cylindrical, s),
+        ConnectionKind::Prismatic(s) => (JointKind::Prismatic, s),
+        ConnectionKind::Planar(s) => (JointKind::Planar, s),
+        ConnectionKind::Fixed(s) => (JointKind::Fixed, s),
+        _ => return None,
     })
 }
 
@@ -776,9 +954,28 @@ impl Scene {
             let (subsystem, default_q) = part_subsystem(part)?;
             let model = subsystem.model();
             let names: Vec<String> = (0..model.dim()).map(|i| model.coordinate_name(i)).collect();
-            let zeros = vec![0.0; names.len()];
-            let (q, gq) = initial(part, "q0", part.q0.as_ref(), &names, default_q)?;
-            let (v, gv) = initial(part, "v0", part.v0.as_ref(), &names, zeros)?;
+            let mut default_v = vec![0.0; names.len()];
+            // A rigid body's pose and motion keys state its coordinates and rates.
+            let mut stated = (false, false);
+            if let PartKind::RigidBody(p) = &part.kind {
+                let c = Check {
+                    item: format!("part `{}` (rigid_body)", part.name),
+                    origin: &part.origin,
+                };
+                default_v = rigid_initial(p, &c)?.1;
+                stated = (
+                    p.position.is_some() || p.rotation.is_some(),
+                    p.velocity.is_some() || p.angular_velocity.is_some(),
+                );
+            }
+            let (q, mut gq) = initial(part, "q0", part.q0.as_ref(), &names, default_q)?;
+            let (v, mut gv) = initial(part, "v0", part.v0.as_ref(), &names, default_v)?;
+            if stated.0 {
+                gq.fill(true);
+            }
+            if stated.1 {
+                gv.fill(true);
+            }
             q0.push(q);
             given_q.push(gq);
             v0.push(v);
@@ -788,6 +985,17 @@ impl Scene {
 
         let mut connections: HashMap<&str, (ConnectionId, &super::model::Connection)> =
             HashMap::new();
+        // Rigid joints by name, for the joint-coordinate couplings (which may come first).
+        let mut joints: HashMap<&str, dirac_rigid::Joint> = HashMap::new();
+        for c in &self.connections {
+            if let Some((kind, spec)) = rigid_kind(&c.kind) {
+                let check = Check {
+                    item: format!("joint `{}`", c.name),
+                    origin: &c.origin,
+                };
+                joints.insert(c.name.as_str(), rigid_joint(kind, spec, &check)?);
+            }
+        }
         for c in &self.connections {
             if c.name.is_empty() {
                 return Err(SceneError::BadName {
@@ -857,6 +1065,55 @@ impl Scene {
                         return Err(bad("joins a port to itself"));
                     }
                     graph.joint(c.name.clone(), pa, pb)
+                }
+                ConnectionKind::JointCoordinate { joint, port: p } => {
+                    let Some(j) = joints.get(joint.as_str()) else {
+                        return Err(SceneError::BadConnection {
+                            at: c.origin.field("joint"),
+                            connection: c.name.clone(),
+                            reason: format!(
+                                "no rigid joint is named `{joint}`; the rigid joints are {}",
+                                listed(joints.keys())
+                            ),
+                        });
+                    };
+                    let pr = port(p, c.origin.field("port"))?;
+                    j.couple_coordinate(&mut graph, &c.name, pr)
+                        .map_err(|e| rigid_error(e, c))?
+                }
+                ConnectionKind::Spherical(_)
+                | ConnectionKind::Revolute(_)
+                | ConnectionKind::Universal(_)
+                | ConnectionKind::Cylindrical(_)
+                | ConnectionKind::Prismatic(_)
+                | ConnectionKind::Planar(_)
+                | ConnectionKind::Fixed(_) => {
+                    let Some(j) = joints.get(c.name.as_str()) else {
+                        return Err(bad("is not a rigid joint"));
+                    };
+                    for (key, body) in [("a", j.a.body.as_ref()), ("b", j.b.body.as_ref())] {
+                        let Some(body) = body else { continue };
+                        let at = c.origin.field(key);
+                        let Some(sub) = graph.subsystems().iter().find(|s| s.name() == body) else {
+                            return Err(SceneError::UnknownPart {
+                                at,
+                                reference: body.clone(),
+                                part: body.clone(),
+                            });
+                        };
+                        if sub.port_index("r33").is_none() {
+                            return Err(SceneError::BadConnection {
+                                at,
+                                connection: c.name.clone(),
+                                reason: format!("part `{body}` is not a rigid body"),
+                            });
+                        }
+                    }
+                    if j.a.body.is_some() && j.a.body == j.b.body {
+                        return Err(bad("joins a body to itself"));
+                    }
+                    j.connect(&mut graph, &c.name)
+                        .map_err(|e| rigid_error(e, c))?
                 }
                 ConnectionKind::Coupling { a, b, element } => {
                     let (pa, pb) = (port(a, c.origin.field("a"))?, port(b, c.origin.field("b"))?);
@@ -971,6 +1228,18 @@ impl Scene {
             t_end: sim.t_end,
             signals,
         })
+    }
+}
+
+/// A rigid-body error of connection `c`, placed at the connection.
+fn rigid_error(e: dirac_rigid::RigidError, c: &super::model::Connection) -> SceneError {
+    match e {
+        dirac_rigid::RigidError::Graph(g) => SceneError::Graph(g),
+        other => SceneError::BadRigid {
+            at: c.origin.item(),
+            item: format!("connection `{}`", c.name),
+            reason: other.to_string(),
+        },
     }
 }
 
