@@ -358,3 +358,109 @@ impl Interconnection {
         petgraph::algo::connected_components(&self.graph)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    //! Building a graph: names and ports are checked when they are given, and the queries
+    //! (offsets, port values, neighbours, components) agree with the layout written out by hand.
+
+    use super::*;
+    use crate::coupling::LinearSpring;
+    use dirac_core::{LagrangianHessian, Model};
+
+    /// `n` free unit masses (`L = ½|v|²`).
+    struct Free(usize);
+
+    impl Model for Free {
+        fn dim(&self) -> usize {
+            self.0
+        }
+        fn lagrangian(&self, _q: &[f64], v: &[f64]) -> f64 {
+            0.5 * v.iter().map(|x| x * x).sum::<f64>()
+        }
+        fn lagrangian_gradient(&self, _q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+            lq.fill(0.0);
+            lv.copy_from_slice(v);
+        }
+        fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
+            for i in 0..self.0 {
+                h.vv.add(i, i, 1.0);
+            }
+        }
+    }
+
+    fn part(name: &str, dim: usize) -> Subsystem {
+        Subsystem::new(name, Free(dim))
+    }
+
+    #[test]
+    fn names_and_ports_are_checked() {
+        let mut g = Interconnection::new();
+        g.add_subsystem(part("a", 2).with_port("x", 1)).unwrap();
+        assert_eq!(
+            g.add_subsystem(part("a", 1)),
+            Err(GraphError::DuplicateSubsystem("a".into()))
+        );
+        assert_eq!(
+            g.add_subsystem(part("b", 2).with_combination_port("y", vec![(0, 1.0), (2, 1.0)])),
+            Err(GraphError::PortOutOfRange {
+                subsystem: "b".into(),
+                port: "y".into(),
+                coordinate: 2,
+                dim: 2
+            })
+        );
+        assert_eq!(
+            g.port("c", "x"),
+            Err(GraphError::UnknownSubsystem("c".into()))
+        );
+        assert_eq!(
+            g.port("a", "z"),
+            Err(GraphError::UnknownPort {
+                subsystem: "a".into(),
+                port: "z".into()
+            })
+        );
+        let x = g.port("a", "x").unwrap();
+        assert_eq!(
+            g.node("lonely", vec![(x, 1.0)]),
+            Err(GraphError::TooFewPorts("lonely".into()))
+        );
+        // Failed additions leave nothing behind.
+        assert_eq!(g.subsystems().len(), 1);
+        assert!(g.connections().is_empty());
+    }
+
+    /// Four parts (dims 2, 1, 3, 1): a–b by a spring, b–c by a joint, d alone.
+    #[test]
+    fn layout_and_neighbours() {
+        let mut g = Interconnection::new();
+        g.add_subsystem(part("a", 2).with_combination_port("x", vec![(0, 2.0), (1, -1.0)]))
+            .unwrap();
+        g.add_subsystem(part("b", 1).with_port("x", 0)).unwrap();
+        g.add_subsystem(part("c", 3).with_port("x", 2)).unwrap();
+        g.add_subsystem(part("d", 1).with_port("x", 0)).unwrap();
+        let port = |g: &Interconnection, s: &str| g.port(s, "x").unwrap();
+        let (a, b, c) = (port(&g, "a"), port(&g, "b"), port(&g, "c"));
+        let spring = g.coupling("s", a, b, LinearSpring { k: 1.0, rest: 0.0 });
+        let joint = g.joint("j", b, c);
+        assert_eq!((spring, joint), (ConnectionId(0), ConnectionId(1)));
+        assert_eq!(g.connections()[1].name(), "j");
+        assert_eq!(g.connections()[0].ports(), vec![a, b]);
+
+        let offsets = g.coordinate_offsets();
+        assert_eq!(offsets, vec![0, 2, 3, 6]);
+        let values = [1.0, 3.0, 5.0, 7.0, 11.0, 13.0, 17.0];
+        assert_eq!(g.port_value(&offsets, &values, a), 2.0 * 1.0 - 3.0);
+        assert_eq!(g.port_value(&offsets, &values, c), 13.0);
+        assert_eq!(g.port_value(&offsets, &values, port(&g, "d")), 17.0);
+
+        let mut nb = g.neighbours(SubsystemId(1));
+        nb.sort();
+        assert_eq!(nb, vec![SubsystemId(0), SubsystemId(2)]);
+        assert_eq!(g.neighbours(SubsystemId(0)), vec![SubsystemId(1)]);
+        assert!(g.neighbours(SubsystemId(3)).is_empty());
+        // {a, b, c} and {d}.
+        assert_eq!(g.component_count(), 2);
+    }
+}
