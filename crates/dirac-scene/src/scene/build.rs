@@ -13,6 +13,7 @@ use dirac_graph::{
     Connection, ConnectionId, Interconnection, LinearSpring, PortRef, Representation, Subsystem,
     SubsystemId,
 };
+use dirac_rigid::{COORDINATES, Joint, JointKind, Side, rotation_index};
 use dirac_sim::{
     Execution, IntegratorOptions, Probe, RunError, Scheme, Signal, Simulation, Splitting, Start,
 };
@@ -53,6 +54,9 @@ pub struct BuiltScene {
     /// The signals `[record]` asks for (by default every coordinate and every flow port), then
     /// `energy`, `power(<part>)`, `constraint_residual` and `force(<connection>)` when asked for.
     pub signals: Vec<Signal>,
+    /// The rigid joints by connection name (each is in `graph` as the connections `{name}[k]`,
+    /// one per row; see [`dirac_rigid::Joint::connect_rows`]).
+    pub rigid_joints: Vec<(String, dirac_rigid::Joint)>,
 }
 
 impl BuiltScene {
@@ -93,12 +97,148 @@ impl BuiltScene {
 
     /// The signal named `name`: `part.coordinate` (its value), `part.coordinate'` (its rate),
     /// `part.port` (a port's flow), `energy`, `power(<part>)`, `constraint_residual` or
-    /// `force(<connection>)`.
+    /// `force(<connection>)`; for a rigid body also `body.wx|wy|wz` (angular velocity, space
+    /// axes) and `body.w1|w2|w3` (body axes), for a rigid joint `joint.fx|fy|fz` (the force on
+    /// its body `b`, space axes), `joint.angle` or `joint.slide` (its coordinate) and `force(joint[k])` (the
+    /// multiplier of row `k`).
     ///
     /// # Errors
     /// [`SceneError::BadSignal`] or [`SceneError::UnknownPart`] saying what exists.
     pub fn signal(&self, name: &str) -> Result<Signal, SceneError> {
-        resolve_signal(&self.graph, self.execution, name, None)
+        resolve_signal(&self.graph, &self.rigid_joints, self.execution, name, None)
+    }
+}
+
+/// `Position` of coordinate `c` of part `part`.
+fn position(part: SubsystemId, c: usize) -> Probe {
+    Probe::Position {
+        part,
+        coordinate: c,
+    }
+}
+
+/// A rigid body's angular velocity component `which`: `wx`, `wy`, `wz` in space axes
+/// (`ω = vee(Ṙ Rᵀ)`), `w1`, `w2`, `w3` in body axes (`Ω = vee(Rᵀ Ṙ)`); sums of products of
+/// rotation entries and their rates at `t_k`.
+fn angular_velocity(part: SubsystemId, which: &str) -> Option<Probe> {
+    let r = |i: usize, j: usize| position(part, rotation_index(i, j));
+    let rate = |i: usize, j: usize| Probe::Velocity {
+        part,
+        coordinate: rotation_index(i, j),
+    };
+    // vee(W) = (W₃₂, W₁₃, W₂₁); (Ṙ Rᵀ)_ab = Σ_j Ṙ_aj R_bj, (Rᵀ Ṙ)_ab = Σ_i R_ia Ṙ_ib.
+    let (a, b, space) = match which {
+        "wx" => (2, 1, true),
+        "wy" => (0, 2, true),
+        "wz" => (1, 0, true),
+        "w1" => (2, 1, false),
+        "w2" => (0, 2, false),
+        "w3" => (1, 0, false),
+        _ => return None,
+    };
+    let terms = (0..3)
+        .map(|k| {
+            let product = if space {
+                Probe::Product(Box::new(rate(a, k)), Box::new(r(b, k)))
+            } else {
+                Probe::Product(Box::new(r(k, a)), Box::new(rate(k, b)))
+            };
+            (product, 1.0)
+        })
+        .collect();
+    Some(Probe::Sum(terms))
+}
+
+/// The space components of a joint side's body-fixed vector `v` (a point when `point`, else a
+/// direction), as probes linear in the body's coordinates (constants for the ground).
+fn side_vector(graph: &Interconnection, side: &Side, v: [f64; 3], point: bool) -> [Probe; 3] {
+    let body = side.body.as_ref().and_then(|b| graph.subsystem_id(b));
+    [0, 1, 2].map(|i| match body {
+        Some(id) => {
+            let mut terms: Vec<(Probe, f64)> = (0..3)
+                .map(|j| (position(id, rotation_index(i, j)), v[j]))
+                .collect();
+            if point {
+                terms.push((position(id, i), 1.0));
+            }
+            Probe::Sum(terms)
+        }
+        None => Probe::Constant(v[i]),
+    })
+}
+
+/// `u · w` of two probe vectors.
+fn dot_probe(u: [Probe; 3], w: [Probe; 3]) -> Probe {
+    Probe::Sum(
+        u.into_iter()
+            .zip(w)
+            .map(|(a, b)| (Probe::Product(Box::new(a), Box::new(b)), 1.0))
+            .collect(),
+    )
+}
+
+/// `joint.fx|fy|fz`, `joint.angle` or `joint.slide` of the rigid joint `j` named `name`.
+fn rigid_joint_signal(
+    graph: &Interconnection,
+    name: &str,
+    j: &Joint,
+    quantity: &str,
+    execution: Execution,
+) -> Result<Probe, String> {
+    let axis = |side: &Side, k: usize| {
+        let f = side.frame.axes;
+        side_vector(graph, side, [f[0][k], f[1][k], f[2][k]], false)
+    };
+    let rotational = matches!(
+        j.kind,
+        JointKind::Revolute | JointKind::Cylindrical | JointKind::Planar
+    );
+    match quantity {
+        "fx" | "fy" | "fz" if j.has_point_rows() => {
+            if matches!(execution, Execution::Staggered(_)) {
+                return Err("a joint's force is its multiplier, which a staggered run does not have; record it in the monolithic, constraint or force representation".into());
+            }
+            let k = usize::from(quantity.as_bytes()[1] - b'x');
+            let row = format!("{name}[{k}]");
+            graph
+                .connection_id(&row)
+                .map(Probe::Effort)
+                .ok_or_else(|| format!("the joint has no row `{row}`"))
+        }
+        "angle" if rotational => Ok(Probe::Atan2 {
+            y: Box::new(dot_probe(axis(&j.b, 0), axis(&j.a, 1))),
+            x: Box::new(dot_probe(axis(&j.b, 0), axis(&j.a, 0))),
+        }),
+        "slide" if j.kind == JointKind::Prismatic => {
+            let pa = side_vector(graph, &j.a, j.a.frame.origin, true);
+            let pb = side_vector(graph, &j.b, j.b.frame.origin, true);
+            let gap = pb
+                .into_iter()
+                .zip(pa)
+                .map(|(b, a)| Probe::Sum(vec![(b, 1.0), (a, -1.0)]));
+            let gap: Vec<Probe> = gap.collect();
+            let gap: [Probe; 3] = gap
+                .try_into()
+                .map_err(|_| "a point has three components".to_string())?;
+            Ok(dot_probe(gap, axis(&j.a, 2)))
+        }
+        _ => {
+            let mut offered = Vec::new();
+            if j.has_point_rows() {
+                offered.extend(["fx", "fy", "fz"]);
+            }
+            if rotational {
+                offered.push("angle");
+            }
+            if j.kind == JointKind::Prismatic {
+                offered.push("slide");
+            }
+            Err(format!(
+                "the {:?} joint `{name}` has no signal `{quantity}`; it offers {} and `force({name}[k])` for row k",
+                j.kind,
+                listed(offered)
+            ))
+        }
     }
 }
 
@@ -124,6 +264,7 @@ fn flow_ports(sub: &Subsystem, names: &[String], s: usize) -> Vec<Signal> {
 /// `power(<part>)`, `constraint_residual` or `force(<connection>)`.
 fn resolve_signal(
     graph: &Interconnection,
+    joints: &[(String, dirac_rigid::Joint)],
     execution: Execution,
     name: &str,
     at: Option<Location>,
@@ -154,6 +295,15 @@ fn resolve_signal(
     if let Some(c) = name
         .strip_prefix("force(")
         .and_then(|r| r.strip_suffix(')'))
+        .filter(|c| joints.iter().any(|(j, _)| j == c))
+    {
+        return Err(bad(format!(
+            "`{c}` is a rigid joint: record `{c}.fx`, `{c}.fy`, `{c}.fz` (its reaction force) or `force({c}[k])` (the multiplier of its row k)"
+        )));
+    }
+    if let Some(c) = name
+        .strip_prefix("force(")
+        .and_then(|r| r.strip_suffix(')'))
     {
         let Some(id) = graph.connection_id(c) else {
             return Err(bad(format!(
@@ -168,6 +318,14 @@ fn resolve_signal(
             )),
             _ => Ok(Signal::new(name, Probe::Effort(id))),
         };
+    }
+    if let Some((joint, quantity)) = name.split_once('.')
+        && graph.subsystem_id(joint).is_none()
+        && let Some((_, j)) = joints.iter().find(|(n, _)| n == joint)
+    {
+        return rigid_joint_signal(graph, joint, j, quantity, execution)
+            .map(|probe| Signal::new(name, probe))
+            .map_err(bad);
     }
     let Some((part, rest)) = name.split_once('.') else {
         return Err(bad(
@@ -200,6 +358,13 @@ fn resolve_signal(
                 coordinate,
             }
         };
+        return Ok(Signal::new(name, probe));
+    }
+    if !rate
+        && names.len() == COORDINATES.len()
+        && names.iter().zip(COORDINATES).all(|(a, b)| a == b)
+        && let Some(probe) = angular_velocity(id, base)
+    {
         return Ok(Signal::new(name, probe));
     }
     if let Some(port) = sub.port_index(base) {
@@ -987,6 +1152,7 @@ impl Scene {
             HashMap::new();
         // Rigid joints by name, for the joint-coordinate couplings (which may come first).
         let mut joints: HashMap<&str, dirac_rigid::Joint> = HashMap::new();
+        let mut rigid_joints = Vec::new();
         for c in &self.connections {
             if let Some((kind, spec)) = rigid_kind(&c.kind) {
                 let check = Check {
@@ -1112,8 +1278,11 @@ impl Scene {
                     if j.a.body.is_some() && j.a.body == j.b.body {
                         return Err(bad("joins a body to itself"));
                     }
-                    j.connect(&mut graph, &c.name)
-                        .map_err(|e| rigid_error(e, c))?
+                    let rows = j
+                        .connect_rows(&mut graph, &c.name)
+                        .map_err(|e| rigid_error(e, c))?;
+                    rigid_joints.push((c.name.clone(), j.clone()));
+                    rows[0]
                 }
                 ConnectionKind::Coupling { a, b, element } => {
                     let (pa, pb) = (port(a, c.origin.field("a"))?, port(b, c.origin.field("b"))?);
@@ -1178,6 +1347,7 @@ impl Scene {
                 .map(|(i, name)| {
                     resolve_signal(
                         &graph,
+                        &rigid_joints,
                         execution,
                         name,
                         record.origin.field(&format!("signals[{i}]")),
@@ -1192,6 +1362,7 @@ impl Scene {
             let label = format!("power({name})");
             signals.push(resolve_signal(
                 &graph,
+                &rigid_joints,
                 execution,
                 &label,
                 record.origin.field(&format!("power[{i}]")),
@@ -1207,6 +1378,7 @@ impl Scene {
             let label = format!("force({name})");
             signals.push(resolve_signal(
                 &graph,
+                &rigid_joints,
                 execution,
                 &label,
                 record.origin.field(&format!("forces[{i}]")),
@@ -1227,6 +1399,7 @@ impl Scene {
             start,
             t_end: sim.t_end,
             signals,
+            rigid_joints,
         })
     }
 }
