@@ -5,6 +5,7 @@
 //! (with the file, line and column, or the part, port or signal at fault). A failed run never
 //! leaves a partial output file.
 
+mod animate;
 mod bench;
 mod guard;
 mod guidance;
@@ -70,6 +71,8 @@ enum Command {
     Check(CheckArgs),
     /// Plot a CSV written by `dirac run` to SVG or PNG (by the output's extension).
     Plot(PlotArgs),
+    /// Draw a scene's rigid bodies moving, as a sequence of projected SVG frames.
+    Animate(animate::AnimateArgs),
     /// Convert a netlist into an equivalent scene file.
     Convert(ConvertArgs),
     /// Work-precision sweep of a benchmark scene (bench/SCENES.md): one CSV row per run.
@@ -281,6 +284,7 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare(&args),
         Command::Check(args) => check(&args),
         Command::Plot(args) => plot(&args),
+        Command::Animate(args) => animate::animate(&args),
         Command::Convert(args) => convert(&args),
         Command::Bench(args) => bench_command(&args),
     };
