@@ -253,9 +253,24 @@ impl Model {
     /// # Errors
     /// Bad settings or signals, an inconsistent start, a steady state that cannot be found.
     pub fn prepare(&self, settings: &RunSettings) -> Result<Prepared, StudyError> {
+        self.prepare_with(settings, None)
+    }
+
+    /// [`Model::prepare`], recording `extra` after the signals `settings` name (the Python
+    /// package records the energy this way for the run's energy drift, whatever the model's
+    /// signal names are).
+    ///
+    /// # Errors
+    /// See [`Model::prepare`].
+    pub fn prepare_with(
+        &self,
+        settings: &RunSettings,
+        extra: Option<Signal>,
+    ) -> Result<Prepared, StudyError> {
         let execution = self.execution_for(settings)?;
         let (options, t_end) = self.options_for(settings)?;
-        let signals = self.signals_for(settings)?;
+        let mut signals = self.signals_for(settings)?;
+        signals.extend(extra);
         let mut simulation = self.simulation(execution, options, self.start())?;
         simulation.check_signals(&signals)?;
         simulation.prepare()?;
