@@ -110,3 +110,18 @@ def test_cli_shards_merge_to_the_unsharded_table(serial, cli, tmp_path):
     (tmp_path / "shard-2-of-4.csv").unlink()
     missing = cli("sweep", "--merge", tmp_path, check=False)
     assert missing.returncode == 2 and b"shard 2 of 4 is missing" in missing.stderr
+
+
+def test_failed_points_raise_or_leave_nan_with_keep_going():
+    # A 1 V source drives the saturating inductor's flux past L0·I_sat = 1 Wb at t = 1 s (see
+    # test_run); at 0.2 V the flux stays at 0.4 Wb over the 2 s. Point 1 fails, point 0 does not.
+    from test_run import saturating_inductor
+
+    model = saturating_inductor().build()
+    with pytest.raises(dirac.SimulationError) as caught:
+        dirac.sweep(model, {"V.waveform": [0.2, 1.0]}, executor="serial", reduce=["final(L.q)"])
+    assert caught.value.step == 10
+    table = dirac.sweep(model, {"V.waveform": [0.2, 1.0]}, executor="serial", reduce=["final(L.q)"], keep_going=True)
+    alone = model.with_parameters({"V.waveform": 0.2}).run(signals=["L.q"])
+    assert table["final(L.q)"][0] == alone["L.q"][-1]
+    assert np.isnan(table["final(L.q)"][1])
