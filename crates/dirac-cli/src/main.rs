@@ -9,6 +9,7 @@ mod animate;
 mod bench;
 mod guard;
 mod guidance;
+mod sweep;
 
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -77,6 +78,8 @@ enum Command {
     Convert(ConvertArgs),
     /// Work-precision sweep of a benchmark scene (bench/SCENES.md): one CSV row per run.
     Bench(BenchArgs),
+    /// Sweep parameters of a netlist or scene (whole, or one shard of a batch job) or merge shards.
+    Sweep(sweep::SweepArgs),
 }
 
 /// How the coupled system is assembled.
@@ -287,6 +290,7 @@ fn main() -> ExitCode {
         Command::Animate(args) => animate::animate(&args),
         Command::Convert(args) => convert(&args),
         Command::Bench(args) => bench_command(&args),
+        Command::Sweep(args) => sweep::sweep(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
