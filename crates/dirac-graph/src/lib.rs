@@ -21,13 +21,15 @@ mod assembler;
 mod coupling;
 mod error;
 mod interconnection;
+mod part_error;
 mod subsystem;
 
 pub use assembler::{
     AssembledConstraints, AssembledModel, AssembledSystem, Assembler, FrozenCouplingModel,
     Representation, SharedConstraints, StaggeredLink, StaggeredPlan,
 };
-pub use coupling::{CouplingElement, LinearDamper, LinearSpring};
+pub use coupling::CouplingElement;
 pub use error::GraphError;
 pub use interconnection::{Connection, ConnectionId, Interconnection, PortRef, SubsystemId};
+pub use part_error::{Check, PartError};
 pub use subsystem::{Port, Subsystem};
