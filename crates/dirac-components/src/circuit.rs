@@ -92,7 +92,12 @@ impl CircuitBuilder {
     ///
     /// # Errors
     /// A duplicate name.
-    pub fn branch(&mut self, part: Subsystem, from: &str, to: &str) -> Result<SubsystemId, GraphError> {
+    pub fn branch(
+        &mut self,
+        part: Subsystem,
+        from: &str,
+        to: &str,
+    ) -> Result<SubsystemId, GraphError> {
         let name = part.name().to_string();
         let id = self.add(part)?;
         self.connect(&name, "i", from, to)?;
@@ -103,7 +108,13 @@ impl CircuitBuilder {
     ///
     /// # Errors
     /// [`GraphError::Part`] for a resistance out of range, or a duplicate name.
-    pub fn resistor(&mut self, name: &str, from: &str, to: &str, r: f64) -> Result<SubsystemId, GraphError> {
+    pub fn resistor(
+        &mut self,
+        name: &str,
+        from: &str,
+        to: &str,
+        r: f64,
+    ) -> Result<SubsystemId, GraphError> {
         self.branch(Resistor::new(r)?.subsystem(name), from, to)
     }
 
@@ -111,7 +122,13 @@ impl CircuitBuilder {
     ///
     /// # Errors
     /// [`GraphError::Part`] for an inductance out of range, or a duplicate name.
-    pub fn inductor(&mut self, name: &str, from: &str, to: &str, l: f64) -> Result<SubsystemId, GraphError> {
+    pub fn inductor(
+        &mut self,
+        name: &str,
+        from: &str,
+        to: &str,
+        l: f64,
+    ) -> Result<SubsystemId, GraphError> {
         self.branch(Inductor::new(l)?.subsystem(name), from, to)
     }
 
@@ -120,7 +137,13 @@ impl CircuitBuilder {
     ///
     /// # Errors
     /// [`GraphError::Part`] for a capacitance out of range, or a duplicate name.
-    pub fn capacitor(&mut self, name: &str, from: &str, to: &str, c: f64) -> Result<SubsystemId, GraphError> {
+    pub fn capacitor(
+        &mut self,
+        name: &str,
+        from: &str,
+        to: &str,
+        c: f64,
+    ) -> Result<SubsystemId, GraphError> {
         self.branch(Capacitor::new(c)?.subsystem(name), from, to)
     }
 
@@ -208,7 +231,10 @@ mod tests {
     fn bad_values_and_dangling_nodes_are_errors() {
         let mut c = CircuitBuilder::new();
         let e = c.capacitor("C1", "1", "0", -1.0).unwrap_err();
-        assert_eq!(e.to_string(), "capacitor: `c` = -1 must be positive and finite");
+        assert_eq!(
+            e.to_string(),
+            "capacitor: `c` = -1 must be positive and finite"
+        );
         c.resistor("R1", "1", "0", 1.0).unwrap();
         c.resistor("R2", "1", "2", 1.0).unwrap();
         assert!(matches!(c.build(), Err(GraphError::TooFewPorts(n)) if n == "2"));

@@ -582,8 +582,12 @@ mod tests {
     fn current_source_charges_a_capacitor() {
         let (amp, freq, c, h) = (2.0, 1.5, 0.25, 0.01);
         let mut g = Interconnection::new();
-        g.add_subsystem(CurrentSource::new(Waveform::sin(0.0, amp, freq)).unwrap().subsystem("I"))
-            .unwrap();
+        g.add_subsystem(
+            CurrentSource::new(Waveform::sin(0.0, amp, freq))
+                .unwrap()
+                .subsystem("I"),
+        )
+        .unwrap();
         g.add_subsystem(Capacitor { c }.subsystem("C")).unwrap();
         // The source pushes its current out of its − terminal into node a.
         node(&mut g, "a", &[between("I", false), between("C", true)]);

@@ -495,12 +495,18 @@ mod tests {
     fn gear_ratio_and_reflected_inertia() {
         let (j1, j2, r, torque, h) = (0.2, 0.05, -3.0, 1.5, 0.01);
         let mut g = Interconnection::new();
-        g.add_subsystem(Inertia::new(j1).unwrap().subsystem("J1")).unwrap();
+        g.add_subsystem(Inertia::new(j1).unwrap().subsystem("J1"))
+            .unwrap();
         g.add_subsystem(IdealGear { ratio: r }.subsystem("G"))
             .unwrap();
-        g.add_subsystem(Inertia::new(j2).unwrap().subsystem("J2")).unwrap();
-        g.add_subsystem(ForceSource::constant(torque).unwrap().rotational_subsystem("T"))
+        g.add_subsystem(Inertia::new(j2).unwrap().subsystem("J2"))
             .unwrap();
+        g.add_subsystem(
+            ForceSource::constant(torque)
+                .unwrap()
+                .rotational_subsystem("T"),
+        )
+        .unwrap();
         joint(&mut g, ("J1", "theta"), ("G", "theta1"));
         joint(&mut g, ("G", "theta2"), ("J2", "theta"));
         joint(&mut g, ("T", "theta"), ("J1", "theta"));

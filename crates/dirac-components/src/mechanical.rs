@@ -545,18 +545,8 @@ mod tests {
     #[test]
     fn hand_written_derivatives() {
         let (q, v) = ([0.3], [-0.8]);
-        check_model(
-&Mass { m: 2.0 },
-            &q,
-            &v,
-            0.0,
-        );
-        check_model(
-&Inertia { j: 2.0 },
-            &q,
-            &v,
-            0.0,
-        );
+        check_model(&Mass { m: 2.0 }, &q, &v, 0.0);
+        check_model(&Inertia { j: 2.0 }, &q, &v, 0.0);
         let spring = Spring {
             k: 2.0,
             k3: 5.0,
@@ -564,7 +554,12 @@ mod tests {
         };
         check_model(&spring, &q, &v, 0.0);
         check_model(&Damper { c: 0.7 }, &q, &v, 0.0);
-        check_model(&ForceSource::new(Waveform::sin(0.0, 1.0, 1.0)).unwrap(), &q, &v, 0.3);
+        check_model(
+            &ForceSource::new(Waveform::sin(0.0, 1.0, 1.0)).unwrap(),
+            &q,
+            &v,
+            0.3,
+        );
         let ground = Ground { position: 0.3 };
         check_model(&ground, &q, &v, 0.0);
         check_constraints(&ground, &[0.7], &[1.3], &[0.2]);
@@ -587,7 +582,8 @@ mod tests {
     fn spring_damper_power_balance() {
         let (m, k, c, rest, h) = (2.0, 3.0, 0.4, 0.5, 0.05);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::new(m).unwrap().subsystem("M")).unwrap();
+        g.add_subsystem(Mass::new(m).unwrap().subsystem("M"))
+            .unwrap();
         g.add_subsystem(Spring { k, k3: 0.0, rest }.subsystem("S"))
             .unwrap();
         g.add_subsystem(Damper { c }.subsystem("D")).unwrap();
@@ -620,7 +616,8 @@ mod tests {
     fn spring_to_ground_all_representations() {
         let (m, k, w, rest, h, x0) = (0.5, 2.0, -1.0, 0.75, 0.05, 0.5);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::new(m).unwrap().subsystem("M")).unwrap();
+        g.add_subsystem(Mass::new(m).unwrap().subsystem("M"))
+            .unwrap();
         g.add_subsystem(Ground { position: w }.subsystem("G"))
             .unwrap();
         coupling(&mut g, ("M", "x"), ("G", "x"), Spring { k, k3: 0.0, rest });
@@ -653,7 +650,8 @@ mod tests {
     fn couplings_to_ground_power_balance() {
         let (m, k, c, w, rest, h, x0) = (2.0, 3.0, 0.4, 0.25, 0.5, 0.05, 1.7);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::new(m).unwrap().subsystem("M")).unwrap();
+        g.add_subsystem(Mass::new(m).unwrap().subsystem("M"))
+            .unwrap();
         g.add_subsystem(Ground { position: w }.subsystem("G"))
             .unwrap();
         coupling(&mut g, ("M", "x"), ("G", "x"), Spring { k, k3: 0.0, rest });
@@ -687,10 +685,16 @@ mod tests {
     fn torsional_oscillator_discrete_phase() {
         let (j, k, h, th0) = (0.2, 5.0, 0.01, 0.3);
         let mut g = Interconnection::new();
-        g.add_subsystem(Inertia::new(j).unwrap().subsystem("J")).unwrap();
+        g.add_subsystem(Inertia::new(j).unwrap().subsystem("J"))
+            .unwrap();
         g.add_subsystem(Ground::origin().rotational_subsystem("G"))
             .unwrap();
-        coupling(&mut g, ("J", "theta"), ("G", "theta"), Spring::linear(k).unwrap());
+        coupling(
+            &mut g,
+            ("J", "theta"),
+            ("G", "theta"),
+            Spring::linear(k).unwrap(),
+        );
         let mut run = Run::midpoint(&g, h, &[vec![th0], vec![0.0]]);
         let phase = 2.0 * ((k / j).sqrt() * h / 2.0).atan();
         let mut worst: f64 = 0.0;
@@ -709,8 +713,10 @@ mod tests {
     fn duffing_coupling_conserves_momentum() {
         let (m1, m2, h) = (1.0, 3.0, 0.02);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::new(m1).unwrap().subsystem("A")).unwrap();
-        g.add_subsystem(Mass::new(m2).unwrap().subsystem("B")).unwrap();
+        g.add_subsystem(Mass::new(m1).unwrap().subsystem("A"))
+            .unwrap();
+        g.add_subsystem(Mass::new(m2).unwrap().subsystem("B"))
+            .unwrap();
         coupling(
             &mut g,
             ("A", "x"),
@@ -810,9 +816,14 @@ mod tests {
 
         let (j, torque) = (0.5, 2.0);
         let mut g = Interconnection::new();
-        g.add_subsystem(Inertia::new(j).unwrap().subsystem("J")).unwrap();
-        g.add_subsystem(ForceSource::constant(torque).unwrap().rotational_subsystem("T"))
+        g.add_subsystem(Inertia::new(j).unwrap().subsystem("J"))
             .unwrap();
+        g.add_subsystem(
+            ForceSource::constant(torque)
+                .unwrap()
+                .rotational_subsystem("T"),
+        )
+        .unwrap();
         joint(&mut g, ("J", "theta"), ("T", "theta"));
         let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0]]);
         for n in 1..=1000 {
@@ -823,9 +834,16 @@ mod tests {
 
         let (m1, m2) = (1.0, 4.0);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::new(m1).unwrap().subsystem("A")).unwrap();
-        g.add_subsystem(Mass::new(m2).unwrap().subsystem("B")).unwrap();
-        coupling(&mut g, ("A", "x"), ("B", "x"), ForceSource::constant(f).unwrap());
+        g.add_subsystem(Mass::new(m1).unwrap().subsystem("A"))
+            .unwrap();
+        g.add_subsystem(Mass::new(m2).unwrap().subsystem("B"))
+            .unwrap();
+        coupling(
+            &mut g,
+            ("A", "x"),
+            ("B", "x"),
+            ForceSource::constant(f).unwrap(),
+        );
         let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0]]);
         for n in 1..=1000 {
             run.step();

@@ -43,7 +43,10 @@ impl Pendulum {
             m: c.positive("m", m)?,
             length: c.positive("length", length)?,
             g: c.finite("g", g)?,
-            pivot: [c.finite("pivot[0]", pivot[0])?, c.finite("pivot[1]", pivot[1])?],
+            pivot: [
+                c.finite("pivot[0]", pivot[0])?,
+                c.finite("pivot[1]", pivot[1])?,
+            ],
         })
     }
 
@@ -242,7 +245,12 @@ impl PlanarLinkage {
     ///
     /// # Errors
     /// [`PartError::Parameter`] naming `bodies[i].m` or `bodies[i].j` (`i` the new index).
-    pub fn add_body(&mut self, name: impl Into<String>, m: f64, j: f64) -> Result<usize, PartError> {
+    pub fn add_body(
+        &mut self,
+        name: impl Into<String>,
+        m: f64,
+        j: f64,
+    ) -> Result<usize, PartError> {
         let c = Check::new("planar_linkage");
         let i = self.bodies.len();
         self.bodies.push(PlanarBody {

@@ -48,14 +48,10 @@ const USER: DrivenDuffing = DrivenDuffing {
 
 /// Adds a second (stock) mass coupled to port `x` of subsystem `to` by a stock spring.
 fn with_partner(g: &mut Interconnection, to: &str) {
-    g.add_subsystem(Mass::new(0.5).unwrap().subsystem("M2")).unwrap();
+    g.add_subsystem(Mass::new(0.5).unwrap().subsystem("M2"))
+        .unwrap();
     let (a, b) = (g.port(to, "x").unwrap(), g.port("M2", "x").unwrap());
-    g.coupling(
-        "k12",
-        a,
-        b,
-        Spring::new(3.0, 0.0, -0.5).unwrap(),
-    );
+    g.coupling("k12", a, b, Spring::new(3.0, 0.0, -0.5).unwrap());
 }
 
 /// The user's part (AutoDiff of a `GenericModel`) coupled by a stock spring to a stock mass
@@ -75,8 +71,7 @@ fn autodiff_part_matches_stock_equivalent() {
     let mut stock = Interconnection::new();
     let u = USER;
     stock
-        .add_subsystem(
-Mass::new(u.m).unwrap().subsystem("M"))
+        .add_subsystem(Mass::new(u.m).unwrap().subsystem("M"))
         .unwrap();
     stock
         .add_subsystem(Spring::cubic(u.k, u.k3).unwrap().subsystem("S"))
@@ -86,7 +81,9 @@ Mass::new(u.m).unwrap().subsystem("M"))
         .unwrap();
     stock
         .add_subsystem(
-            ForceSource::new(Waveform::sin(0.0, u.amplitude, u.frequency)).unwrap().subsystem("F"),
+            ForceSource::new(Waveform::sin(0.0, u.amplitude, u.frequency))
+                .unwrap()
+                .subsystem("F"),
         )
         .unwrap();
     for part in ["S", "D", "F"] {

@@ -122,7 +122,10 @@ mod tests {
         assert!(c.non_negative("c", -1e-300).is_err());
         assert!(c.nonzero("n", 0.0).is_err());
         let e = c.positive("c", -3.0).unwrap_err();
-        assert_eq!(e.to_string(), "capacitor: `c` = -3 must be positive and finite");
+        assert_eq!(
+            e.to_string(),
+            "capacitor: `c` = -3 must be positive and finite"
+        );
         assert_eq!(e.parameter(), "c");
     }
 }
