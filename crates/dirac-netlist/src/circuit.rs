@@ -64,7 +64,7 @@ pub enum CircuitError {
         /// The element as written.
         element: String,
         /// What the part's constructor refused.
-        source: PartError,
+        source: Box<PartError>,
     },
     /// Assembling the graph failed.
     #[error(transparent)]
@@ -335,7 +335,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             line: origin.line,
             column: origin.column,
             element: origin.name.clone(),
-            source,
+            source: Box::new(source),
         }
     };
 
