@@ -6,6 +6,8 @@
 //! leaves a partial output file.
 
 mod bench;
+mod guard;
+mod guidance;
 
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -131,6 +133,12 @@ struct ModelArgs {
     /// End time (overrides .tran TSTOP or the scene's t_end).
     #[arg(long = "t-end")]
     t_end: Option<f64>,
+    /// Most steps to take: a run of more steps (t_end / h) is refused before it starts.
+    #[arg(long = "max-steps", default_value_t = guard::DEFAULT_MAX_STEPS)]
+    max_steps: u64,
+    /// Run even past --max-steps or with an output that may not fit on the disk.
+    #[arg(long)]
+    force: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -205,6 +213,12 @@ struct CompareArgs {
 struct CheckArgs {
     /// Netlist or scene.
     file: PathBuf,
+    /// Step size to judge (default: .tran TSTEP or the scene's h).
+    #[arg(long)]
+    h: Option<f64>,
+    /// Discretisation to judge (default: the scene's, or the midpoint rule for netlists).
+    #[arg(long, value_enum)]
+    method: Option<MethodArg>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -235,6 +249,8 @@ enum Failure {
     Input(String),
     /// Numerical failure: exit code 1.
     Numerical(String),
+    /// Stopped by SIGINT or SIGTERM: exit code 130.
+    Interrupted(String),
 }
 
 impl Failure {
@@ -242,6 +258,7 @@ impl Failure {
         match self {
             Self::Input(_) => 2,
             Self::Numerical(_) => 1,
+            Self::Interrupted(_) => guard::INTERRUPTED_EXIT,
         }
     }
 }
@@ -270,8 +287,12 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
-            let (Failure::Input(message) | Failure::Numerical(message)) = &failure;
-            eprintln!("error: {message}");
+            match &failure {
+                Failure::Input(message) | Failure::Numerical(message) => {
+                    eprintln!("error: {message}");
+                }
+                Failure::Interrupted(message) => eprintln!("{message}"),
+            }
             ExitCode::from(failure.code())
         }
     }
@@ -511,6 +532,7 @@ impl Output {
                 let tmp = PathBuf::from(tmp);
                 let file = File::create(&tmp)
                     .map_err(|e| Failure::Input(format!("{}: {e}", path.display())))?;
+                guard::set_partial(Some(tmp.clone()));
                 Ok(Self {
                     writer: BufWriter::new(Box::new(file)),
                     temporary: Some((tmp, path.to_path_buf())),
@@ -524,8 +546,10 @@ impl Output {
             .flush()
             .map_err(|e| Failure::Input(format!("writing output: {e}")))?;
         if let Some((tmp, path)) = self.temporary.take() {
-            std::fs::rename(&tmp, &path)
-                .map_err(|e| Failure::Input(format!("{}: {e}", path.display())))?;
+            let renamed = std::fs::rename(&tmp, &path)
+                .map_err(|e| Failure::Input(format!("{}: {e}", path.display())));
+            guard::set_partial(None);
+            renamed?;
         }
         Ok(())
     }
@@ -535,9 +559,13 @@ impl Drop for Output {
     fn drop(&mut self) {
         if let Some((tmp, _)) = self.temporary.take() {
             let _ = std::fs::remove_file(tmp);
+            guard::set_partial(None);
         }
     }
 }
+
+/// What the sink reports when a signal stopped the run.
+const INTERRUPTED: &str = "interrupted";
 
 /// A sink that skips rows before `first` (`.tran`'s TSTART) and shows progress on a terminal.
 struct Progress<'a, S: Sink> {
@@ -551,10 +579,16 @@ struct Progress<'a, S: Sink> {
 
 impl<S: Sink> Sink for Progress<'_, S> {
     fn begin(&mut self, names: &[String]) -> Result<(), String> {
+        if guard::interrupted() {
+            return Err(INTERRUPTED.into());
+        }
         self.inner.begin(names)
     }
 
     fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
+        if guard::interrupted() {
+            return Err(INTERRUPTED.into());
+        }
         if self.show && self.bar.is_none() && self.started.elapsed() > Duration::from_secs(1) {
             let b = ProgressBar::with_draw_target(Some(self.total), ProgressDrawTarget::stderr());
             if let Ok(style) =
@@ -575,6 +609,7 @@ impl<S: Sink> Sink for Progress<'_, S> {
 }
 
 fn run(args: &RunArgs) -> Result<(), Failure> {
+    guard::install_interrupt_handler();
     let loaded = load(&args.model.file)?;
     for w in loaded.warnings() {
         eprintln!("warning: {w}");
@@ -595,11 +630,26 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
         None => loaded.signals(),
     };
     let h = options.h;
-    let mut sim = loaded.simulation(execution, options, loaded.start())?;
+    let steps = (t_end / h).round();
+    if !args.model.force {
+        guard::check_steps(steps as u64, args.model.max_steps).map_err(Failure::Input)?;
+        if let Some(out) = &args.out {
+            let rows = ((t_end - loaded.first_output_time()) / h).round().max(0.0) as u64 + 1;
+            guard::check_disk(out, rows, signals.len()).map_err(Failure::Input)?;
+        }
+    }
+    let mut sim = loaded.simulation(execution, options.clone(), loaded.start())?;
     sim.check_signals(&signals)?;
     sim.prepare()?;
     for w in sim.warnings() {
         eprintln!("warning: {w}");
+    }
+    if matches!(execution, Execution::Assembled(_))
+        && let Ok(modes) = sim.natural_modes()
+    {
+        for w in modes.warnings(&options) {
+            eprintln!("warning: {w}");
+        }
     }
     let mut out = Output::open(args.out.as_deref())?;
     let mut csv = CsvSink::new(&mut out.writer);
@@ -618,6 +668,14 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     if result.is_err() && csv.reader_closed() {
         // `dirac run … | head`: the reader has what it wanted; end quietly, as `cat` does.
         return Ok(());
+    }
+    if guard::interrupted() {
+        drop(csv);
+        drop(out);
+        return Err(Failure::Interrupted(match &args.out {
+            Some(path) => format!("interrupted: {} not written", path.display()),
+            None => "interrupted".to_string(),
+        }));
     }
     let summary = result?;
     match csv.finish() {
@@ -652,6 +710,7 @@ fn summary_json(
         "step_cuts": summary.step_cuts,
         "max_constraint_residual": summary.max_constraint_residual,
         "wall_s": summary.wall_s,
+        "peak_rss_kib": guard::peak_rss_kib(),
     })
 }
 
@@ -673,6 +732,8 @@ fn operating_point(loaded: &Loaded, json: bool, out: &mut impl Write) -> Result<
         method: None,
         h: Some(1.0),
         t_end: Some(0.0),
+        max_steps: guard::DEFAULT_MAX_STEPS,
+        force: false,
     };
     let (options, _) = loaded.settings(&model)?;
     let execution = loaded.execution(None)?;
@@ -728,6 +789,22 @@ fn collect(
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
     let loaded = load(&args.model.file)?;
     let (options, t_end) = loaded.settings(&args.model)?;
+    if !args.model.force {
+        let steps = (t_end / options.h).round() as u64;
+        guard::check_steps(steps, args.model.max_steps).map_err(Failure::Input)?;
+        // Two trajectories (the reference and one representation) are held in memory at once.
+        let bytes = steps
+            .saturating_add(1)
+            .saturating_mul(loaded.signals().len() as u64 + 1)
+            .saturating_mul(16);
+        if let Some(free) = guard::available_memory()
+            && bytes > free
+        {
+            return Err(Failure::Input(format!(
+                "compare holds two trajectories of {steps} steps in memory, about {bytes} bytes, more than the {free} available; use a larger h or a shorter t_end, or pass --force"
+            )));
+        }
+    }
     let reference = collect(
         &loaded,
         Execution::Assembled(Representation::Monolithic),
@@ -777,7 +854,7 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
         }
         match collect(&loaded, execution, &options, t_end) {
             Ok(run) => results.push((name, Some(deviation(&run)), None)),
-            Err(Failure::Input(why) | Failure::Numerical(why)) => {
+            Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
                 results.push((name, None, Some(why)))
             }
         }
@@ -874,7 +951,49 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
     {
         println!("  .tran: h = {h}, t_end = {t} ({} steps)", (t / h).round());
     }
+    for line in step_size_report(&loaded, args) {
+        println!("{line}");
+    }
     Ok(())
+}
+
+/// `dirac check`'s natural modes and step-size judgement (docs/math.md §8).
+fn step_size_report(loaded: &Loaded, args: &CheckArgs) -> Vec<String> {
+    let model = ModelArgs {
+        file: args.file.clone(),
+        representation: None,
+        method: args.method,
+        h: args.h,
+        t_end: Some(0.0),
+        max_steps: guard::DEFAULT_MAX_STEPS,
+        force: false,
+    };
+    let options = match loaded.settings(&model) {
+        Ok((options, _)) => options,
+        Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
+            return vec![format!(
+                "  natural modes: not analysed ({why}; pass --h to judge a step size)"
+            )];
+        }
+    };
+    let start = loaded.start();
+    let at = match start {
+        Start::Given => "the initial state",
+        Start::SteadyState => "the operating point",
+    };
+    let modes = loaded
+        .simulation(
+            Execution::Assembled(Representation::Monolithic),
+            options.clone(),
+            start,
+        )
+        .and_then(|mut sim| sim.natural_modes().map_err(Failure::from));
+    match modes {
+        Ok(modes) => guidance::report(&modes, &options, at),
+        Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
+            vec![format!("  natural modes: not analysed ({why})")]
+        }
+    }
 }
 
 fn plot(args: &PlotArgs) -> Result<(), Failure> {

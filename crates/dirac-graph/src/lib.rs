@@ -2,8 +2,9 @@
 //!
 //! A [`Subsystem`] is a model on its own coordinates with internal constraints and named
 //! [`Port`]s; it knows nothing of the graph. An [`Interconnection`] joins ports by connections:
-//! electrical nodes (KCL), rigid joints (equal port velocities) and coupling elements (springs,
-//! dampers, any potential or force of two port coordinates). The [`Assembler`] turns one graph into
+//! electrical nodes (KCL), rigid joints (equal port velocities), coupling elements (springs,
+//! dampers, any potential or force of two port coordinates) and holonomic constraints on several
+//! port values ([`PortConstraint`]: joints between rigid bodies). The [`Assembler`] turns one graph into
 //! an ordinary [`dirac_core::Model`] plus [`dirac_core::Constraints`] on the global coordinates, in
 //! the representation asked for:
 //!
@@ -22,6 +23,7 @@ mod coupling;
 mod error;
 mod interconnection;
 mod part_error;
+mod port_constraint;
 mod subsystem;
 
 pub use assembler::{
@@ -30,6 +32,9 @@ pub use assembler::{
 };
 pub use coupling::CouplingElement;
 pub use error::GraphError;
-pub use interconnection::{Connection, ConnectionId, Interconnection, PortRef, SubsystemId};
+pub use interconnection::{
+    Connection, ConnectionId, Interconnection, MAX_CONSTRAINT_PORTS, PortRef, SubsystemId,
+};
 pub use part_error::{Check, PartError};
+pub use port_constraint::PortConstraint;
 pub use subsystem::{Port, Subsystem};

@@ -38,6 +38,14 @@ const MAX_PARAM_DEPTH: usize = 400;
 /// Deepest subcircuit nesting.
 const MAX_SUBCKT_DEPTH: usize = 50;
 
+/// Most elements and instances subcircuit expansion may create (cards written at the top level
+/// are not counted: their cost is that of reading them). Nested instances multiply: ten levels of
+/// ten instances are 10¹⁰ elements, which would exhaust memory instead of failing (found by
+/// fuzzing, `fuzz/regressions/netlist/exponential_subckt.cir`). 10⁵ is the size of the largest
+/// benchmark ladder; expanding that many takes well under a second and about 50 MB (a flat
+/// netlist of any size is read as written).
+const MAX_EXPANDED: usize = 100_000;
+
 impl<'p> Scope<'p> {
     fn new(parent: Option<&'p Scope<'p>>) -> Self {
         Self {
@@ -165,6 +173,8 @@ struct Out {
     krefs: Vec<KRef>,
     ics: Vec<(String, f64, Name)>,
     warnings: Vec<Warning>,
+    /// Elements and instances created inside subcircuits so far.
+    expanded: usize,
 }
 
 impl Out {
@@ -344,6 +354,19 @@ fn diode_model(
 
 fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
     for el in &ctx.block.elements {
+        if !ctx.prefix.is_empty() {
+            out.expanded += 1;
+            if out.expanded > MAX_EXPANDED {
+                return Err(NetlistError::new(
+                    ErrorKind::Unsupported,
+                    el.name.pos,
+                    el.name.orig.clone(),
+                    format!(
+                        "subcircuit expansion creates more than {MAX_EXPANDED} elements (nested instances multiply) not supported"
+                    ),
+                ));
+            }
+        }
         let full = Ctx::join(&ctx.prefix, &el.name.norm);
         let orig = Ctx::join(&ctx.orig_prefix, &el.name.orig);
         if let ElemKind::X(sub, params) = &el.kind {

@@ -920,34 +920,61 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     }
 
     fn likely_cause(&self, error: &NewtonError) -> String {
+        let linear = self.model.is_linear();
+        let first = self.k == 0;
         match error {
-            NewtonError::Linear { source, .. } => match source {
+            NewtonError::Linear {
+                source,
+                worst_equation,
+                ..
+            } => match source {
                 LinearSolveError::EmptyRow { row } => format!(
-                    "{} has no entries (an empty constraint row)",
+                    "singular model: {} has no entries (an empty constraint row)",
                     self.describe_equation(*row)
                 ),
                 LinearSolveError::EmptyColumn { col } => format!(
-                    "{} appears in no equation (a degenerate direction with neither potential nor constraint)",
+                    "singular model: {} appears in no equation (a degenerate direction with neither potential nor constraint)",
                     self.describe_unknown(*col)
                 ),
                 LinearSolveError::NumericallySingular { index }
                 | LinearSolveError::StructurallySingular { index }
-                | LinearSolveError::NonFinite { index } => format!(
-                    "singular Newton matrix near {}: a coordinate no equation determines, or redundant or contradicting constraints",
-                    self.describe_unknown(
-                        (*index).min(self.stages[0].step.unknowns().saturating_sub(1))
-                    )
-                ),
+                | LinearSolveError::NonFinite { index } => {
+                    let unknown = self.describe_unknown(
+                        (*index).min(self.stages[0].step.unknowns().saturating_sub(1)),
+                    );
+                    let equation = self.describe_equation(*worst_equation);
+                    if linear || matches!(source, LinearSolveError::StructurallySingular { .. }) {
+                        format!(
+                            "singular model: the Newton matrix is singular near {unknown} (largest residual in {equation}): a coordinate no equation determines, or redundant or contradicting constraints"
+                        )
+                    } else if first {
+                        format!(
+                            "the Newton matrix is singular near {unknown} at the start (largest residual in {equation}): a coordinate no equation determines, redundant or contradicting constraints, or initial data at a singular point of a nonlinear part"
+                        )
+                    } else {
+                        format!(
+                            "the Newton matrix became singular near {unknown} (largest residual in {equation}), having been regular on the steps before: a nonlinear part reached a singular point of its characteristic (an inductor at its saturation flux, say) or the step is too large for it"
+                        )
+                    }
+                }
                 LinearSolveError::Pattern(_) => {
                     "a model or constraint emitted a different derivative pattern between calls"
                         .into()
                 }
                 LinearSolveError::Backend(_) => "the sparse solver failed".into(),
             },
-            NewtonError::NotConverged { worst_equation, .. } => format!(
-                "largest residual in {}: step too large for the nonlinearity, or constraints that cannot all hold",
-                self.describe_equation(*worst_equation)
-            ),
+            NewtonError::NotConverged { worst_equation, .. } => {
+                let equation = self.describe_equation(*worst_equation);
+                if first {
+                    format!(
+                        "largest residual in {equation}: initial data inconsistent with a nonlinear part, a step too large for the nonlinearity, or constraints that cannot all hold"
+                    )
+                } else {
+                    format!(
+                        "largest residual in {equation}: step too large for a nonlinear part, or constraints that cannot all hold"
+                    )
+                }
+            }
             NewtonError::NonFiniteResidual { equation, .. } => format!(
                 "the model returned NaN or infinity in {}: the state left the model's domain",
                 self.describe_equation(*equation)
@@ -1169,5 +1196,167 @@ fn project_velocity<C: Constraints + ?Sized>(
             constraint: format!("velocity projection ({other})"),
             residual: f64::NAN,
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The integrator's bookkeeping against values worked out by hand: option checks, the
+    //! velocity projection, the time grid, multipliers of dropped rows, failure reports.
+
+    use super::*;
+    use crate::test_models::Masses;
+    use dirac_core::{LinearForms, NoConstraints};
+
+    /// `v₀ − v₁ = 0`, optionally written twice.
+    fn joint(twice: bool) -> LinearForms {
+        let mut forms = LinearForms::new(2);
+        forms.push("joint", &[(0, 1.0), (1, -1.0)]);
+        if twice {
+            forms.push("joint again", &[(0, -2.0), (1, 2.0)]);
+        }
+        forms
+    }
+
+    fn options(h: f64) -> IntegratorOptions {
+        IntegratorOptions::new(Discretisation::midpoint(), h)
+    }
+
+    #[test]
+    fn bad_options_and_lengths_are_typed_errors() {
+        for h in [0.0, -0.1, f64::NAN, f64::INFINITY] {
+            let err = Integrator::new(Masses::new(&[1.0], &[1.0]), NoConstraints, options(h));
+            assert!(matches!(err, Err(SimError::StepSize(_))), "h = {h}");
+        }
+        let mut sim = Integrator::new(
+            Masses::new(&[1.0, 1.0], &[1.0, 1.0]),
+            NoConstraints,
+            options(0.1),
+        )
+        .unwrap();
+        assert_eq!(
+            sim.set_state(&[0.0], &[0.0, 0.0], 0.0),
+            Err(SimError::Dimension {
+                what: "q",
+                got: 1,
+                expected: 2
+            })
+        );
+        assert_eq!(
+            sim.initialise(&[0.0, 0.0], &[0.0; 3], 0.0),
+            Err(SimError::Dimension {
+                what: "v",
+                got: 3,
+                expected: 2
+            })
+        );
+        assert_eq!(Scheme::from(Flavour::Minus), Scheme::Minus);
+        assert_eq!(Scheme::from(Flavour::Plus), Scheme::default());
+    }
+
+    /// Masses 1 and 3 joined by `v₀ = v₁`, started with v = (1, 0): the Euclidean projection onto
+    /// `ker A` is (½, ½), so p = M·(½, ½) = (½, 3/2).
+    #[test]
+    fn initialise_projects_the_velocities() {
+        let mut sim = Integrator::new(
+            Masses::new(&[1.0, 3.0], &[0.0, 0.0]),
+            joint(false),
+            options(0.1),
+        )
+        .unwrap();
+        sim.initialise(&[0.0, 0.0], &[1.0, 0.0], 0.0).unwrap();
+        assert!((sim.p()[0] - 0.5).abs() <= 1e-15 && (sim.p()[1] - 1.5).abs() <= 1e-15);
+        // Free motion of the joined pair at the common velocity ½: x = t/2.
+        for _ in 0..10 {
+            sim.step().unwrap();
+        }
+        assert!((sim.q()[0] - 0.5).abs() <= 1e-14 && (sim.q()[1] - 0.5).abs() <= 1e-14);
+    }
+
+    /// `t_k = t₀ + k·h` exactly (a running sum of h drifts by about k·ε·h).
+    #[test]
+    fn time_is_computed_not_accumulated() {
+        let (t0, h) = (1.0 / 3.0, 0.1);
+        let mut sim =
+            Integrator::new(Masses::new(&[1.0], &[1.0]), NoConstraints, options(h)).unwrap();
+        sim.set_state(&[1.0], &[0.0], t0).unwrap();
+        let mut sum = t0;
+        let mut drifted = false;
+        for k in 1..=1000 {
+            sim.step().unwrap();
+            sum += h;
+            drifted |= sum != t0 + k as f64 * h;
+            assert_eq!(sim.t(), t0 + k as f64 * h, "step {k}");
+            assert_eq!(sim.steps_taken(), k);
+        }
+        assert!(drifted, "a running sum would have passed too");
+    }
+
+    /// A spring on mass 0 only, the pair joined twice (the second row is dropped with a warning):
+    /// the joint's impulse on the free mass 1 is its whole momentum change, `Λ` (the row has
+    /// coefficient −1 there and adds `−Λ·c`), and the dropped row reports 0.
+    #[test]
+    fn multipliers_of_dropped_rows_are_zero() {
+        let mut sim = Integrator::new(
+            Masses::new(&[1.0, 3.0], &[2.0, 0.0]),
+            joint(true),
+            options(0.05),
+        )
+        .unwrap();
+        sim.initialise(&[0.4, 0.4], &[0.0, 0.0], 0.0).unwrap();
+        assert_eq!(sim.warnings().len(), 1, "{:?}", sim.warnings());
+        assert!(sim.warnings()[0].contains("joint again"));
+        assert_eq!(sim.active_constraints().count(), 1);
+        for _ in 0..20 {
+            let p1 = sim.p()[1];
+            sim.step().unwrap();
+            let full = sim.last_multipliers_full();
+            assert_eq!(full.len(), 2);
+            assert_eq!(full[1], 0.0);
+            assert_eq!(sim.last_multipliers(), &full[..1]);
+            let gained = sim.p()[1] - p1;
+            assert!(gained.abs() > 1e-3 && (full[0] - gained).abs() <= 1e-15);
+        }
+    }
+
+    /// A model that returns NaN in a step: an error naming the step, its start time and the
+    /// likely cause, and equations and unknowns described by name.
+    #[test]
+    fn a_non_finite_model_is_reported_with_step_and_time() {
+        let mut model = Masses::new(&[1.0, 1.0], &[1.0, 1.0]);
+        model.nan_above = 0.5;
+        let mut sim = Integrator::new(model, joint(false), options(0.1)).unwrap();
+        sim.initialise(&[0.0, 0.0], &[1.0, 1.0], 2.0).unwrap();
+        let mut failure = None;
+        for _ in 0..20 {
+            if let Err(e) = sim.step() {
+                failure = Some(e);
+                break;
+            }
+        }
+        // x₀ ≈ sin(t − 2) passes 0.5 in the sixth step (t from 2.5 to 2.6). The failing step is
+        // retried in halved substeps first, and `t` is where the last failing substep started:
+        // inside the step, not necessarily at its start.
+        match failure {
+            Some(SimError::Newton {
+                step,
+                t,
+                source: NewtonError::NonFiniteResidual { .. },
+                likely_cause,
+            }) => {
+                assert_eq!(step, 5);
+                assert!((2.5..2.6).contains(&t), "t = {t}");
+                assert!(likely_cause.contains("NaN"), "{likely_cause}");
+            }
+            other => panic!("expected a non-finite residual, got {other:?}"),
+        }
+        assert_eq!(
+            sim.describe_equation(1),
+            "momentum balance of coordinate `x1` at control point 0"
+        );
+        assert_eq!(sim.describe_equation(2), "constraint `joint`");
+        assert_eq!(sim.describe_unknown(0), "coordinate `x0`");
+        assert_eq!(sim.describe_unknown(2), "multiplier of constraint `joint`");
+        assert_eq!(sim.unknowns(), 3);
     }
 }

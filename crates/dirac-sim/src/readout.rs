@@ -33,7 +33,9 @@
 //! and the caller reads those from the steps instead.
 
 use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
-use dirac_solve::{Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Structure};
+use dirac_solve::{
+    LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Structure,
+};
 
 use crate::linear::{AutoLu, SolverChoice};
 
@@ -93,16 +95,46 @@ struct Work {
     contracted: Triplets,
 }
 
-/// A readout that could not be computed.
+/// A readout that could not be computed: the state `(q_k, p_k)` the steps reached has no
+/// velocities and multipliers that satisfy the model's algebraic relations.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("values at t = {t} could not be computed: {source} (largest residual in {equation})")]
+#[error(
+    "{}values at t = {} could not be computed: {source}; {equation}; {likely_cause}",
+    StepPrefix(*.step),
+    crate::error::Time(*.t)
+)]
 pub struct ReadoutError {
+    /// The output row (step index) whose values failed, when known.
+    pub step: Option<usize>,
     /// Time of the state.
     pub t: f64,
     /// The solver's report.
     pub source: NewtonError,
-    /// The equation with the largest residual, named.
+    /// The equation with the largest residual, or the unknown no equation fixes, named.
     pub equation: String,
+    /// What usually produces this failure.
+    pub likely_cause: String,
+}
+
+impl ReadoutError {
+    /// The same error located at output row `step`.
+    #[must_use]
+    pub fn at_step(mut self, step: usize) -> Self {
+        self.step = Some(step);
+        self
+    }
+}
+
+/// `"step k: "` when the step is known.
+struct StepPrefix(Option<usize>);
+
+impl std::fmt::Display for StepPrefix {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0 {
+            Some(k) => write!(f, "step {k}: "),
+            None => Ok(()),
+        }
+    }
 }
 
 impl Readout {
@@ -306,22 +338,13 @@ impl Readout {
                 Ok(())
             }
             Err(source) => {
-                let worst = match &source {
-                    NewtonError::NotConverged { worst_equation, .. }
-                    | NewtonError::NonFiniteResidual {
-                        equation: worst_equation,
-                        ..
-                    } => self.rows.get(*worst_equation).copied(),
-                    NewtonError::Linear { .. } => None,
-                };
-                let equation = worst.map_or_else(
-                    || "the readout system (singular at this state)".to_string(),
-                    |r| self.describe(model, constraints, r),
-                );
+                let (equation, likely_cause) = self.explain(model, constraints, &source);
                 Err(ReadoutError {
+                    step: None,
                     t,
                     source,
                     equation,
+                    likely_cause,
                 })
             }
         }
@@ -526,6 +549,87 @@ impl Readout {
     }
 
     /// Names equation `r` of the full system.
+    /// The equation or unknown at fault in a failed solve, named, and the likely cause.
+    fn explain<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+        error: &NewtonError,
+    ) -> (String, String) {
+        let domain = "the state left the model's domain: the step before it was too large for a nonlinear part, or a part was driven past its limit (a saturating inductor past its saturation flux, say)";
+        match error {
+            NewtonError::NotConverged { worst_equation, .. } => (
+                self.rows.get(*worst_equation).map_or_else(
+                    || "no equation named".to_string(),
+                    |&r| {
+                        format!(
+                            "largest residual in {}",
+                            self.describe(model, constraints, r)
+                        )
+                    },
+                ),
+                format!("no velocities satisfy the relations at this state: {domain}"),
+            ),
+            NewtonError::NonFiniteResidual { equation, .. } => (
+                self.rows.get(*equation).map_or_else(
+                    || "no equation named".to_string(),
+                    |&r| {
+                        format!(
+                            "NaN or infinity in {}",
+                            self.describe(model, constraints, r)
+                        )
+                    },
+                ),
+                domain.to_string(),
+            ),
+            NewtonError::Linear { source, .. } => {
+                let index = match source {
+                    LinearSolveError::NumericallySingular { index }
+                    | LinearSolveError::StructurallySingular { index }
+                    | LinearSolveError::NonFinite { index } => Some(*index),
+                    LinearSolveError::EmptyColumn { col } => Some(*col),
+                    _ => None,
+                };
+                (
+                    index.and_then(|c| self.cols.get(c)).map_or_else(
+                        || "the readout system is singular at this state".to_string(),
+                        |&c| {
+                            format!(
+                                "{} is not determined by the relations at this state",
+                                self.describe_unknown(model, constraints, c)
+                            )
+                        },
+                    ),
+                    format!(
+                        "the relations are singular here although they were not at the start: {domain}"
+                    ),
+                )
+            }
+        }
+    }
+
+    /// Names full unknown `c` of `(v, γ, a, λ)`.
+    fn describe_unknown<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+        c: usize,
+    ) -> String {
+        let (n, m) = (self.n, self.m);
+        if c < n {
+            format!("the rate of `{}`", model.coordinate_name(c))
+        } else if c < n + m {
+            format!("the impulse of constraint `{}`", constraints.name(c - n))
+        } else if c < 2 * n + m {
+            format!("the acceleration of `{}`", model.coordinate_name(c - n - m))
+        } else {
+            format!(
+                "the multiplier of constraint `{}`",
+                constraints.name(c - 2 * n - m)
+            )
+        }
+    }
+
     fn describe<M: Model + ?Sized, C: Constraints + ?Sized>(
         &self,
         model: &M,

@@ -100,16 +100,19 @@ impl Probe {
             .map_err(|e| RunError::UnknownSignal(e.to_string()))
     }
 
-    /// The multiplier of the node or joint named `connection`.
+    /// The multiplier of the node or joint named `connection` (of the first row of a holonomic
+    /// constraint, e.g. the torque of a joint-angle coupling), or the force of a coupling.
     ///
     /// # Errors
-    /// [`RunError::UnknownSignal`] when there is no such node or joint.
+    /// [`RunError::UnknownSignal`] when there is no such connection.
     pub fn effort(graph: &Interconnection, connection: &str) -> Result<Self, RunError> {
         let id = graph
             .connection_id(connection)
             .ok_or_else(|| RunError::UnknownSignal(format!("no connection `{connection}`")))?;
         match graph.connections()[id.0] {
-            Connection::Node { .. } | Connection::Joint { .. } => Ok(Self::Effort(id)),
+            Connection::Node { .. } | Connection::Joint { .. } | Connection::Holonomic { .. } => {
+                Ok(Self::Effort(id))
+            }
             Connection::Coupling { .. } => Ok(Self::CouplingForce(id)),
         }
     }

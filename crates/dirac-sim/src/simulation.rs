@@ -19,6 +19,7 @@ use thiserror::Error;
 
 use crate::error::SimError;
 use crate::integrator::{Integrator, IntegratorOptions};
+use crate::modes::{ModesError, NaturalModes};
 use crate::readout::{Readout, ReadoutError, ReadoutRow};
 use crate::signal::{Signal, Snapshot};
 use crate::staggered::{Splitting, Staggered};
@@ -99,6 +100,9 @@ pub enum RunError {
     /// The sink refused a row.
     #[error("writing output: {0}")]
     Output(String),
+    /// The natural modes could not be computed.
+    #[error("natural modes: {0}")]
+    Modes(#[from] ModesError),
 }
 
 impl RunError {
@@ -715,6 +719,45 @@ impl Simulation {
         Ok(())
     }
 
+    /// The natural modes of the model linearised at the current state (after
+    /// [`Simulation::prepare`]: the initial or operating point), with the step size as time
+    /// scale; see [`NaturalModes::analyse`].
+    ///
+    /// # Errors
+    /// Set-up failures, a staggered execution (analyse an assembled one), a readout that cannot
+    /// be computed, or [`ModesError`].
+    pub fn natural_modes(&mut self) -> Result<NaturalModes, RunError> {
+        self.prepare()?;
+        let h = self.options.h;
+        match &mut self.engine {
+            Some(Engine::Assembled(e)) => {
+                let integrator = &e.integrator;
+                e.readout.solve(
+                    integrator.model(),
+                    integrator.active_constraints(),
+                    integrator.q(),
+                    integrator.p(),
+                    integrator.t(),
+                )?;
+                Ok(NaturalModes::analyse(
+                    integrator.model(),
+                    integrator.active_constraints(),
+                    (
+                        integrator.q(),
+                        e.readout.velocities(),
+                        e.readout.multipliers(),
+                    ),
+                    integrator.t(),
+                    h,
+                )?)
+            }
+            _ => Err(RunError::Settings(
+                "natural modes need an assembled representation (monolithic, constraint or force)"
+                    .into(),
+            )),
+        }
+    }
+
     /// The warnings of the set-up (call after [`Simulation::prepare`] or a run).
     #[must_use]
     pub fn warnings(&self) -> &[String] {
@@ -839,7 +882,11 @@ impl Simulation {
         let readout = self.needs_readout(signals);
         let mut snapshot = Snapshot::default();
         for k in 0..=steps {
-            self.snapshot_into(&mut snapshot, readout)?;
+            self.snapshot_into(&mut snapshot, readout)
+                .map_err(|e| match e {
+                    RunError::Readout(r) => RunError::Readout(r.at_step(k)),
+                    other => other,
+                })?;
             let t_k = self.t0 + k as f64 * h;
             if deferred.is_empty() {
                 self.emit(k, t_k, &snapshot, signals, &mut values, sink)?;
