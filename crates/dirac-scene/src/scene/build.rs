@@ -5,13 +5,12 @@ use std::collections::HashMap;
 
 use dirac_components::{
     Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource, Ground,
-    IdealGear, IdealTransformer, Inductor, Inertia, Mass, Pendulum, PlanarLinkage, Resistor,
-    RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
+    IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError, Pendulum, PlanarLinkage,
+    Resistor, RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
 };
 use dirac_core::Discretisation;
 use dirac_graph::{
-    Connection, ConnectionId, Interconnection, LinearSpring, PortRef, Representation, Subsystem,
-    SubsystemId,
+    Connection, ConnectionId, Interconnection, PortRef, Representation, Subsystem, SubsystemId,
 };
 use dirac_rigid::{COORDINATES, Joint, JointKind, Side, rotation_index};
 use dirac_sim::{
@@ -388,251 +387,135 @@ fn resolve_signal(
     )))
 }
 
-/// Parameter checks of one item, errors placed at the parameter's value.
-struct Check<'a> {
-    item: String,
-    origin: &'a Origin,
-}
-
-impl Check<'_> {
-    fn fail(&self, key: &str, value: f64, requirement: &'static str) -> SceneError {
-        SceneError::BadParameter {
-            at: self.origin.field(key),
-            item: self.item.clone(),
-            parameter: key.to_string(),
+/// A part's refusal of a parameter, placed at the parameter's value in the scene (`prefix` is the
+/// key of the table the part's parameters sit in: empty for a part, `element.` for a coupling).
+fn placed(item: String, origin: &Origin, prefix: &str, e: PartError) -> SceneError {
+    match e {
+        PartError::Parameter {
+            parameter,
             value,
             requirement,
-        }
-    }
-
-    fn finite(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be finite"))
-        }
-    }
-
-    fn positive(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be positive and finite"))
-        }
-    }
-
-    fn non_negative(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v >= 0.0 {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be non-negative and finite"))
-        }
-    }
-
-    fn nonzero(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v != 0.0 {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be non-zero and finite"))
-        }
-    }
-
-    fn waveform(&self, key: &str, w: &WaveformSpec) -> Result<Waveform, SceneError> {
-        let k = |name: &str| format!("{key}.{name}");
-        Ok(match w {
-            WaveformSpec::Dc(v) => Waveform::Dc(self.finite(key, *v)?),
-            WaveformSpec::Sin {
-                offset,
-                amplitude,
-                frequency,
-                delay,
-                damping,
-                phase,
-            } => Waveform::Sin {
-                offset: self.finite(&k("offset"), *offset)?,
-                amplitude: self.finite(&k("amplitude"), *amplitude)?,
-                frequency: self.non_negative(&k("frequency"), *frequency)?,
-                delay: self.finite(&k("delay"), *delay)?,
-                damping: self.finite(&k("damping"), *damping)?,
-                phase_deg: self.finite(&k("phase"), *phase)?,
-            },
-            WaveformSpec::Pulse {
-                v1,
-                v2,
-                delay,
-                rise,
-                fall,
-                width,
-                period,
-            } => {
-                let period = match period {
-                    Some(p) if p.is_nan() || *p <= 0.0 => {
-                        return Err(self.fail(&k("period"), *p, "must be positive"));
-                    }
-                    Some(p) => *p,
-                    None => f64::INFINITY,
-                };
-                Waveform::Pulse {
-                    v1: self.finite(&k("v1"), *v1)?,
-                    v2: self.finite(&k("v2"), *v2)?,
-                    delay: self.finite(&k("delay"), *delay)?,
-                    rise: self.non_negative(&k("rise"), *rise)?,
-                    fall: self.non_negative(&k("fall"), *fall)?,
-                    width: self.non_negative(&k("width"), *width)?,
-                    period,
-                }
+            ..
+        } => {
+            let parameter = format!("{prefix}{parameter}");
+            SceneError::BadParameter {
+                at: origin.field(&parameter),
+                item,
+                parameter,
+                value,
+                requirement,
             }
-            WaveformSpec::Pwl(points) => {
-                if points.is_empty() {
-                    return Err(self.fail(&k("points"), 0.0, "must hold at least one point"));
-                }
-                for (i, p) in points.iter().enumerate() {
-                    let at = format!("{key}.points[{i}]");
-                    self.finite(&at, p[0])?;
-                    self.finite(&at, p[1])?;
-                    if i > 0 && p[0] < points[i - 1][0] {
-                        return Err(self.fail(&at, p[0], "must not come before the previous time"));
-                    }
-                }
-                Waveform::Pwl(points.iter().map(|p| (p[0], p[1])).collect())
-            }
-        })
+        }
+        other => SceneError::Graph(other.into()),
     }
 }
 
-/// A part's subsystem and default initial positions.
+/// The runtime waveform a scene's waveform table describes (checked by the source that uses it).
+fn waveform(w: &WaveformSpec) -> Waveform {
+    match w {
+        WaveformSpec::Dc(v) => Waveform::Dc(*v),
+        WaveformSpec::Sin {
+            offset,
+            amplitude,
+            frequency,
+            delay,
+            damping,
+            phase,
+        } => Waveform::Sin {
+            offset: *offset,
+            amplitude: *amplitude,
+            frequency: *frequency,
+            delay: *delay,
+            damping: *damping,
+            phase_deg: *phase,
+        },
+        WaveformSpec::Pulse {
+            v1,
+            v2,
+            delay,
+            rise,
+            fall,
+            width,
+            period,
+        } => Waveform::Pulse {
+            v1: *v1,
+            v2: *v2,
+            delay: *delay,
+            rise: *rise,
+            fall: *fall,
+            width: *width,
+            period: period.unwrap_or(f64::INFINITY),
+        },
+        WaveformSpec::Pwl(points) => Waveform::Pwl(points.iter().map(|p| (p[0], p[1])).collect()),
+    }
+}
+
+/// A to-ground part's subsystem: port `x`, or `theta` when rotational.
+fn to_ground<M>(part: M, name: String, rotational: bool) -> Subsystem
+where
+    M: dirac_core::Model + Send + Sync + 'static,
+{
+    let port = if rotational { "theta" } else { "x" };
+    Subsystem::new(name, part).with_port(port, 0)
+}
+
+/// A part's subsystem and default initial positions; parameters are checked by the part's
+/// constructor and a refusal is placed at the parameter's value.
 fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
-    let c = Check {
-        item: format!("part `{}` ({})", part.name, part.kind.type_name()),
-        origin: &part.origin,
-    };
+    let item = || format!("part `{}` ({})", part.name, part.kind.type_name());
+    let at = |e: PartError| placed(item(), &part.origin, "", e);
     let name = part.name.clone();
     let zeros = |n: usize| vec![0.0; n];
     Ok(match &part.kind {
-        PartKind::Resistor(p) => (
-            Resistor {
-                r: c.non_negative("r", p.r)?,
-            }
-            .subsystem(name),
-            zeros(1),
-        ),
-        PartKind::Inductor(p) => (
-            Inductor {
-                l: c.positive("l", p.l)?,
-            }
-            .subsystem(name),
-            zeros(1),
-        ),
-        PartKind::Capacitor(p) => (
-            Capacitor {
-                c: c.positive("c", p.c)?,
-            }
-            .subsystem(name),
-            zeros(1),
-        ),
+        PartKind::Resistor(p) => (Resistor::new(p.r).map_err(at)?.subsystem(name), zeros(1)),
+        PartKind::Inductor(p) => (Inductor::new(p.l).map_err(at)?.subsystem(name), zeros(1)),
+        PartKind::Capacitor(p) => (Capacitor::new(p.c).map_err(at)?.subsystem(name), zeros(1)),
         PartKind::VoltageSource(p) => (
-            VoltageSource::new(c.waveform("waveform", &p.waveform)?).subsystem(name),
+            VoltageSource::new(waveform(&p.waveform))
+                .map_err(at)?
+                .subsystem(name),
             zeros(1),
         ),
         PartKind::CurrentSource(p) => (
-            CurrentSource::new(c.waveform("waveform", &p.waveform)?).subsystem(name),
+            CurrentSource::new(waveform(&p.waveform))
+                .map_err(at)?
+                .subsystem(name),
             zeros(2),
         ),
-        PartKind::CoupledInductors(p) => {
-            if p.k.is_nan() || p.k.abs() > 1.0 {
-                return Err(c.fail("k", p.k, "must lie in [-1, 1]"));
-            }
-            (
-                CoupledInductors {
-                    l1: c.positive("l1", p.l1)?,
-                    l2: c.positive("l2", p.l2)?,
-                    k: p.k,
-                }
+        PartKind::CoupledInductors(p) => (
+            CoupledInductors::new(p.l1, p.l2, p.k)
+                .map_err(at)?
                 .subsystem(name),
-                zeros(2),
-            )
-        }
+            zeros(2),
+        ),
         PartKind::Diode(p) => (
-            Diode {
-                is: c.positive("is", p.is)?,
-                n: c.positive("n", p.n)?,
-                vt: c.positive("vt", p.vt)?,
-                rs: c.non_negative("rs", p.rs)?,
-            }
-            .subsystem(name),
+            Diode::new(p.is, p.n, p.vt, p.rs)
+                .map_err(at)?
+                .subsystem(name),
             zeros(2),
         ),
-        PartKind::SaturatingInductor(p) => {
-            let l0 = c.positive("l0", p.l0)?;
-            let l_inf = c.non_negative("l_inf", p.l_inf)?;
-            if l_inf > l0 {
-                return Err(c.fail("l_inf", l_inf, "must not exceed `l0`"));
-            }
-            (
-                SaturatingInductor {
-                    l0,
-                    l_inf,
-                    i_sat: c.positive("i_sat", p.i_sat)?,
-                }
+        PartKind::SaturatingInductor(p) => (
+            SaturatingInductor::new(p.l0, p.l_inf, p.i_sat)
+                .map_err(at)?
                 .subsystem(name),
-                zeros(1),
-            )
-        }
-        PartKind::Mass(p) => (
-            Mass {
-                m: c.positive("m", p.m)?,
-                k: c.non_negative("k", p.k)?,
-                c: c.non_negative("c", p.c)?,
-            }
-            .subsystem(name),
             zeros(1),
         ),
-        PartKind::Inertia(p) => (
-            Inertia {
-                j: c.positive("j", p.j)?,
-                k: c.non_negative("k", p.k)?,
-                c: c.non_negative("c", p.c)?,
-            }
-            .subsystem(name),
-            zeros(1),
-        ),
+        PartKind::Mass(p) => (Mass::new(p.m).map_err(at)?.subsystem(name), zeros(1)),
+        PartKind::Inertia(p) => (Inertia::new(p.j).map_err(at)?.subsystem(name), zeros(1)),
         PartKind::Spring(p) => {
-            let s = Spring {
-                k: c.non_negative("k", p.k)?,
-                k3: c.finite("k3", p.k3)?,
-                rest: c.finite("rest", p.rest)?,
-            };
-            let sub = if p.rotational {
-                s.rotational_subsystem(name)
-            } else {
-                s.subsystem(name)
-            };
-            (sub, zeros(1))
+            let s = Spring::new(p.k, p.k3, p.rest).map_err(at)?;
+            (to_ground(s, name, p.rotational), zeros(1))
         }
         PartKind::Damper(p) => {
-            let d = Damper {
-                c: c.non_negative("c", p.c)?,
-            };
-            let sub = if p.rotational {
-                d.rotational_subsystem(name)
-            } else {
-                d.subsystem(name)
-            };
-            (sub, zeros(1))
+            let d = Damper::new(p.c).map_err(at)?;
+            (to_ground(d, name, p.rotational), zeros(1))
         }
         PartKind::ForceSource(p) => {
-            let f = ForceSource::new(c.waveform("waveform", &p.waveform)?);
-            let sub = if p.rotational {
-                f.rotational_subsystem(name)
-            } else {
-                f.subsystem(name)
-            };
-            (sub, zeros(1))
+            let f = ForceSource::new(waveform(&p.waveform)).map_err(at)?;
+            (to_ground(f, name, p.rotational), zeros(1))
         }
         PartKind::Ground(p) => {
-            let g = Ground {
-                position: c.finite("position", p.position)?,
-            };
+            let g = Ground::at(p.position).map_err(at)?;
             let sub = if p.rotational {
                 g.rotational_subsystem(name)
             } else {
@@ -641,21 +524,13 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
             (sub, vec![g.position])
         }
         PartKind::Pendulum(p) => {
-            let pendulum = Pendulum {
-                m: c.positive("m", p.m)?,
-                length: c.positive("length", p.length)?,
-                g: c.finite("g", p.g)?,
-                pivot: [
-                    c.finite("pivot[0]", p.pivot[0])?,
-                    c.finite("pivot[1]", p.pivot[1])?,
-                ],
-            };
+            let pendulum = Pendulum::new(p.m, p.length, p.g, p.pivot).map_err(at)?;
             // At rest hanging straight down unless `q0` says otherwise.
             let hanging = pendulum.position(0.0).to_vec();
             (pendulum.subsystem(name), hanging)
         }
         PartKind::PlanarLinkage(p) => {
-            let mut linkage = PlanarLinkage::new(c.finite("g", p.g)?);
+            let mut linkage = PlanarLinkage::new(p.g).map_err(at)?;
             let mut index: HashMap<&str, usize> = HashMap::new();
             for (i, b) in p.bodies.iter().enumerate() {
                 let key = |k: &str| format!("bodies[{i}].{k}");
@@ -667,11 +542,7 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
                         reason: "body names must be non-empty and unique within the linkage",
                     });
                 }
-                linkage.add_body(
-                    b.name.clone(),
-                    c.positive(&key("m"), b.m)?,
-                    c.positive(&key("j"), b.j)?,
-                );
+                linkage.add_body(b.name.clone(), b.m, b.j).map_err(at)?;
             }
             for (i, pin) in p.pins.iter().enumerate() {
                 let key = |k: &str| format!("pins[{i}].{k}");
@@ -711,38 +582,23 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
             (linkage.subsystem(name), zeros(n))
         }
         PartKind::DcMotor(p) => (
-            DcMotor {
-                k: c.finite("k", p.k)?,
-                r: c.non_negative("r", p.r)?,
-                l: c.non_negative("l", p.l)?,
-                j: c.non_negative("j", p.j)?,
-                b: c.non_negative("b", p.b)?,
-            }
-            .subsystem(name),
+            DcMotor::new(p.k, p.r, p.l, p.j, p.b)
+                .map_err(at)?
+                .subsystem(name),
             zeros(2),
         ),
         PartKind::IdealTransformer(p) => (
-            IdealTransformer {
-                n: c.nonzero("n", p.n)?,
-            }
-            .subsystem(name),
+            IdealTransformer::new(p.n).map_err(at)?.subsystem(name),
             zeros(2),
         ),
         PartKind::IdealGear(p) => (
-            IdealGear {
-                ratio: c.nonzero("ratio", p.ratio)?,
-            }
-            .subsystem(name),
+            IdealGear::new(p.ratio).map_err(at)?.subsystem(name),
             zeros(2),
         ),
         PartKind::RollingDisk(p) => (
-            RollingDisk {
-                m: c.positive("m", p.m)?,
-                i: c.positive("i", p.i)?,
-                j: c.positive("j", p.j)?,
-                radius: c.positive("radius", p.radius)?,
-            }
-            .subsystem(name),
+            RollingDisk::new(p.m, p.i, p.j, p.radius)
+                .map_err(at)?
+                .subsystem(name),
             zeros(4),
         ),
         PartKind::RigidBody(p) => {
@@ -933,10 +789,6 @@ fn initial(
     names: &[String],
     default: Vec<f64>,
 ) -> Result<(Vec<f64>, Vec<bool>), SceneError> {
-    let c = Check {
-        item: format!("part `{}` ({})", part.name, part.kind.type_name()),
-        origin: &part.origin,
-    };
     let length = |got: usize| SceneError::InitialLength {
         at: part.origin.field(key),
         part: part.name.clone(),
@@ -983,7 +835,15 @@ fn initial(
             Some(Initial::List(_)) => format!("{key}[{i}]"),
             _ => key.to_string(),
         };
-        c.finite(&path, *v)?;
+        if !v.is_finite() {
+            return Err(SceneError::BadParameter {
+                at: part.origin.field(&path),
+                item: format!("part `{}` ({})", part.name, part.kind.type_name()),
+                parameter: path,
+                value: *v,
+                requirement: "must be finite",
+            });
+        }
     }
     Ok((out, stated))
 }
@@ -1289,30 +1149,21 @@ impl Scene {
                     if pa == pb {
                         return Err(bad("couples a port to itself"));
                     }
-                    let check = Check {
-                        item: format!("coupling `{}`", c.name),
-                        origin: &c.origin,
+                    let at = |e: PartError| {
+                        placed(format!("coupling `{}`", c.name), &c.origin, "element.", e)
                     };
                     match element {
                         ElementSpec::Spring(s) => {
-                            let k = check.non_negative("element.k", s.k)?;
-                            let k3 = check.finite("element.k3", s.k3)?;
-                            let rest = check.finite("element.rest", s.rest)?;
-                            if k3 == 0.0 {
-                                graph.coupling(c.name.clone(), pa, pb, LinearSpring { k, rest })
-                            } else {
-                                graph.coupling(c.name.clone(), pa, pb, Spring { k, k3, rest })
-                            }
+                            let spring = Spring::new(s.k, s.k3, s.rest).map_err(at)?;
+                            graph.coupling(c.name.clone(), pa, pb, spring)
                         }
                         ElementSpec::Damper(d) => {
-                            let damper = Damper {
-                                c: check.non_negative("element.c", d.c)?,
-                            };
+                            let damper = Damper::new(d.c).map_err(at)?;
                             graph.coupling(c.name.clone(), pa, pb, damper)
                         }
                         ElementSpec::ForceSource(f) => {
-                            let w = check.waveform("element.waveform", &f.waveform)?;
-                            graph.coupling(c.name.clone(), pa, pb, ForceSource::new(w))
+                            let force = ForceSource::new(waveform(&f.waveform)).map_err(at)?;
+                            graph.coupling(c.name.clone(), pa, pb, force)
                         }
                     }
                 }

@@ -636,33 +636,20 @@ pub struct SaturatingInductorParams {
     pub i_sat: f64,
 }
 
-/// `mass`: `m` (> 0), wall spring `k` and wall damper `c` (≥ 0, default 0).
+/// `mass`: `m` (> 0). A wall spring or damper is a coupling to a `ground`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MassParams {
     /// Mass.
     pub m: f64,
-    /// Wall spring stiffness.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub k: f64,
-    /// Wall damper coefficient.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub c: f64,
 }
 
-/// `inertia`: `j` (> 0), torsional spring `k` and bearing friction `c` to the frame (≥ 0,
-/// default 0).
+/// `inertia`: `j` (> 0). A torsional spring or bearing friction is a coupling to a `ground`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InertiaParams {
     /// Moment of inertia.
     pub j: f64,
-    /// Torsional stiffness to the frame.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub k: f64,
-    /// Viscous friction to the frame.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub c: f64,
 }
 
 /// `spring` to ground (free end at its coordinate): `k` (≥ 0), cubic `k3` (default 0), `rest`
