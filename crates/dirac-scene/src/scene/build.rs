@@ -603,7 +603,7 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
         ),
         PartKind::RigidBody(p) => {
             let c = Check {
-                item: item(),
+                item: format!("part `{}` (rigid_body)", part.name),
                 origin: &part.origin,
             };
             let body = rigid_body(part, p, &c)?;
@@ -613,8 +613,8 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
     })
 }
 
-/// Checks of a rigid body's or joint's parameters (the rigid parts are built here, not by a
-/// checked constructor of `dirac_components`), errors placed at the parameter's value.
+/// Checks of the rigid-body and joint values, which have no checked constructor of their own: a
+/// failure names the item and the value's place in the scene file.
 struct Check<'a> {
     item: String,
     origin: &'a Origin,
