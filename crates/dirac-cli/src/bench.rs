@@ -802,7 +802,7 @@ fn rc_ladder_scene(
     let ladder = RcLadder { n: N };
     let exact = ladder.exact().voltages(T_END);
     let hs: &[f64] = if settings.quick {
-        &[1e-2, 1e-3]
+        &[1e-2]
     } else {
         &[1e-2, 1e-3, 1e-4]
     };
