@@ -24,7 +24,7 @@ use scenes::{Kind, Scene};
 const BEST_OF_ONE_S: f64 = 2.0;
 /// A run longer than this ends the sweep of its method (the next setting would take longer).
 const SLOW_RUN_S: f64 = 20.0;
-const QUICK_SLOW_RUN_S: f64 = 2.0;
+const QUICK_SLOW_RUN_S: f64 = 1.0;
 /// Sections of scene F.
 const F_SECTIONS: usize = 1000;
 
@@ -191,7 +191,7 @@ fn settings(scene: &Scene, peer: Peer, quick: bool) -> Vec<f64> {
     let loose = if scene.long_run() { 6 } else { 3 };
     let all: Vec<f64> = (loose..=tight).map(|k| 10f64.powi(-k)).collect();
     if quick {
-        all.into_iter().step_by(2).collect()
+        all.into_iter().step_by(3).collect()
     } else {
         all
     }

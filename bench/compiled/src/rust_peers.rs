@@ -146,6 +146,10 @@ impl ODE<f64, Vec<f64>> for Rhs<'_> {
     }
 }
 
+/// At most this many steps per Gauss–Legendre run: the crate keeps every step as a `Vec`, and its
+/// controller takes ~10⁴ steps per unit time on the pendulum, so a long run would need 10⁸.
+const GL_MAX_STEPS: usize = 2_000_000;
+
 /// Adaptive Gauss–Legendre of order 4 or 6 (`differential-equations` 0.7) at `rtol`
 /// (atol = rtol·1e-3), analytic Jacobian; records every accepted step.
 pub fn gauss_legendre(scene: &Scene, order: usize, rtol: f64) -> Result<Run, String> {
@@ -159,7 +163,7 @@ pub fn gauss_legendre(scene: &Scene, order: usize, rtol: f64) -> Result<Run, Str
                 ImplicitRungeKutta::gauss_legendre_4()
                     .rtol(rtol)
                     .atol(rtol * 1e-3)
-                    .max_steps(usize::MAX),
+                    .max_steps(GL_MAX_STEPS),
             )
             .solve(),
         6 => problem
@@ -167,7 +171,7 @@ pub fn gauss_legendre(scene: &Scene, order: usize, rtol: f64) -> Result<Run, Str
                 ImplicitRungeKutta::gauss_legendre_6()
                     .rtol(rtol)
                     .atol(rtol * 1e-3)
-                    .max_steps(usize::MAX),
+                    .max_steps(GL_MAX_STEPS),
             )
             .solve(),
         _ => return Err(format!("Gauss–Legendre order {order}")),

@@ -500,31 +500,32 @@ impl FixedStepScene for SceneD2Long {
         1e4
     }
     fn methods(&self) -> Vec<Method> {
-        (1..=4).map(|s| gauss(s, false)).collect()
+        let mut m: Vec<Method> = (1..=4).map(|s| gauss(s, false)).collect();
+        m.extend([4, 6, 8].map(composed_midpoint));
+        m
     }
     fn steps(&self, quick: bool) -> Vec<usize> {
         if quick {
-            vec![200_000]
+            vec![50_000]
         } else {
             doubling(100_000, 4)
         }
     }
     fn steps_for(&self, method: &Method, quick: bool) -> Vec<usize> {
         // Each method from the step size where its energy error nears 1e-8 down to 1e-10 and
-        // below (D2 measurements on [0, 100]); 10⁵ … 8·10⁵ steps.
+        // below (D2 measurements on [0, 100]); 10⁵ … 8·10⁵ steps (quick: one coarse run each).
+        if quick {
+            return self.steps(true);
+        }
         let first = match method.name.as_str() {
             "midpoint" => 800_000,
             "gauss2" => 400_000,
             _ => 100_000,
         };
-        if quick {
-            vec![first.max(200_000)]
-        } else {
-            doubling(first, 4)
-                .into_iter()
-                .filter(|&n| n <= 800_000)
-                .collect()
-        }
+        doubling(first, 4)
+            .into_iter()
+            .filter(|&n| n <= 800_000)
+            .collect()
     }
     fn run(&self, method: &Method, n: usize) -> Result<Trajectory, SimError> {
         SceneD2.run_to(method, n, self.t_end())
@@ -570,7 +571,7 @@ impl FixedStepScene for SceneE {
     fn steps(&self, quick: bool) -> Vec<usize> {
         // h = 0.4 … 0.003
         if quick {
-            vec![25_000, 200_000]
+            vec![25_000]
         } else {
             doubling(25_000, 8)
         }

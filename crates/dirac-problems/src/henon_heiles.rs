@@ -77,9 +77,7 @@ impl Model for HenonHeiles {
 
 impl GenericModel<2> for HenonHeilesGeneric {
     fn lagrangian<D: DualNum<Primitive = f64> + Copy>(&self, q: &[D; 2], v: &[D; 2]) -> D {
-        (v[0] * v[0] + v[1] * v[1]) * 0.5
-            - (q[0] * q[0] + q[1] * q[1]) * 0.5
-            - q[0] * q[0] * q[1]
+        (v[0] * v[0] + v[1] * v[1]) * 0.5 - (q[0] * q[0] + q[1] * q[1]) * 0.5 - q[0] * q[0] * q[1]
             + q[1] * q[1] * q[1] * (1.0 / 3.0)
     }
 }
@@ -113,7 +111,12 @@ mod tests {
         let (mut aq, mut av) = ([0.0; 2], [0.0; 2]);
         auto.lagrangian_gradient(&q, &v, &mut aq, &mut av);
         for i in 0..2 {
-            assert!((lq[i] - aq[i]).abs() < TOL, "lq[{i}] {} vs {}", lq[i], aq[i]);
+            assert!(
+                (lq[i] - aq[i]).abs() < TOL,
+                "lq[{i}] {} vs {}",
+                lq[i],
+                aq[i]
+            );
             assert!((lv[i] - av[i]).abs() < TOL, "lv[{i}]");
         }
         let (mut h, mut a) = (LagrangianHessian::default(), LagrangianHessian::default());

@@ -251,13 +251,21 @@ mod tests {
         let exact = ladder.exact();
         let v0 = exact.voltages(0.0);
         for (i, v) in v0.iter().enumerate() {
-            assert!((v - (i + 1) as f64).abs() < INITIAL_TOL, "v{}(0) = {v}", i + 1);
+            assert!(
+                (v - (i + 1) as f64).abs() < INITIAL_TOL,
+                "v{}(0) = {v}",
+                i + 1
+            );
         }
         let (t, dt) = (0.3, 1e-5);
         let v = exact.voltages(t);
         let (vp, vm) = (exact.voltages(t + dt), exact.voltages(t - dt));
         for i in 1..=ladder.n {
-            let prev = if i == 1 { RcLadder::source(t) } else { v[i - 2] };
+            let prev = if i == 1 {
+                RcLadder::source(t)
+            } else {
+                v[i - 2]
+            };
             let inflow = (prev - v[i - 1]) / RcLadder::resistance(i);
             let outflow = if i < ladder.n {
                 (v[i - 1] - v[i]) / RcLadder::resistance(i + 1)
