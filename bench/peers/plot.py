@@ -493,7 +493,8 @@ def targets_ab(sc: str, rows: list[dict], summary: list[str]) -> list[str]:
         summary.append(
             f"| {sc} error ≤ {lv:.0e} | dirac cheapest faster than every compiled peer | "
             f"{fmt_factor(f1)} (w/o affine {fmt_factor(f2)}) | "
-            f"{verdict(f1 > 1 if finite(f1) else None)} |"
+            f"{verdict(f1 > 1 if finite(f1) else None)} "
+            f"(w/o affine: {verdict(f2 > 1 if finite(f2) else None)}) |"
         )
     return out
 

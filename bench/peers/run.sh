@@ -5,7 +5,8 @@
 # and the compiled peers (bench/compiled), runs `dirac bench`, the compiled peers and the Python
 # peers on every scene, then draws the work-precision diagrams and writes ratios.md (printed).
 # Environment: PYTHON (default python3), SECTIONS (scene C ladder sizes),
-# SCENES (default "A B D1 D2 D2-long E F C"), SKIP_INSTALL=1 (no apt/pip).
+# SCENES (default "A B D1 D2 D2-long E F C"), SKIP_INSTALL=1 (no apt/pip), PY_PEERS=0 (skip the
+# Python baselines and ngspice).
 set -uo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
@@ -67,10 +68,12 @@ for S in $SCENES; do
   "$COMPILED" --scene "$S" --out "$RESULTS/compiled_$S.csv" $QUICK "${extra[@]}" \
     || echo "run.sh: WARNING: compiled peers failed on scene $S" >&2
   echo "   compiled peers: $(( $(date +%s) - t )) s"
-  t=$(date +%s)
-  "$PY" bench/peers/peers.py --scene "$S" --out "$RESULTS/peers_$S.csv" $QUICK "${extra[@]}" \
-    || echo "run.sh: WARNING: Python peers failed on scene $S" >&2
-  echo "   Python peers and ngspice: $(( $(date +%s) - t )) s"
+  if [ "${PY_PEERS:-1}" != 0 ]; then
+    t=$(date +%s)
+    "$PY" bench/peers/peers.py --scene "$S" --out "$RESULTS/peers_$S.csv" $QUICK "${extra[@]}" \
+      || echo "run.sh: WARNING: Python peers failed on scene $S" >&2
+    echo "   Python peers and ngspice: $(( $(date +%s) - t )) s"
+  fi
 done
 
 echo "== plots and ratio tables"
