@@ -33,7 +33,7 @@ fn main() -> Result<(), Box<dyn Error>> {
         out,
         "variant,max_constraint_drift,final_constraint_drift,max_energy_error"
     )?;
-    let mut chart = dirac_plot::LineChart::new("Cartesian pendulum: constraint drift, h = 0.01")
+    let mut chart = dirac_output::LineChart::new("Cartesian pendulum: constraint drift, h = 0.01")
         .x_label("t")
         .y_label("| |q| - 1 |");
     for (name, kind, scheme) in variants {
@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             "{name},{drift:e},{:e},{energy_err:e}",
             circle.drift(sim.q()).abs()
         )?;
-        chart.push(dirac_plot::Series::new(name, series));
+        chart.push(dirac_output::Series::new(name, series));
     }
     chart
         .log_y(true)

@@ -19,7 +19,7 @@ use std::path::Path;
 
 use dirac::core::{OneStepMap, QuadratureRule, ShootingDiscretisation};
 use dirac::sim::ShootingIntegrator;
-use dirac_plot::{LegendPosition, LineChart, LineStyle, Series};
+use dirac_output::{LegendPosition, LineChart, LineStyle, Series};
 use dirac_problems::SplitOscillator;
 
 const H: f64 = 0.05;

@@ -17,7 +17,7 @@ use std::path::Path;
 
 use dirac::core::{OneStepMap, QuadratureRule, ShootingDiscretisation, ShootingStep};
 use dirac::sim::ShootingIntegrator;
-use dirac_plot::{LegendPosition, LineChart, LineStyle, Series};
+use dirac_output::{LegendPosition, LineChart, LineStyle, Series};
 use dirac_problems::ArtificialPotential;
 
 const H: f64 = 0.05;

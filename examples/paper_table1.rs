@@ -16,7 +16,7 @@ use std::path::Path;
 
 use dirac::core::ShootingDiscretisation;
 use dirac::sim::ShootingIntegrator;
-use dirac_plot::{LegendPosition, LineChart, LineStyle, Series};
+use dirac_output::{LegendPosition, LineChart, LineStyle, Series};
 use dirac_problems::DampedOscillator;
 
 const STEPS_PER_PERIOD: [usize; 4] = [20, 40, 80, 160];

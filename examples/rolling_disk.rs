@@ -18,7 +18,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let (h, steps, every) = (0.05, 100_000, 500);
     let mut out = std::io::stdout().lock();
     writeln!(out, "scheme,t,residual,p_phi,energy")?;
-    let mut chart = dirac_plot::LineChart::new("Rolling disk: energy, midpoint, h = 0.05")
+    let mut chart = dirac_output::LineChart::new("Rolling disk: energy, midpoint, h = 0.05")
         .x_label("t")
         .y_label("energy");
     for (name, scheme) in [
@@ -59,7 +59,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             energy[0].1,
             energy.last().map_or(f64::NAN, |e| e.1)
         );
-        chart.push(dirac_plot::Series::new(name, energy));
+        chart.push(dirac_output::Series::new(name, energy));
     }
     chart
         .log_y(true)

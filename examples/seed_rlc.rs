@@ -59,13 +59,13 @@ fn main() -> Result<(), Box<dyn Error>> {
     let path = format!("docs/figures/seed_rlc_{name}");
     let sign = if name == "plus" { "+" } else { "−" };
     let chart =
-        dirac_plot::LineChart::new(format!("Seed RLC loop, ({sign}) Dirac, midpoint, h = 0.05"))
+        dirac_output::LineChart::new(format!("Seed RLC loop, ({sign}) Dirac, midpoint, h = 0.05"))
             .x_label("t")
             .y_label("q_C")
-            .with_series(dirac_plot::Series::new("exact", exact))
+            .with_series(dirac_output::Series::new("exact", exact))
             .with_series(
-                dirac_plot::Series::new("simulated", simulated)
-                    .style(dirac_plot::LineStyle::Dotted),
+                dirac_output::Series::new("simulated", simulated)
+                    .style(dirac_output::LineStyle::Dotted),
             );
     chart.save_svg(format!("{path}.svg"))?;
     chart.save_png(format!("{path}.png"))?;

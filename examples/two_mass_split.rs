@@ -111,7 +111,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     ];
     println!("representation,max_dev");
     let mut chart =
-        dirac_plot::LineChart::new("Two-mass split: deviation of x1 from monolithic, h = 0.1")
+        dirac_output::LineChart::new("Two-mass split: deviation of x1 from monolithic, h = 0.1")
             .x_label("t")
             .y_label("|x - x_monolithic|")
             .log_y(true);
@@ -133,7 +133,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             .step_by(5)
             .map(|(k, (a, b))| (k as f64 * h, (a[0] - b[0]).abs().max(1e-17)))
             .collect();
-        chart.push(dirac_plot::Series::new(*name, series));
+        chart.push(dirac_output::Series::new(*name, series));
     }
     chart.save_svg("docs/figures/two_mass_split.svg")?;
     Ok(())

@@ -61,9 +61,10 @@ fn reference_newton(mut x: Vec<f64>, f: impl Fn(&[f64]) -> Vec<f64>) -> Vec<f64>
     x
 }
 
-/// With no constraints, (+) and (−) are the forced discrete Hamiltonian map of MATH §3. The
-/// reference writes the midpoint map by hand: p_k = Lv − ½h(Lq + f), p_{k+1} = Lv + ½h(Lq + f),
-/// evaluated at (q̄, v̄).
+/// With no constraints, (+) and (−) are the forced discrete Hamiltonian map of MATH §3, and the
+/// linear path with one Gauss node is the midpoint rule. The reference writes the midpoint map by
+/// hand: p_k = Lv − ½h(Lq + f), p_{k+1} = Lv + ½h(Lq + f), evaluated at (q̄, v̄), and is compared
+/// with `Discretisation::gauss(1)` (which `Discretisation::midpoint()` is, asserted).
 #[test]
 fn without_constraints_both_flavours_are_the_forced_hamiltonian_map() {
     let model = QuarticPendulums {
@@ -97,11 +98,12 @@ fn without_constraints_both_flavours_are_the_forced_hamiltonian_map() {
         q = q1;
         reference.push((q.clone(), p.clone()));
     }
+    assert_eq!(Discretisation::midpoint(), Discretisation::gauss(1));
     for flavour in [Flavour::Plus, Flavour::Minus] {
         let run = trajectory(
             model,
             NoConstraints,
-            options(Discretisation::midpoint(), flavour, h),
+            options(Discretisation::gauss(1), flavour, h),
             &[0.4, -0.3],
             &[0.2, 0.5],
             steps,
@@ -111,6 +113,7 @@ fn without_constraints_both_flavours_are_the_forced_hamiltonian_map() {
             .zip(&reference)
             .map(|(a, b)| max_diff(&a.0, &b.0).max(max_diff(&a.1, &b.1)))
             .fold(0.0, f64::max);
+        println!("{flavour:?}: deviation from the hand-written map {dev:.2e}");
         assert!(dev <= 1e-13, "{flavour:?}: deviation {dev:e}");
     }
 }
@@ -212,6 +215,7 @@ fn without_forces_both_flavours_are_leok_ohsawa() {
             .zip(reference)
             .map(|(a, b)| max_diff(&a.0, b))
             .fold(0.0, f64::max);
+        println!("{flavour:?}: deviation from the Leok–Ohsawa reference {dev:.2e}");
         assert!(dev <= 1e-12, "{flavour:?}: deviation {dev:e}");
     }
     // The two flavours differ on this q-dependent constraint (negative control).
@@ -239,36 +243,48 @@ fn seed_run(flavour: Flavour) -> Vec<(Vec<f64>, Vec<f64>)> {
     out
 }
 
-/// Seed paper §4: (+) midpoint on the RLC loop has max |q_C − exact| ≈ 3.4e-4 over 1000 steps.
+/// Seed paper §4: midpoint on the RLC loop has max |q_C − exact| ≈ 3.4e-4 over 1000 steps,
+/// in both flavours (the exact charge is the closed-form solution of the loop's ODE).
 #[test]
 fn seed_rlc_error_matches_the_paper() {
     let rlc = RlcLoop::seed();
-    let run = seed_run(Flavour::Plus);
-    let err = run
-        .iter()
-        .enumerate()
-        .map(|(k, (q, _))| (q[0] - rlc_exact(&rlc, 1.0, 0.05 * k as f64)).abs())
-        .fold(0.0, f64::max);
-    assert!((err - 3.4e-4).abs() <= 0.05 * 3.4e-4, "max error {err:e}");
+    for flavour in [Flavour::Plus, Flavour::Minus] {
+        let run = seed_run(flavour);
+        let err = run
+            .iter()
+            .enumerate()
+            .map(|(k, (q, _))| (q[0] - rlc_exact(&rlc, 1.0, 0.05 * k as f64)).abs())
+            .fold(0.0, f64::max);
+        println!("{flavour:?}: max |q_C − exact| = {err:.4e}");
+        assert!(
+            (err - 3.4e-4).abs() <= 0.05 * 3.4e-4,
+            "{flavour:?}: max error {err:e}"
+        );
+    }
 }
 
+/// Largest relative defect of the seed loop's discrete power balance: round-off of energies of
+/// order one summed from three momenta, measured 1.9e-15 (allowance 50×).
+const POWER_BALANCE: f64 = 1e-13;
+
 /// Exact discrete power balance with the loop momentum P = p_C + p_L + p_R (MATH §6):
-/// E_{k+1} − E_k = −hR((q_R,{k+1} − q_R,k)/h)², to 1e-12 relative at every step.
+/// E_{k+1} − E_k = −hR((q_R,{k+1} − q_R,k)/h)², to round-off relative at every step.
 #[test]
 fn seed_rlc_discrete_power_balance() {
     let rlc = RlcLoop::seed();
     let h = 0.05;
     for flavour in [Flavour::Plus, Flavour::Minus] {
         let run = seed_run(flavour);
-        for w in run.windows(2) {
-            let (e0, e1) = (rlc.energy(&w[0].0, &w[0].1), rlc.energy(&w[1].0, &w[1].1));
-            let vr = (w[1].0[2] - w[0].0[2]) / h;
-            let defect = (e1 - e0 + h * rlc.r * vr * vr).abs();
-            assert!(
-                defect <= 1e-12 * e0,
-                "{flavour:?}: defect {defect:e} at E = {e0:e}"
-            );
-        }
+        let worst = run
+            .windows(2)
+            .map(|w| {
+                let (e0, e1) = (rlc.energy(&w[0].0, &w[0].1), rlc.energy(&w[1].0, &w[1].1));
+                let vr = (w[1].0[2] - w[0].0[2]) / h;
+                (e1 - e0 + h * rlc.r * vr * vr).abs() / e0
+            })
+            .fold(0.0, f64::max);
+        println!("{flavour:?}: largest relative power-balance defect {worst:.2e}");
+        assert!(worst <= POWER_BALANCE, "{flavour:?}: defect {worst:e}");
     }
     // Negative control: with p_L alone in the energy the balance fails by far more.
     let run = seed_run(Flavour::Plus);
@@ -286,7 +302,10 @@ fn seed_rlc_discrete_power_balance() {
     );
 }
 
-/// (+) and (−) give the same charges on the RLC loop (its constraint forms are constant).
+/// (+) and (−) solve the same equations on the RLC loop, whose constraint forms are constant:
+/// the (+) step takes the one-pass path for forms at q_k, the (−) step the general path with
+/// forms at the control points. Charges and the loop momentum must agree to a few ulps (measured
+/// exactly 0); both flavours are also checked against the exact solution above.
 #[test]
 fn seed_rlc_flavours_agree_on_charges() {
     let (a, b) = (seed_run(Flavour::Plus), seed_run(Flavour::Minus));
@@ -295,14 +314,17 @@ fn seed_rlc_flavours_agree_on_charges() {
         .zip(&b)
         .map(|(x, y)| max_diff(&x.0, &y.0))
         .fold(0.0, f64::max);
-    assert!(dev <= 1e-13, "charge deviation {dev:e}");
     let loop_p = |p: &[f64]| p[0] + p[1] + p[2];
-    let dev = a
+    let dev_p = a
         .iter()
         .zip(&b)
         .map(|(x, y)| (loop_p(&x.1) - loop_p(&y.1)).abs())
         .fold(0.0, f64::max);
-    assert!(dev <= 1e-13, "loop momentum deviation {dev:e}");
+    println!("(+) vs (−): charges {dev:.2e}, loop momentum {dev_p:.2e}");
+    // Four ulps of the order-one charges and momenta.
+    let ulps = 4.0 * f64::EPSILON;
+    assert!(dev <= ulps, "charge deviation {dev:e}");
+    assert!(dev_p <= ulps, "loop momentum deviation {dev_p:e}");
 }
 
 /// Constraint residuals vanish to round-off at every step: KCL and rolling (Dirac form),
@@ -312,6 +334,7 @@ fn constraint_residuals_are_round_off() {
     let kcl = RlcLoop::kcl();
     let run = seed_run(Flavour::Plus);
     let mut forms = dirac::core::Triplets::new();
+    let mut worst = [0.0_f64; 3];
     for w in run.windows(2) {
         forms.begin();
         kcl.forms(&w[0].0, &mut forms);
@@ -319,7 +342,7 @@ fn constraint_residuals_are_round_off() {
         for (a, j, c) in forms.iter() {
             r[a] += c * (w[1].0[j] - w[0].0[j]);
         }
-        assert!(r.iter().all(|x| x.abs() <= 1e-13), "{r:?}");
+        worst[0] = worst[0].max(r[0].abs()).max(r[1].abs());
     }
 
     let disk = RollingConstraint { radius: 1.0 };
@@ -342,7 +365,7 @@ fn constraint_residuals_are_round_off() {
         let (c, s) = (q0[3].cos(), q0[3].sin());
         let d: Vec<f64> = (0..4).map(|i| sim.q()[i] - q0[i]).collect();
         let r = [d[0] - c * d[2], d[1] - s * d[2]];
-        assert!(r.iter().all(|x| x.abs() <= 1e-13), "{r:?}");
+        worst[1] = worst[1].max(r[0].abs()).max(r[1].abs());
     }
 
     let circle = CircleConstraint {
@@ -360,18 +383,19 @@ fn constraint_residuals_are_round_off() {
         .unwrap();
     for _ in 0..5000 {
         sim.step().unwrap();
-        assert!(
-            circle.drift(sim.q()).abs() <= 1e-13,
-            "drift {}",
-            circle.drift(sim.q())
-        );
+        worst[2] = worst[2].max(circle.drift(sim.q()).abs());
     }
+    println!(
+        "largest residuals: KCL {:.1e}, rolling {:.1e}, circle {:.1e}",
+        worst[0], worst[1], worst[2]
+    );
+    assert!(worst.iter().all(|r| *r <= 1e-13), "{worst:?}");
 }
 
 /// Runs the rolling disk (m = I = J = R = 1, θ̇₀ = 1, φ̇₀ = 0.5, h = 0.05) and returns the max
-/// |p_φ − p_φ(0)|, the max energy change since step 1 over the first and the last tenth of the
-/// run, and the final energy relative to the energy after step 1.
-fn rolling_disk(scheme: Scheme, steps: usize) -> (f64, f64, f64, f64) {
+/// energy change since step 1 over the first and the last tenth of the run, and the final energy
+/// relative to the energy after step 1.
+fn rolling_disk(scheme: Scheme, steps: usize) -> (f64, f64, f64) {
     let model = RollingDisk {
         m: 1.0,
         i: 1.0,
@@ -382,15 +406,13 @@ fn rolling_disk(scheme: Scheme, steps: usize) -> (f64, f64, f64, f64) {
     let mut sim = Integrator::new(model, RollingConstraint { radius: 1.0 }, options).unwrap();
     sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0)
         .unwrap();
-    let p_phi = sim.p()[3];
     // Energy after the first step: the first constraint impulse projects the initial momentum
     // once; what matters is what happens after.
     sim.step().unwrap();
     let e0 = model.energy(sim.p());
-    let (mut dp, mut first, mut last) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let (mut first, mut last) = (0.0_f64, 0.0_f64);
     for k in 1..steps {
         sim.step().unwrap();
-        dp = dp.max((sim.p()[3] - p_phi).abs());
         let de = (model.energy(sim.p()) - e0).abs();
         if k < steps / 10 {
             first = first.max(de);
@@ -398,33 +420,34 @@ fn rolling_disk(scheme: Scheme, steps: usize) -> (f64, f64, f64, f64) {
             last = last.max(de);
         }
     }
-    (dp, first, last, model.energy(sim.p()) / e0)
+    (first, last, model.energy(sim.p()) / e0)
 }
 
-/// Rolling disk over 10⁵ steps: p_φ is conserved to round-off by every scheme. The symmetric
-/// scheme keeps the energy bounded: after the first step (whose impulse projects the initial
-/// momentum once) it is conserved to round-off, as its two half-step constraints share the midpoint. The one-sided (+) scheme projects the momentum onto
-/// ker ω(q_{k+1}) each step and dissipates (−(1 − cos Δφ)/2 per step), and (−) gains by the
-/// mirror argument: both drift secularly, which is why the symmetric scheme exists.
+/// Rolling disk over 10⁵ steps. The symmetric scheme keeps the energy bounded: after the first
+/// step (whose impulse projects the initial momentum once) it is conserved to round-off, as its
+/// two half-step constraints share the midpoint. The one-sided (+) scheme projects the momentum
+/// onto ker ω(q_{k+1}) each step and dissipates (−(1 − cos Δφ)/2 per step), and (−) gains by the
+/// mirror argument: both drift secularly, which is why the symmetric scheme exists. (p_φ is not
+/// checked: neither the Lagrangian nor the rolling forms involve φ, so its momentum equation is
+/// `p_φ,k+1 = p_φ,k` in every scheme by construction; conserved momenta that can fail are checked
+/// in `tests/foundation.rs`, `discrete_noether_conserves_angular_momentum`.)
 #[test]
 fn rolling_disk_invariants() {
     let steps = 100_000;
-    let (dp, first, last, _) = rolling_disk(Scheme::Symmetric, steps);
-    assert!(dp <= 1e-12, "symmetric: p_phi drift {dp:e}");
+    let (first, last, _) = rolling_disk(Scheme::Symmetric, steps);
+    println!("symmetric: energy error {first:.2e} (first tenth), {last:.2e} (last tenth)");
     assert!(
         first <= 1e-12 && last <= 1e-12,
         "symmetric: energy error {first:e} then {last:e}"
     );
     // Measured (docs/results.md): (+) ends with ~1/9 of its energy (only the φ spin survives),
     // (−) with many times its initial energy.
-    let (dp, _, _, plus_ratio) = rolling_disk(Scheme::Plus, steps);
-    assert!(dp <= 1e-12, "(+): p_phi drift {dp:e}");
+    let (_, _, plus_ratio) = rolling_disk(Scheme::Plus, steps);
     assert!(
         plus_ratio < 0.5,
         "(+) should dissipate: E_end/E_1 = {plus_ratio}"
     );
-    let (dp, _, _, minus_ratio) = rolling_disk(Scheme::Minus, steps);
-    assert!(dp <= 1e-12, "(−): p_phi drift {dp:e}");
+    let (_, _, minus_ratio) = rolling_disk(Scheme::Minus, steps);
     assert!(
         minus_ratio > 2.0,
         "(−) should gain: E_end/E_1 = {minus_ratio}"
@@ -447,6 +470,7 @@ fn lc_tank_conserves_energy() {
         sim.step().unwrap();
     }
     let drift = (tank.energy(sim.q(), sim.p()) - e0).abs() / e0;
+    println!("LC tank: relative energy drift after 1e5 steps {drift:.2e}");
     assert!(drift <= 1e-12, "relative drift {drift:e}");
 }
 

@@ -4,12 +4,13 @@
 mod common;
 
 use common::max_diff;
-use dirac::core::{Discretisation, Flavour, QuadratureRule};
+use dirac::core::{Discretisation, Flavour, Model, QuadratureRule};
 use dirac::graph::{Assembler, Interconnection, LinearDamper, LinearSpring, Representation};
 use dirac::sim::{Integrator, IntegratorOptions, Splitting, Staggered};
 use dirac_components::{Capacitor, Inductor, Mass, Resistor};
 use dirac_problems::RlcLoop;
 use proptest::prelude::*;
+use proptest::test_runner::FileFailurePersistence;
 
 /// Positions and momenta (endpoint momenta pulled back) of every subsystem, step by step.
 type Run = Vec<(Vec<f64>, Vec<f64>)>;
@@ -102,8 +103,9 @@ fn two_masses() -> Interconnection {
     g
 }
 
-/// Round-off allowance for order-one states over 1000 steps.
-const EQUIVALENT: f64 = 1e-12;
+/// Round-off allowance for order-one states over 1000 steps: measured 6.1e-15 (two masses) and
+/// exactly 0 (the seed loop from three subsystems).
+const EQUIVALENT: f64 = 1e-13;
 
 /// Two-mass split (h = 0.1, 1000 midpoint (+) steps): constraint and force representations equal
 /// the monolithic one to round-off in positions and in momenta (p₁, and p_a + p₂ for the endpoint
@@ -195,12 +197,15 @@ fn seed_rlc_from_three_subsystems() {
     reference
         .initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0)
         .unwrap();
+    let mut worst = 0.0_f64;
     for _ in 0..1000 {
         sim.step().unwrap();
         reference.step().unwrap();
         // Same coordinates (q_C, q_L, q_R) in the same order.
-        assert!(max_diff(sim.q(), reference.q()) <= EQUIVALENT);
+        worst = worst.max(max_diff(sim.q(), reference.q()));
     }
+    println!("three subsystems vs the monolithic loop: max charge deviation {worst:.2e}");
+    assert!(worst <= EQUIVALENT, "deviation {worst:e}");
 }
 
 /// Negative control: trapezoid for L_d with midpoint for f_d^± makes the force representation
@@ -228,6 +233,9 @@ fn non_preserving_discretisation_breaks_force_representation() {
     println!("non-preserving force vs monolithic: {dq:.2e}");
     assert!(dq > 1e-8, "deviation {dq:e}");
 }
+
+/// Round-off allowance for the total momentum (order one) over 400 steps: measured 1.4e-14.
+const MOMENTUM: f64 = 1e-13;
 
 /// Interaction forces cancel: a free chain (no walls) joined by springs, dampers and a joint
 /// conserves its total momentum Σ pᵢ to round-off in every representation, and the joint
@@ -269,12 +277,12 @@ fn interaction_forces_cancel() {
             400,
         );
         let p_start = total(&r[0].1);
-        for (k, (_, p)) in r.iter().enumerate() {
-            assert!(
-                (total(p) - p_start).abs() <= 1e-12,
-                "{rep}: momentum drift at step {k}"
-            );
-        }
+        let drift = r
+            .iter()
+            .map(|(_, p)| (total(p) - p_start).abs())
+            .fold(0.0, f64::max);
+        println!("{rep}: total momentum drift {drift:.2e}");
+        assert!(drift <= MOMENTUM, "{rep}: momentum drift {drift:e}");
     }
     // Joint impulses: the multiplier of joint j23 acts with +1 on m2 and −1 on m3.
     let system = Assembler::assemble(&g, Representation::Constraint).unwrap();
@@ -291,11 +299,27 @@ fn interaction_forces_cancel() {
     assert_eq!(sum, 0.0);
 }
 
-/// The reported interaction forces cancel at every step: joint and endpoint impulses of the
-/// constraint form (Λ·c on each port) and the coupling forces of the force form (at each step's
-/// midpoint state) sum to zero over the subsystems they act on.
+/// Largest difference, relative to the largest force, between a reported interaction impulse and
+/// the same impulse computed from the monolithic run: round-off, measured 8.9e-17 (see the test's
+/// output; allowance about 100×).
+const IMPULSE: f64 = 1e-14;
+
+/// The reported interaction forces are the forces of the monolithic model, computed here
+/// independently from the monolithic trajectory with the elements' laws written out. Masses m0, m1,
+/// m2 on walls (k = 0.5), a spring s01 (k = 3, ℓ = 0.5) from m0 to m1, a damper d12 (c = 0.4) from
+/// m1 to m2, a joint j02; midpoint rule, h = 0.05. Per step, at x̄ = (q_k + q_{k+1})/2 and
+/// v̄ = (q_{k+1} − q_k)/h of the monolithic run:
+///
+/// * the joint's impulse on m2 closes m2's momentum balance,
+///   `p₂,k+1 − p₂,k + h·0.5·x̄₂ − h·c(v̄₁ − v̄₂)`, and every representation must report it
+///   (and −1 times it on m0) through `interaction_impulses`;
+/// * the spring's force on m1 is `k(x̄₀ − x̄₁ − ℓ)` and the damper's on m2 is `c(v̄₁ − v̄₂)`. The
+///   force form reports them through `coupling_forces` (−1 times them on the first port). The
+///   constraint form transmits them through each coupling's endpoint row; its impulse on the
+///   partner plus the change of the endpoint's momentum (which is pulled back onto the partner,
+///   MATH §6) is `h` times the force.
 #[test]
-fn reported_interaction_forces_cancel_every_step() {
+fn reported_interaction_forces_match_the_monolithic_model() {
     let mut g = Interconnection::new();
     for (i, m) in [1.0, 2.0, 0.5].iter().enumerate() {
         g.add_subsystem(
@@ -310,64 +334,129 @@ fn reported_interaction_forces_cancel_every_step() {
     }
     let p = |g: &Interconnection, i: usize| g.port(&format!("m{i}"), "x").unwrap();
     let (p0, p1, p2) = (p(&g, 0), p(&g, 1), p(&g, 2));
-    g.coupling("s01", p0, p1, LinearSpring { k: 3.0, rest: 0.5 });
-    g.coupling("d12", p1, p2, LinearDamper { c: 0.4 });
+    let (k, rest, c) = (3.0, 0.5, 0.4);
+    g.coupling("s01", p0, p1, LinearSpring { k, rest });
+    g.coupling("d12", p1, p2, LinearDamper { c });
     g.joint("j02", p0, p2);
-    let names: Vec<String> = (0..3).map(|i| format!("m{i}")).collect();
     let q0 = vec![vec![0.0], vec![1.0], vec![2.2]];
     let v0 = vec![vec![0.3], vec![-0.5], vec![0.3]];
-    let h = 0.05;
-    for rep in [Representation::Constraint, Representation::InteractionForce] {
+    let (h, steps) = (0.05, 200);
+    let options = IntegratorOptions::new(Discretisation::midpoint(), h);
+    let mono = run(&g, Representation::Monolithic, &options, &q0, &v0, steps);
+
+    // Per step: (spring force on m1, damper force on m2, joint impulse on m2).
+    let expected: Vec<[f64; 3]> = mono
+        .windows(2)
+        .map(|w| {
+            let ((qa, pa), (qb, pb)) = (&w[0], &w[1]);
+            let x: Vec<f64> = (0..3).map(|i| 0.5 * (qa[i] + qb[i])).collect();
+            let v: Vec<f64> = (0..3).map(|i| (qb[i] - qa[i]) / h).collect();
+            let spring = k * (x[0] - x[1] - rest);
+            let damper = c * (v[1] - v[2]);
+            let joint = pb[2] - pa[2] + h * 0.5 * x[2] - h * damper;
+            [spring, damper, joint]
+        })
+        .collect();
+    let scale = expected
+        .iter()
+        .flatten()
+        .fold(0.0_f64, |m, f| m.max(f.abs()));
+
+    for rep in [
+        Representation::Monolithic,
+        Representation::Constraint,
+        Representation::InteractionForce,
+    ] {
         let system = Assembler::assemble(&g, rep).unwrap();
+        let names: Vec<String> = (0..3).map(|i| format!("m{i}")).collect();
         let q = system.global_vector(&q0, &names).unwrap();
         let v = system.global_vector(&v0, &names).unwrap();
         let mut sim = Integrator::new(
             system.model.clone(),
             system.constraints.clone(),
-            IntegratorOptions::new(Discretisation::midpoint(), h),
+            options.clone(),
         )
         .unwrap();
         sim.initialise(&q, &v, 0.0).unwrap();
-        let mut reported = 0;
-        for _ in 0..200 {
-            let before = sim.q().to_vec();
+        let m = |i: usize| system.global_index(dirac::graph::SubsystemId(i), 0);
+        let endpoint = |coupling: &str| {
+            (0..system.coordinates()).find(|&i| {
+                system
+                    .model
+                    .coordinate_name(i)
+                    .ends_with(&format!("endpoint({coupling})"))
+            })
+        };
+        let (e_spring, e_damper) = (endpoint("s01"), endpoint("d12"));
+        let mut worst = 0.0_f64;
+        let mut compared = 0;
+        for (step, [spring, damper, joint]) in expected.iter().enumerate() {
+            let (before, p_before) = (sim.q().to_vec(), sim.p().to_vec());
             sim.step().unwrap();
             let impulses = system.interaction_impulses(&sim.last_multipliers_full());
-            for c in 0..g.connections().len() {
-                let total: f64 = impulses
+            let impulse = |connection: usize, coordinate: usize| -> f64 {
+                impulses
                     .iter()
-                    .filter(|(k, _, _)| *k == c)
+                    .filter(|(c, i, _)| *c == connection && *i == coordinate)
                     .map(|(_, _, f)| f)
-                    .sum();
-                let size = impulses
-                    .iter()
-                    .filter(|(k, _, _)| *k == c)
-                    .fold(0.0_f64, |m, (_, _, f)| m.max(f.abs()));
+                    .sum()
+            };
+            let mut check = |got: f64, want: f64, what: &str| {
+                let d = (got - want).abs() / scale;
                 assert!(
-                    total.abs() <= 1e-15 * size.max(1.0),
-                    "{rep}: connection {c} impulses sum to {total:e}"
+                    d <= IMPULSE,
+                    "{rep} step {step}, {what}: reported {got:e}, monolithic {want:e}"
                 );
-                reported += usize::from(size > 0.0);
-            }
-            let mid: Vec<f64> = before
-                .iter()
-                .zip(sim.q())
-                .map(|(a, b)| 0.5 * (a + b))
-                .collect();
-            let vel: Vec<f64> = before
-                .iter()
-                .zip(sim.q())
-                .map(|(a, b)| (b - a) / h)
-                .collect();
-            for (_, [fa, fb]) in system.coupling_forces(&mid, &vel, sim.t()) {
-                assert!(
-                    (fa + fb).abs() <= 1e-15 * fa.abs().max(1.0),
-                    "{rep}: {fa} + {fb}"
-                );
-                reported += usize::from(fa != 0.0);
+                worst = worst.max(d);
+                compared += 1;
+            };
+            check(impulse(2, m(2)), *joint, "joint impulse on m2");
+            check(impulse(2, m(0)), -joint, "joint impulse on m0");
+            match rep {
+                Representation::Constraint => {
+                    let (Some(es), Some(ed)) = (e_spring, e_damper) else {
+                        panic!("no endpoint coordinates in the constraint form");
+                    };
+                    let gained = |e: usize| sim.p()[e] - p_before[e];
+                    check(
+                        impulse(0, m(1)) + gained(es),
+                        h * spring,
+                        "spring impulse on m1",
+                    );
+                    check(
+                        impulse(1, m(2)) + gained(ed),
+                        h * damper,
+                        "damper impulse on m2",
+                    );
+                }
+                Representation::InteractionForce => {
+                    let mid: Vec<f64> = before
+                        .iter()
+                        .zip(sim.q())
+                        .map(|(a, b)| 0.5 * (a + b))
+                        .collect();
+                    let vel: Vec<f64> = before
+                        .iter()
+                        .zip(sim.q())
+                        .map(|(a, b)| (b - a) / h)
+                        .collect();
+                    let forces = system.coupling_forces(&mid, &vel, sim.t());
+                    let force = |connection: usize| {
+                        forces
+                            .iter()
+                            .find(|(c, _)| *c == connection)
+                            .map_or([f64::NAN; 2], |(_, f)| *f)
+                    };
+                    let ([sa, sb], [da, db]) = (force(0), force(1));
+                    check(h * sb, h * spring, "spring force on m1");
+                    check(h * sa, -h * spring, "spring force on m0");
+                    check(h * db, h * damper, "damper force on m2");
+                    check(h * da, -h * damper, "damper force on m1");
+                }
+                Representation::Monolithic => {}
             }
         }
-        assert!(reported > 200, "{rep}: nothing was reported");
+        println!("{rep}: {compared} reported impulses, largest relative difference {worst:.2e}");
     }
 }
 
@@ -462,11 +551,20 @@ impl RandomChain {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 32, ..ProptestConfig::default() })]
+    // Failing cases are kept in tests/proptest-regressions/interconnection.txt (committed) and
+    // replayed first on every run.
+    #![proptest_config(ProptestConfig {
+        cases: 32,
+        failure_persistence: Some(Box::new(FileFailurePersistence::Direct(
+            "tests/proptest-regressions/interconnection.txt",
+        ))),
+        ..ProptestConfig::default()
+    })]
 
     /// Random connected graphs (2–12 masses; springs, dampers, rigid joints, possibly closed
-    /// loops of joints): monolithic, constraint and force agree to 1e-10 relative over 200 steps,
-    /// for the midpoint rule and for Gauss s = 2 (order 4).
+    /// loops of joints): monolithic, constraint and force agree to 1e-12 relative over 200 steps,
+    /// for the midpoint rule and for Gauss s = 2 (order 4). Measured: at most 1.35e-14 relative
+    /// over 2000 random graphs (run once with `cases: 2000`).
     #[test]
     fn random_graphs_agree_across_representations(chain in random_chain()) {
         let g = chain.graph();
@@ -481,7 +579,7 @@ proptest! {
                 if std::env::var_os("DIRAC_VERBOSE").is_some() {
                     println!("{} masses, {} edges, {d} {rep}: dq {dq:.1e}, dp {dp:.1e}, scale {scale:.1e}", chain.masses.len(), chain.edges.len());
                 }
-                prop_assert!(dq <= 1e-10 * scale && dp <= 1e-10 * scale, "{d} {rep}: dq {dq:e}, dp {dp:e}");
+                prop_assert!(dq <= 1e-12 * scale && dp <= 1e-12 * scale, "{d} {rep}: dq {dq:e}, dp {dp:e}");
             }
         }
     }

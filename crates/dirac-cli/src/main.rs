@@ -6,6 +6,8 @@
 //! leaves a partial output file.
 
 mod bench;
+mod guard;
+mod guidance;
 
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -15,13 +17,14 @@ use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand, ValueEnum};
 use dirac_core::{Discretisation, Model};
-use dirac_graph::{Assembler, Representation};
-use dirac_io::{
-    BuiltScene, Circuit, Execution, Recording, RunError, RunSettings, RunSummary, Scene,
-    SceneSignal, Signal, build_circuit, parse_netlist, recorded_columns, run_circuit,
-    run_scene_recorded,
+use dirac_graph::{Assembler, Interconnection, Representation};
+use dirac_netlist::{Circuit, build_circuit, parse_netlist};
+use dirac_output::{CsvSink, Table};
+use dirac_scene::{BuiltScene, Scene};
+use dirac_sim::{
+    Execution, IntegratorOptions, RunError, RunSummary, Scheme, Signal, Simulation, Sink,
+    Splitting, Start, Trajectory,
 };
-use dirac_sim::{Scheme, SimError, Splitting};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 const LONG_ABOUT: &str = "\
@@ -31,12 +34,16 @@ same discrete trajectory whether its couplings are written as potentials, constr
 forces; `dirac compare` shows it.
 
 Input files:
-  *.cir, *.sp, *.net   SPICE-subset netlists (R L C V I K D, .tran, .param, .subckt, .ic, .model D)
+  *.cir, *.sp, *.net   SPICE-subset netlists (R L C V I K D, .tran, .op, .param, .subckt, .ic, .model D)
   *.toml               scene files (parts, connections, integrator, what to record)
+
+Every row of a run is the state at t_k = t_0 + k*h (row 0 is the initial or operating-point state).
+A netlist without UIC starts from its DC operating point, as SPICE does.
 
 Examples:
   dirac run examples/netlists/seed_rlc.cir --out run.csv
-  dirac run circuit.cir --signals 'v(out),i(l1)' --h 1e-3 --t-end 2
+  dirac run circuit.cir --signals 'v(out),i(l1)' --method gauss2
+  dirac op circuit.cir --json
   dirac plot run.csv -o run.svg
   dirac check circuit.cir
   dirac compare examples/netlists/seed_rlc.cir --json
@@ -55,6 +62,8 @@ struct Cli {
 enum Command {
     /// Simulate a netlist or scene and write `t,<signal>,...` CSV (stdout unless --out).
     Run(RunArgs),
+    /// Print the operating point (steady state) of a netlist or scene: `signal,value`.
+    Op(OpArgs),
     /// Run every representation and report the max deviation of each from monolithic.
     Compare(CompareArgs),
     /// Validate a file and print a model summary (parts, coordinates, constraints, unknowns).
@@ -80,43 +89,86 @@ enum RepresentationArg {
     Staggered,
 }
 
-impl RepresentationArg {
-    fn assembled(self) -> Option<Representation> {
+/// The discretisation of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum MethodArg {
+    /// Linear path, midpoint rule (order 2; on linear circuits the charges of SPICE's trapezoidal rule).
+    Midpoint,
+    /// Linear path, trapezoid rule (order 2).
+    Trapezoid,
+    /// Gauss–Galerkin with 2 nodes (order 4).
+    Gauss2,
+    /// Gauss–Galerkin with 3 nodes (order 6).
+    Gauss3,
+    /// Gauss–Galerkin with 4 nodes (order 8).
+    Gauss4,
+}
+
+impl MethodArg {
+    fn discretisation(self) -> Discretisation {
         match self {
-            Self::Monolithic => Some(Representation::Monolithic),
-            Self::Constraint => Some(Representation::Constraint),
-            Self::Force => Some(Representation::InteractionForce),
-            Self::Staggered => None,
+            Self::Midpoint => Discretisation::midpoint(),
+            Self::Trapezoid => Discretisation::trapezoid(),
+            Self::Gauss2 => Discretisation::gauss(2),
+            Self::Gauss3 => Discretisation::gauss(3),
+            Self::Gauss4 => Discretisation::gauss(4),
         }
     }
 }
 
-#[derive(Debug, clap::Args)]
-struct RunArgs {
+/// Options shared by the commands that run a model.
+#[derive(Debug, Clone, clap::Args)]
+struct ModelArgs {
     /// Netlist (.cir, .sp, .net) or scene (.toml).
     file: PathBuf,
-    /// Write the CSV here instead of streaming it to stdout. The file appears only when the run
-    /// succeeds (it is written to `<out>.partial` and renamed).
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Record only these signals, comma-separated, e.g. 'v(out),i(l1)'.
-    #[arg(long)]
-    signals: Option<String>,
     /// Representation to assemble (default: the scene's, or monolithic for netlists).
     #[arg(long, value_enum)]
     representation: Option<RepresentationArg>,
+    /// Discretisation (default: the scene's, or the midpoint rule for netlists).
+    #[arg(long, value_enum)]
+    method: Option<MethodArg>,
     /// Step size (overrides .tran TSTEP or the scene's h).
     #[arg(long)]
     h: Option<f64>,
     /// End time (overrides .tran TSTOP or the scene's t_end).
     #[arg(long = "t-end")]
     t_end: Option<f64>,
-    /// Print a JSON summary (steps, Newton iterations per step, constraint residual, wall time) on stderr.
+    /// Most steps to take: a run of more steps (t_end / h) is refused before it starts.
+    #[arg(long = "max-steps", default_value_t = guard::DEFAULT_MAX_STEPS)]
+    max_steps: u64,
+    /// Run even past --max-steps or with an output that may not fit on the disk.
+    #[arg(long)]
+    force: bool,
+}
+
+#[derive(Debug, clap::Args)]
+struct RunArgs {
+    #[command(flatten)]
+    model: ModelArgs,
+    /// Write the CSV here instead of streaming it to stdout. The file appears only when the run
+    /// succeeds (it is written to `<out>.partial` and renamed).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Record only these signals, comma-separated, e.g. 'v(out),i(l1),v(a,b)' (netlists) or
+    /// 'C1.q,L1.i,energy' (scenes).
+    #[arg(long)]
+    signals: Option<String>,
+    /// Print a JSON summary (steps, Newton iterations per step, step cuts, constraint residual,
+    /// wall time) on stderr.
     #[arg(long)]
     json_summary: bool,
     /// No progress bar.
     #[arg(long)]
     quiet: bool,
+}
+
+#[derive(Debug, clap::Args)]
+struct OpArgs {
+    /// Netlist or scene.
+    file: PathBuf,
+    /// Print one JSON object `{signal: value}` instead of the `signal,value` table.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -153,23 +205,23 @@ struct BenchArgs {
 
 #[derive(Debug, clap::Args)]
 struct CompareArgs {
-    /// Netlist or scene.
-    file: PathBuf,
+    #[command(flatten)]
+    model: ModelArgs,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
-    /// Step size override.
-    #[arg(long)]
-    h: Option<f64>,
-    /// End time override.
-    #[arg(long = "t-end")]
-    t_end: Option<f64>,
 }
 
 #[derive(Debug, clap::Args)]
 struct CheckArgs {
     /// Netlist or scene.
     file: PathBuf,
+    /// Step size to judge (default: .tran TSTEP or the scene's h).
+    #[arg(long)]
+    h: Option<f64>,
+    /// Discretisation to judge (default: the scene's, or the midpoint rule for netlists).
+    #[arg(long, value_enum)]
+    method: Option<MethodArg>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -200,6 +252,8 @@ enum Failure {
     Input(String),
     /// Numerical failure: exit code 1.
     Numerical(String),
+    /// Stopped by SIGINT or SIGTERM: exit code 130.
+    Interrupted(String),
 }
 
 impl Failure {
@@ -207,15 +261,17 @@ impl Failure {
         match self {
             Self::Input(_) => 2,
             Self::Numerical(_) => 1,
+            Self::Interrupted(_) => guard::INTERRUPTED_EXIT,
         }
     }
 }
 
 impl From<RunError> for Failure {
     fn from(e: RunError) -> Self {
-        match e {
-            RunError::Sim(SimError::Newton { .. }) => Self::Numerical(e.to_string()),
-            other => Self::Input(other.to_string()),
+        if e.is_numerical() {
+            Self::Numerical(e.to_string())
+        } else {
+            Self::Input(e.to_string())
         }
     }
 }
@@ -224,6 +280,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run(args) => run(&args),
+        Command::Op(args) => op(&args),
         Command::Compare(args) => compare(&args),
         Command::Check(args) => check(&args),
         Command::Plot(args) => plot(&args),
@@ -233,39 +290,196 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => {
-            let (Failure::Input(message) | Failure::Numerical(message)) = &failure;
-            eprintln!("error: {message}");
+            match &failure {
+                Failure::Input(message) | Failure::Numerical(message) => {
+                    eprintln!("error: {message}");
+                }
+                Failure::Interrupted(message) => eprintln!("{message}"),
+            }
             ExitCode::from(failure.code())
         }
     }
 }
 
-/// A model ready to run: the circuit (graph, initial data, default signals, step, end time) and,
-/// for scenes, the scene's own settings.
-struct Loaded {
-    circuit: Circuit,
-    name: String,
-    scene: Option<BuiltScene>,
+/// A file read and built: a netlist's circuit or a scene.
+enum Loaded {
+    Netlist { name: String, circuit: Circuit },
+    Scene { name: String, scene: BuiltScene },
 }
 
 impl Loaded {
-    /// The representation asked for on the command line, else the scene's, else monolithic.
-    fn execution(&self, arg: Option<RepresentationArg>) -> Execution {
-        match (arg, &self.scene) {
-            (Some(RepresentationArg::Staggered), Some(scene)) => match scene.execution {
-                Execution::Staggered(s) => Execution::Staggered(s),
-                Execution::Assembled(_) => Execution::Staggered(Splitting::GaussSeidel),
-            },
-            (Some(RepresentationArg::Staggered), None) => {
-                Execution::Staggered(Splitting::GaussSeidel)
-            }
-            (Some(a), _) => {
-                Execution::Assembled(a.assembled().unwrap_or(Representation::Monolithic))
-            }
-            (None, Some(scene)) => scene.execution,
-            (None, None) => Execution::Assembled(Representation::Monolithic),
+    fn name(&self) -> &str {
+        match self {
+            Self::Netlist { name, .. } | Self::Scene { name, .. } => name,
         }
     }
+
+    fn graph(&self) -> &Interconnection {
+        match self {
+            Self::Netlist { circuit, .. } => &circuit.graph,
+            Self::Scene { scene, .. } => &scene.graph,
+        }
+    }
+
+    /// The execution asked for on the command line, else the scene's, else monolithic.
+    fn execution(&self, arg: Option<RepresentationArg>) -> Result<Execution, Failure> {
+        let scene_splitting = match self {
+            Self::Scene { scene, .. } => match scene.execution {
+                Execution::Staggered(s) => Some(s),
+                Execution::Assembled(_) => None,
+            },
+            Self::Netlist { .. } => None,
+        };
+        let execution = match arg {
+            Some(RepresentationArg::Monolithic) => Execution::Assembled(Representation::Monolithic),
+            Some(RepresentationArg::Constraint) => Execution::Assembled(Representation::Constraint),
+            Some(RepresentationArg::Force) => {
+                Execution::Assembled(Representation::InteractionForce)
+            }
+            Some(RepresentationArg::Staggered) => {
+                Execution::Staggered(scene_splitting.unwrap_or(Splitting::GaussSeidel))
+            }
+            None => match self {
+                Self::Scene { scene, .. } => scene.execution,
+                Self::Netlist { .. } => Execution::Assembled(Representation::Monolithic),
+            },
+        };
+        if matches!(execution, Execution::Staggered(_)) && matches!(self, Self::Netlist { .. }) {
+            return Err(Failure::Input(format!(
+                "{}: staggered co-simulation needs coupling elements between subsystems; a circuit's nodes are constraints",
+                self.name()
+            )));
+        }
+        Ok(execution)
+    }
+
+    /// Integrator options and end time after the command line's overrides.
+    fn settings(&self, args: &ModelArgs) -> Result<(IntegratorOptions, f64), Failure> {
+        let name = self.name();
+        let (h, t_end, discretisation, scheme) = match self {
+            Self::Netlist { circuit, .. } => {
+                let tran = circuit.tran_settings();
+                (
+                    args.h.or(tran.map(|t| t.0)),
+                    args.t_end.or(tran.map(|t| t.1)),
+                    circuit
+                        .method
+                        .clone()
+                        .unwrap_or_else(Discretisation::midpoint),
+                    Scheme::Plus,
+                )
+            }
+            Self::Scene { scene, .. } => (
+                Some(args.h.unwrap_or(scene.options.h)),
+                Some(args.t_end.unwrap_or(scene.t_end)),
+                scene.options.discretisation.clone(),
+                scene.options.scheme,
+            ),
+        };
+        let h = h.ok_or_else(|| Failure::Input(format!("{name}: no .tran card and no --h")))?;
+        let t_end =
+            t_end.ok_or_else(|| Failure::Input(format!("{name}: no .tran card and no --t-end")))?;
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(Failure::Input(format!(
+                "step size must be positive and finite, got {h}"
+            )));
+        }
+        if !(t_end >= 0.0 && t_end.is_finite()) {
+            return Err(Failure::Input(format!(
+                "end time must be non-negative and finite, got {t_end}"
+            )));
+        }
+        let discretisation = args
+            .method
+            .map_or(discretisation, MethodArg::discretisation);
+        Ok((
+            IntegratorOptions::new(discretisation, h).scheme(scheme),
+            t_end,
+        ))
+    }
+
+    fn start(&self) -> Start {
+        match self {
+            Self::Netlist { circuit, .. } => circuit.start(),
+            Self::Scene { scene, .. } => scene.start,
+        }
+    }
+
+    fn simulation(
+        &self,
+        execution: Execution,
+        options: IntegratorOptions,
+        start: Start,
+    ) -> Result<Simulation, Failure> {
+        Ok(match self {
+            Self::Netlist { circuit, .. } => circuit.simulation(execution, options, start)?,
+            Self::Scene { scene, .. } => scene.simulation_with(execution, options, start)?,
+        })
+    }
+
+    /// The default signals of the file.
+    fn signals(&self) -> Vec<Signal> {
+        match self {
+            Self::Netlist { circuit, .. } => circuit.signals.clone(),
+            Self::Scene { scene, .. } => scene.signals.clone(),
+        }
+    }
+
+    /// The signals named in `list` (comma-separated; `v(a,b)` keeps its comma).
+    fn select(&self, list: &str) -> Result<Vec<Signal>, Failure> {
+        split_signal_list(list)
+            .iter()
+            .map(|name| match self {
+                Self::Netlist { circuit, .. } => circuit
+                    .signal(name)
+                    .map_err(|e| Failure::Input(e.to_string())),
+                Self::Scene { scene, .. } => scene
+                    .signal(name)
+                    .map_err(|e| Failure::Input(e.to_string())),
+            })
+            .collect()
+    }
+
+    /// Output rows begin at `.tran`'s TSTART.
+    fn first_output_time(&self) -> f64 {
+        match self {
+            Self::Netlist { circuit, .. } => circuit.tran.map_or(0.0, |t| t.tstart),
+            Self::Scene { .. } => 0.0,
+        }
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        match self {
+            Self::Netlist { circuit, .. } => circuit.warnings.clone(),
+            Self::Scene { .. } => Vec::new(),
+        }
+    }
+}
+
+/// Splits `a,v(x,y),b` at the commas outside parentheses.
+fn split_signal_list(list: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut depth = 0usize;
+    let mut current = String::new();
+    for c in list.chars() {
+        match c {
+            '(' => depth += 1,
+            ')' => depth = depth.saturating_sub(1),
+            ',' if depth == 0 => {
+                if !current.trim().is_empty() {
+                    out.push(current.trim().to_string());
+                }
+                current.clear();
+                continue;
+            }
+            _ => {}
+        }
+        current.push(c);
+    }
+    if !current.trim().is_empty() {
+        out.push(current.trim().to_string());
+    }
+    out
 }
 
 fn load(path: &Path) -> Result<Loaded, Failure> {
@@ -274,7 +488,13 @@ fn load(path: &Path) -> Result<Loaded, Failure> {
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    let text = std::fs::read_to_string(path).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let bytes = std::fs::read(path).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        Failure::Input(format!(
+            "{name}: not UTF-8 text (invalid byte at offset {})",
+            e.utf8_error().valid_up_to()
+        ))
+    })?;
     match extension.as_deref() {
         Some("cir" | "sp" | "net" | "spice") => {
             let netlist = parse_netlist(&text, &name).map_err(|e| Failure::Input(e.to_string()))?;
@@ -283,100 +503,17 @@ fn load(path: &Path) -> Result<Loaded, Failure> {
             }
             let circuit =
                 build_circuit(&netlist, &name).map_err(|e| Failure::Input(e.to_string()))?;
-            Ok(Loaded {
-                circuit,
-                name,
-                scene: None,
-            })
+            Ok(Loaded::Netlist { name, circuit })
         }
         Some("toml") => {
             let scene = Scene::parse(&text, &name).map_err(|e| Failure::Input(e.to_string()))?;
-            let built = scene.build().map_err(|e| Failure::Input(e.to_string()))?;
-            Ok(Loaded {
-                circuit: built.circuit(),
-                name,
-                scene: Some(built),
-            })
+            let scene = scene.build().map_err(|e| Failure::Input(e.to_string()))?;
+            Ok(Loaded::Scene { name, scene })
         }
         _ => Err(Failure::Input(format!(
             "{name}: unknown file type (expected .cir, .sp, .net or .toml)"
         ))),
     }
-}
-
-fn settings(
-    loaded: &Loaded,
-    h: Option<f64>,
-    t_end: Option<f64>,
-    representation: Representation,
-) -> Result<RunSettings, Failure> {
-    let name = &loaded.name;
-    let h = h
-        .or(loaded.circuit.h)
-        .ok_or_else(|| Failure::Input(format!("{name}: no .tran card and no --h")))?;
-    let t_end = t_end
-        .or(loaded.circuit.t_end)
-        .ok_or_else(|| Failure::Input(format!("{name}: no .tran card and no --t-end")))?;
-    if !(h > 0.0 && h.is_finite()) {
-        return Err(Failure::Input(format!(
-            "step size must be positive, got {h}"
-        )));
-    }
-    if !(t_end >= 0.0 && t_end.is_finite()) {
-        return Err(Failure::Input(format!(
-            "end time must be non-negative, got {t_end}"
-        )));
-    }
-    let (discretisation, scheme) = match &loaded.scene {
-        Some(scene) => (scene.options.discretisation.clone(), scene.options.scheme),
-        None => (Discretisation::midpoint(), Scheme::Plus),
-    };
-    Ok(RunSettings {
-        h,
-        t_end,
-        representation,
-        discretisation,
-        scheme,
-    })
-}
-
-/// The scene with step size and end time overridden, to run staggered with `splitting`.
-fn scene_with(scene: &BuiltScene, settings: &RunSettings, execution: Execution) -> BuiltScene {
-    let mut scene = scene.clone();
-    scene.options.h = settings.h;
-    scene.t_end = settings.t_end;
-    scene.execution = execution;
-    scene
-}
-
-fn select_signals(loaded: &Loaded, wanted: Option<&str>) -> Result<Vec<Signal>, Failure> {
-    let circuit = &loaded.circuit;
-    let Some(list) = wanted else {
-        return Ok(circuit.signals.clone());
-    };
-    let mut out = Vec::new();
-    for name in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
-        if let Some(scene) = &loaded.scene {
-            let signal = scene
-                .signal(name)
-                .map_err(|e| Failure::Input(e.to_string()))?;
-            out.push(signal.to_signal());
-            continue;
-        }
-        let lower = name.to_ascii_lowercase();
-        match circuit.signals.iter().find(|s| s.name == lower) {
-            Some(s) => out.push(s.clone()),
-            None => {
-                let available: Vec<&str> =
-                    circuit.signals.iter().map(|s| s.name.as_str()).collect();
-                return Err(Failure::Input(format!(
-                    "unknown signal `{name}`; available: {}",
-                    available.join(", ")
-                )));
-            }
-        }
-    }
-    Ok(out)
 }
 
 /// A CSV destination that becomes visible only when the run succeeds.
@@ -398,6 +535,7 @@ impl Output {
                 let tmp = PathBuf::from(tmp);
                 let file = File::create(&tmp)
                     .map_err(|e| Failure::Input(format!("{}: {e}", path.display())))?;
+                guard::set_partial(Some(tmp.clone()));
                 Ok(Self {
                     writer: BufWriter::new(Box::new(file)),
                     temporary: Some((tmp, path.to_path_buf())),
@@ -411,8 +549,10 @@ impl Output {
             .flush()
             .map_err(|e| Failure::Input(format!("writing output: {e}")))?;
         if let Some((tmp, path)) = self.temporary.take() {
-            std::fs::rename(&tmp, &path)
-                .map_err(|e| Failure::Input(format!("{}: {e}", path.display())))?;
+            let renamed = std::fs::rename(&tmp, &path)
+                .map_err(|e| Failure::Input(format!("{}: {e}", path.display())));
+            guard::set_partial(None);
+            renamed?;
         }
         Ok(())
     }
@@ -422,172 +562,268 @@ impl Drop for Output {
     fn drop(&mut self) {
         if let Some((tmp, _)) = self.temporary.take() {
             let _ = std::fs::remove_file(tmp);
+            guard::set_partial(None);
         }
+    }
+}
+
+/// What the sink reports when a signal stopped the run.
+const INTERRUPTED: &str = "interrupted";
+
+/// A sink that skips rows before `first` (`.tran`'s TSTART) and shows progress on a terminal.
+struct Progress<'a, S: Sink> {
+    inner: &'a mut S,
+    first: f64,
+    total: u64,
+    started: Instant,
+    show: bool,
+    bar: Option<ProgressBar>,
+}
+
+impl<S: Sink> Sink for Progress<'_, S> {
+    fn begin(&mut self, names: &[String]) -> Result<(), String> {
+        if guard::interrupted() {
+            return Err(INTERRUPTED.into());
+        }
+        self.inner.begin(names)
+    }
+
+    fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
+        if guard::interrupted() {
+            return Err(INTERRUPTED.into());
+        }
+        if self.show && self.bar.is_none() && self.started.elapsed() > Duration::from_secs(1) {
+            let b = ProgressBar::with_draw_target(Some(self.total), ProgressDrawTarget::stderr());
+            if let Ok(style) =
+                ProgressStyle::with_template("{bar:40} {pos}/{len} steps, {eta} left")
+            {
+                b.set_style(style);
+            }
+            self.bar = Some(b);
+        }
+        if let Some(b) = &self.bar {
+            b.set_position(k as u64);
+        }
+        if t < self.first * (1.0 - 1e-12) {
+            return Ok(());
+        }
+        self.inner.row(k, t, values)
     }
 }
 
 fn run(args: &RunArgs) -> Result<(), Failure> {
-    let loaded = load(&args.file)?;
-    let execution = loaded.execution(args.representation);
-    let representation = match execution {
-        Execution::Assembled(r) => r,
-        Execution::Staggered(_) if loaded.scene.is_none() => {
-            return Err(Failure::Input(format!(
-                "{}: staggered co-simulation needs coupling elements between subsystems; a circuit's nodes are constraints",
-                loaded.name
-            )));
-        }
-        Execution::Staggered(_) => Representation::Monolithic,
-    };
-    let settings = settings(&loaded, args.h, args.t_end, representation)?;
-    let signals = select_signals(&loaded, args.signals.as_deref())?;
-    // A scene's `[record]` energy, power, residuals and forces become extra columns.
-    let recording = loaded
-        .scene
-        .as_ref()
-        .map(|s| s.recording.clone())
-        .filter(|r| *r != Recording::default());
-    let extra_columns = match (&loaded.scene, &recording) {
-        (Some(scene), Some(r)) => recorded_columns(&scene_with(scene, &settings, execution), r)
-            .map_err(|e| Failure::Input(format!("{}: {e}", loaded.name)))?,
-        _ => Vec::new(),
-    };
-    let mut out = Output::open(args.out.as_deref())?;
-    let header: Vec<&str> = std::iter::once("t")
-        .chain(signals.iter().map(|s| s.name.as_str()))
-        .chain(extra_columns.iter().map(String::as_str))
-        .collect();
-    writeln!(out.writer, "{}", header.join(","))
-        .map_err(|e| Failure::Input(format!("writing output: {e}")))?;
-    let total = (settings.t_end / settings.h).round() as u64 + 1;
-    let show_progress = !args.quiet && std::io::stderr().is_terminal();
-    let started = Instant::now();
-    let mut bar: Option<ProgressBar> = None;
-    let mut rows = 0u64;
-    let writer = &mut out.writer;
-    let summary = execute(
-        &loaded,
-        &settings,
-        execution,
-        &signals,
-        recording.as_ref(),
-        |t, values| {
-            let mut line = format!("{t}");
-            for v in values {
-                line.push(',');
-                line.push_str(&v.to_string());
-            }
-            writeln!(writer, "{line}").map_err(|e| e.to_string())?;
-            rows += 1;
-            if show_progress && bar.is_none() && started.elapsed() > Duration::from_secs(1) {
-                let b = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-                if let Ok(style) =
-                    ProgressStyle::with_template("{bar:40} {pos}/{len} steps, {eta} left")
-                {
-                    b.set_style(style);
-                }
-                bar = Some(b);
-            }
-            if let Some(b) = &bar {
-                b.set_position(rows);
-            }
-            Ok(())
-        },
-    )?;
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
-    out.commit()?;
-    for w in &summary.warnings {
+    guard::install_interrupt_handler();
+    let loaded = load(&args.model.file)?;
+    for w in loaded.warnings() {
         eprintln!("warning: {w}");
     }
+    if let Loaded::Netlist { circuit, .. } = &loaded
+        && circuit.op
+        && circuit.tran.is_none()
+    {
+        // A netlist that asks only for `.op`: its analysis is the operating point.
+        let mut out = Output::open(args.out.as_deref())?;
+        operating_point(&loaded, false, &mut out.writer)?;
+        return out.commit();
+    }
+    let execution = loaded.execution(args.model.representation)?;
+    let (options, t_end) = loaded.settings(&args.model)?;
+    let signals = match &args.signals {
+        Some(list) => loaded.select(list)?,
+        None => loaded.signals(),
+    };
+    let h = options.h;
+    let steps = (t_end / h).round();
+    if !args.model.force {
+        guard::check_steps(steps as u64, args.model.max_steps).map_err(Failure::Input)?;
+        if let Some(out) = &args.out {
+            let rows = ((t_end - loaded.first_output_time()) / h).round().max(0.0) as u64 + 1;
+            guard::check_disk(out, rows, signals.len()).map_err(Failure::Input)?;
+        }
+    }
+    let mut sim = loaded.simulation(execution, options.clone(), loaded.start())?;
+    sim.check_signals(&signals)?;
+    sim.prepare()?;
+    for w in sim.warnings() {
+        eprintln!("warning: {w}");
+    }
+    if matches!(execution, Execution::Assembled(_))
+        && let Ok(modes) = sim.natural_modes()
+    {
+        for w in modes.warnings(&options) {
+            eprintln!("warning: {w}");
+        }
+    }
+    let mut out = Output::open(args.out.as_deref())?;
+    let mut csv = CsvSink::new(&mut out.writer);
+    let mut sink = Progress {
+        inner: &mut csv,
+        first: loaded.first_output_time(),
+        total: (t_end / h).round() as u64 + 1,
+        started: Instant::now(),
+        show: !args.quiet && std::io::stderr().is_terminal(),
+        bar: None,
+    };
+    let result = sim.run_into(t_end, &signals, &mut sink);
+    if let Some(b) = sink.bar.take() {
+        b.finish_and_clear();
+    }
+    if result.is_err() && csv.reader_closed() {
+        // `dirac run … | head`: the reader has what it wanted; end quietly, as `cat` does.
+        return Ok(());
+    }
+    if guard::interrupted() {
+        drop(csv);
+        drop(out);
+        return Err(Failure::Interrupted(match &args.out {
+            Some(path) => format!("interrupted: {} not written", path.display()),
+            None => "interrupted".to_string(),
+        }));
+    }
+    let summary = result?;
+    match csv.finish() {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+        Err(e) => return Err(Failure::Input(format!("writing output: {e}"))),
+        Ok(_) => {}
+    }
+    out.commit()?;
     if args.json_summary {
-        let representation = match execution {
-            Execution::Assembled(r) => r.to_string(),
-            Execution::Staggered(Splitting::GaussSeidel) => "staggered-gs".to_string(),
-            Execution::Staggered(Splitting::Jacobi) => "staggered-jacobi".to_string(),
-        };
-        let json = serde_json::json!({
-            "file": loaded.name,
-            "representation": representation,
-            "h": settings.h,
-            "t_end": settings.t_end,
-            "steps": summary.steps,
-            "newton_iterations_per_step": summary.newton_iterations_per_step,
-            "factorisations": summary.factorisations,
-            "max_constraint_residual": summary.max_constraint_residual,
-            "energy_drift": serde_json::Value::Null,
-            "wall_s": summary.wall_s,
-        });
-        eprintln!("{json}");
+        eprintln!("{}", summary_json(&loaded, execution, h, t_end, &summary));
     }
     Ok(())
 }
 
-/// Runs `loaded` in `execution` and streams rows of `signals` (then the `recording` columns of a
-/// scene) to `row`.
-fn execute(
+fn summary_json(
     loaded: &Loaded,
-    settings: &RunSettings,
     execution: Execution,
-    signals: &[Signal],
-    recording: Option<&Recording>,
-    row: impl FnMut(f64, &[f64]) -> Result<(), String>,
-) -> Result<RunSummary, Failure> {
-    match (execution, &loaded.scene) {
-        (_, Some(scene)) if recording.is_some() || matches!(execution, Execution::Staggered(_)) => {
-            let scene = scene_with(scene, settings, execution);
-            let scene_signals: Vec<SceneSignal> = signals
-                .iter()
-                .map(|s| scene.signal(&s.name))
-                .collect::<Result<_, _>>()
-                .map_err(|e| Failure::Input(e.to_string()))?;
-            let recording = recording.cloned().unwrap_or_default();
-            run_scene_recorded(&scene, &scene_signals, &recording, row).map_err(|e| {
-                if e.is_numerical() {
-                    Failure::Numerical(e.to_string())
-                } else {
-                    Failure::Input(e.to_string())
-                }
-            })
-        }
-        _ => Ok(run_circuit(&loaded.circuit, settings, signals, row)?),
-    }
+    h: f64,
+    t_end: f64,
+    summary: &RunSummary,
+) -> serde_json::Value {
+    serde_json::json!({
+        "file": loaded.name(),
+        "representation": execution.to_string(),
+        "h": h,
+        "t_end": t_end,
+        "steps": summary.steps,
+        "newton_iterations_per_step": summary.newton_iterations_per_step(),
+        "factorisations": summary.factorisations,
+        "readout_iterations": summary.readout_iterations,
+        "breakpoint_substeps": summary.breakpoint_substeps,
+        "step_cuts": summary.step_cuts,
+        "max_constraint_residual": summary.max_constraint_residual,
+        "wall_s": summary.wall_s,
+        "peak_rss_kib": guard::peak_rss_kib(),
+    })
 }
 
-/// Runs one representation and returns all signals, row by row.
+fn op(args: &OpArgs) -> Result<(), Failure> {
+    let loaded = load(&args.file)?;
+    for w in loaded.warnings() {
+        eprintln!("warning: {w}");
+    }
+    let mut out = Output::open(None)?;
+    operating_point(&loaded, args.json, &mut out.writer)?;
+    out.commit()
+}
+
+/// Writes the operating point of `loaded` as a `signal,value` table or one JSON object.
+fn operating_point(loaded: &Loaded, json: bool, out: &mut impl Write) -> Result<(), Failure> {
+    let model = ModelArgs {
+        file: PathBuf::new(),
+        representation: None,
+        method: None,
+        h: Some(1.0),
+        t_end: Some(0.0),
+        max_steps: guard::DEFAULT_MAX_STEPS,
+        force: false,
+    };
+    let (options, _) = loaded.settings(&model)?;
+    let execution = loaded.execution(None)?;
+    let signals = match loaded {
+        Loaded::Netlist { circuit, .. } => circuit.operating_point_signals(),
+        Loaded::Scene { scene, .. } => scene.signals.clone(),
+    };
+    let mut sim = loaded.simulation(execution, options, Start::SteadyState)?;
+    let mut trajectory = Trajectory::new();
+    sim.run_into(0.0, &signals, &mut trajectory)?;
+    let values = trajectory.row(0);
+    let write = |e: std::io::Error| Failure::Input(format!("writing output: {e}"));
+    if json {
+        let mut map = serde_json::Map::new();
+        for (signal, value) in signals.iter().zip(values) {
+            map.insert(signal.name.clone(), (*value).into());
+        }
+        writeln!(out, "{}", serde_json::Value::Object(map)).map_err(write)?;
+    } else {
+        let quote = |f: &str| {
+            if f.contains(',') || f.contains('"') {
+                format!("\"{}\"", f.replace('"', "\"\""))
+            } else {
+                f.to_string()
+            }
+        };
+        writeln!(out, "signal,value").map_err(write)?;
+        for (signal, value) in signals.iter().zip(values) {
+            writeln!(
+                out,
+                "{},{}",
+                quote(&signal.name),
+                dirac_output::format_value(*value)
+            )
+            .map_err(write)?;
+        }
+    }
+    Ok(())
+}
+
+/// Runs one execution and returns all default signals, row by row.
 fn collect(
     loaded: &Loaded,
-    settings: &RunSettings,
     execution: Execution,
-) -> Result<Vec<Vec<f64>>, Failure> {
-    let mut rows = Vec::new();
-    execute(
-        loaded,
-        settings,
-        execution,
-        &loaded.circuit.signals,
-        None,
-        |_, v| {
-            rows.push(v.to_vec());
-            Ok(())
-        },
-    )?;
-    Ok(rows)
+    options: &IntegratorOptions,
+    t_end: f64,
+) -> Result<Trajectory, Failure> {
+    let mut sim = loaded.simulation(execution, options.clone(), loaded.start())?;
+    let (trajectory, _) = sim.run(t_end, &loaded.signals())?;
+    Ok(trajectory)
 }
 
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
-    let loaded = load(&args.file)?;
-    let base = settings(&loaded, args.h, args.t_end, Representation::Monolithic)?;
+    let loaded = load(&args.model.file)?;
+    let (options, t_end) = loaded.settings(&args.model)?;
+    if !args.model.force {
+        let steps = (t_end / options.h).round() as u64;
+        guard::check_steps(steps, args.model.max_steps).map_err(Failure::Input)?;
+        // Two trajectories (the reference and one representation) are held in memory at once.
+        let bytes = steps
+            .saturating_add(1)
+            .saturating_mul(loaded.signals().len() as u64 + 1)
+            .saturating_mul(16);
+        if let Some(free) = guard::available_memory()
+            && bytes > free
+        {
+            return Err(Failure::Input(format!(
+                "compare holds two trajectories of {steps} steps in memory, about {bytes} bytes, more than the {free} available; use a larger h or a shorter t_end, or pass --force"
+            )));
+        }
+    }
     let reference = collect(
         &loaded,
-        &base,
         Execution::Assembled(Representation::Monolithic),
+        &options,
+        t_end,
     )?;
-    let deviation = |rows: &[Vec<f64>]| {
-        rows.iter()
-            .zip(&reference)
-            .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
+    let deviation = |other: &Trajectory| {
+        (0..other.len().min(reference.len()))
+            .flat_map(|k| {
+                other
+                    .row(k)
+                    .iter()
+                    .zip(reference.row(k))
+                    .map(|(x, y)| (x - y).abs())
+                    .collect::<Vec<_>>()
+            })
             .fold(0.0_f64, f64::max)
     };
     let mut results = Vec::new();
@@ -596,33 +832,33 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
         Representation::Constraint,
         Representation::InteractionForce,
     ] {
-        let settings = RunSettings {
-            representation,
-            ..base.clone()
-        };
-        let rows = collect(&loaded, &settings, Execution::Assembled(representation))?;
+        let run = collect(
+            &loaded,
+            Execution::Assembled(representation),
+            &options,
+            t_end,
+        )?;
         results.push((
             representation.to_string(),
-            Some(deviation(&rows)),
+            Some(deviation(&run)),
             None::<String>,
         ));
     }
-    for (name, splitting) in [
-        ("staggered-gs", Splitting::GaussSeidel),
-        ("staggered-jacobi", Splitting::Jacobi),
-    ] {
-        if loaded.scene.is_none() {
+    for splitting in [Splitting::GaussSeidel, Splitting::Jacobi] {
+        let execution = Execution::Staggered(splitting);
+        let name = execution.to_string();
+        if matches!(loaded, Loaded::Netlist { .. }) {
             results.push((
-                name.to_string(),
+                name,
                 None,
                 Some("not applicable: a circuit's nodes are constraints between parts, not coupling elements".to_string()),
             ));
             continue;
         }
-        match collect(&loaded, &base, Execution::Staggered(splitting)) {
-            Ok(rows) => results.push((name.to_string(), Some(deviation(&rows)), None)),
-            Err(Failure::Input(why) | Failure::Numerical(why)) => {
-                results.push((name.to_string(), None, Some(why)))
+        match collect(&loaded, execution, &options, t_end) {
+            Ok(run) => results.push((name, Some(deviation(&run)), None)),
+            Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
+                results.push((name, None, Some(why)))
             }
         }
     }
@@ -639,15 +875,15 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
             }
             map.insert(name.clone(), entry.into());
         }
-        let json = serde_json::json!({ "file": loaded.name, "representations": map });
+        let json = serde_json::json!({ "file": loaded.name(), "representations": map });
         println!("{json}");
     } else {
-        println!("{:<12} {:>22}", "representation", "max |x - monolithic|");
+        println!("{:<16} {:>22}", "representation", "max |x - monolithic|");
         for (name, dev, note) in &results {
             match dev {
-                Some(d) => println!("{name:<12} {d:>22.3e}"),
+                Some(d) => println!("{name:<16} {d:>22.3e}"),
                 None => println!(
-                    "{name:<12} {:>22}  ({})",
+                    "{name:<16} {:>22}  ({})",
                     "-",
                     note.as_deref().unwrap_or("")
                 ),
@@ -659,10 +895,10 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
 
 fn check(args: &CheckArgs) -> Result<(), Failure> {
     let loaded = load(&args.file)?;
-    let graph = &loaded.circuit.graph;
+    let graph = loaded.graph();
     println!(
         "{}: {} parts, {} connections",
-        loaded.name,
+        loaded.name(),
         graph.subsystems().len(),
         graph.connections().len()
     );
@@ -706,79 +942,93 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
             degenerate.join(", ")
         }
     );
-    let signals: Vec<&str> = loaded
-        .circuit
-        .signals
-        .iter()
-        .map(|s| s.name.as_str())
-        .collect();
+    let signals: Vec<String> = loaded.signals().iter().map(|s| s.name.clone()).collect();
     println!("  signals: {}", signals.join(", "));
-    if let (Some(h), Some(t)) = (loaded.circuit.h, loaded.circuit.t_end) {
+    let start = match loaded.start() {
+        Start::Given => "given values (UIC)",
+        Start::SteadyState => "the operating point (steady state)",
+    };
+    println!("  start: {start}");
+    if let Loaded::Netlist { circuit, .. } = &loaded
+        && let Some((h, t)) = circuit.tran_settings()
+    {
         println!("  .tran: h = {h}, t_end = {t} ({} steps)", (t / h).round());
     }
+    for line in step_size_report(&loaded, args) {
+        println!("{line}");
+    }
     Ok(())
+}
+
+/// `dirac check`'s natural modes and step-size judgement (docs/math.md §8).
+fn step_size_report(loaded: &Loaded, args: &CheckArgs) -> Vec<String> {
+    let model = ModelArgs {
+        file: args.file.clone(),
+        representation: None,
+        method: args.method,
+        h: args.h,
+        t_end: Some(0.0),
+        max_steps: guard::DEFAULT_MAX_STEPS,
+        force: false,
+    };
+    let options = match loaded.settings(&model) {
+        Ok((options, _)) => options,
+        Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
+            return vec![format!(
+                "  natural modes: not analysed ({why}; pass --h to judge a step size)"
+            )];
+        }
+    };
+    let start = loaded.start();
+    let at = match start {
+        Start::Given => "the initial state",
+        Start::SteadyState => "the operating point",
+    };
+    let modes = loaded
+        .simulation(
+            Execution::Assembled(Representation::Monolithic),
+            options.clone(),
+            start,
+        )
+        .and_then(|mut sim| sim.natural_modes().map_err(Failure::from));
+    match modes {
+        Ok(modes) => guidance::report(&modes, &options, at),
+        Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
+            vec![format!("  natural modes: not analysed ({why})")]
+        }
+    }
 }
 
 fn plot(args: &PlotArgs) -> Result<(), Failure> {
     let name = args.csv.display().to_string();
     let text =
         std::fs::read_to_string(&args.csv).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines
-        .next()
-        .ok_or_else(|| Failure::Input(format!("{name}: empty file")))?
-        .split(',')
-        .collect();
-    if header.first() != Some(&"t") {
+    let table = Table::read(&text, &name).map_err(|e| Failure::Input(e.to_string()))?;
+    if table.names.first().map(String::as_str) != Some("t") {
         return Err(Failure::Input(format!(
             "{name}:1:1: the first column must be `t`"
         )));
     }
     let wanted: Vec<usize> = match &args.signals {
-        None => (1..header.len()).collect(),
-        Some(list) => list
-            .split(',')
-            .map(str::trim)
+        None => (1..table.names.len()).collect(),
+        Some(list) => split_signal_list(list)
+            .iter()
             .map(|s| {
-                header
-                    .iter()
-                    .position(|h| h.eq_ignore_ascii_case(s))
+                table
+                    .position(s)
                     .ok_or_else(|| Failure::Input(format!("{name}: no column `{s}`")))
             })
             .collect::<Result<_, _>>()?,
     };
-    let mut series: Vec<Vec<(f64, f64)>> = vec![Vec::new(); header.len()];
-    for (l, line) in lines.enumerate() {
-        let fields: Vec<&str> = line.split(',').collect();
-        if fields.len() != header.len() {
-            return Err(Failure::Input(format!(
-                "{name}:{}:1: expected {} fields, found {}",
-                l + 2,
-                header.len(),
-                fields.len()
-            )));
-        }
-        let mut values = Vec::with_capacity(fields.len());
-        for (c, f) in fields.iter().enumerate() {
-            let v: f64 = f.trim().parse().map_err(|_| {
-                Failure::Input(format!("{name}:{}:{}: `{f}` is not a number", l + 2, c + 1))
-            })?;
-            values.push(v);
-        }
-        for &c in &wanted {
-            series[c].push((values[0], values[c]));
-        }
-    }
+    let t = table.column(0);
     let title = args.csv.file_stem().map_or_else(
         || "dirac run".to_string(),
         |s| s.to_string_lossy().into_owned(),
     );
-    let mut chart = dirac_plot::LineChart::new(title).x_label("t");
+    let mut chart = dirac_output::LineChart::new(title).x_label("t");
     for &c in &wanted {
-        chart.push(dirac_plot::Series::new(
-            header[c],
-            std::mem::take(&mut series[c]),
-        ));
+        let points = t.iter().copied().zip(table.column(c)).collect();
+        chart.push(dirac_output::Series::new(table.names[c].clone(), points));
     }
     save_chart(&chart, &args.output)
 }
@@ -819,7 +1069,7 @@ fn bench_command(args: &BenchArgs) -> Result<(), Failure> {
 }
 
 /// Wall time against error, one line per method (scene C: µs per step per section against N).
-fn work_precision_chart(rows: &[bench::BenchRow]) -> dirac_plot::LineChart {
+fn work_precision_chart(rows: &[bench::BenchRow]) -> dirac_output::LineChart {
     let ladder = rows.iter().any(|r| r.scene.starts_with("C-"));
     let mut methods: Vec<&str> = Vec::new();
     for row in rows {
@@ -829,11 +1079,11 @@ fn work_precision_chart(rows: &[bench::BenchRow]) -> dirac_plot::LineChart {
     }
     let scene = rows.first().map_or("", |r| r.scene.as_str());
     let mut chart = if ladder {
-        dirac_plot::LineChart::new("RLC ladder: stepping cost")
+        dirac_output::LineChart::new("RLC ladder: stepping cost")
             .x_label("sections N")
             .y_label("µs per step per section")
     } else {
-        dirac_plot::LineChart::new(format!("scene {scene}: work against precision"))
+        dirac_output::LineChart::new(format!("scene {scene}: work against precision"))
             .x_label("error")
             .y_label("wall time [s]")
     }
@@ -850,13 +1100,13 @@ fn work_precision_chart(rows: &[bench::BenchRow]) -> dirac_plot::LineChart {
                 }
             })
             .collect();
-        chart.push(dirac_plot::Series::new(method, points).markers(true));
+        chart.push(dirac_output::Series::new(method, points).markers(true));
     }
     chart
 }
 
 /// Saves a chart as SVG or PNG by the path's extension.
-fn save_chart(chart: &dirac_plot::LineChart, out: &Path) -> Result<(), Failure> {
+fn save_chart(chart: &dirac_output::LineChart, out: &Path) -> Result<(), Failure> {
     let result = match out
         .extension()
         .and_then(|e| e.to_str())
@@ -880,11 +1130,25 @@ fn convert(args: &ConvertArgs) -> Result<(), Failure> {
     let text = std::fs::read_to_string(&args.netlist)
         .map_err(|e| Failure::Input(format!("{name}: {e}")))?;
     let netlist = parse_netlist(&text, &name).map_err(|e| Failure::Input(e.to_string()))?;
-    let scene =
-        dirac_io::netlist_to_scene(&netlist, &name).map_err(|e| Failure::Input(e.to_string()))?;
+    let scene = dirac_scene::netlist_to_scene(&netlist, &name)
+        .map_err(|e| Failure::Input(e.to_string()))?;
     let mut out = Output::open(Some(&args.output))?;
     out.writer
         .write_all(scene.as_bytes())
         .map_err(|e| Failure::Input(format!("{}: {e}", args.output.display())))?;
     out.commit()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Commas inside parentheses belong to the signal (`v(a,b)`).
+    #[test]
+    fn signal_lists_split_outside_parentheses() {
+        assert_eq!(
+            split_signal_list("v(1), v(a,b),i(l1)"),
+            ["v(1)", "v(a,b)", "i(l1)"]
+        );
+    }
 }

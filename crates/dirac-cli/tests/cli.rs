@@ -88,10 +88,10 @@ fn unsupported_card_is_exit_2_with_position_and_no_output() {
     assert!(!scratch("bad.csv.partial").exists());
 }
 
-/// Two voltage sources in parallel with different values: the Newton matrix is singular, which is
-/// a numerical failure (exit 1) with the step and residual, and no output file.
+/// Two voltage sources in parallel with different values fix one node potential twice: an
+/// inconsistent model, found before the first step (bad input, exit 2), with no output file.
 #[test]
-fn singular_circuit_is_exit_1_and_leaves_no_output() {
+fn contradictory_sources_are_exit_2_and_leave_no_output() {
     let netlist = scratch("parallel_sources.cir");
     std::fs::write(
         &netlist,
@@ -109,8 +109,34 @@ fn singular_circuit_is_exit_1_and_leaves_no_output() {
         .output()
         .expect("runs");
     let stderr = String::from_utf8(output.stderr).unwrap();
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("inconsistent model"), "{stderr}");
+    assert!(!out.exists());
+}
+
+/// A numerical failure: a saturating inductor with no saturated inductance holds at most
+/// L₀·I_sat = 1 Wb; a 1 V source drives its flux past that at t = 1 s, where no state exists.
+/// Exit 1, the time and the equation in the message, and no output file.
+#[test]
+fn numerical_failure_is_exit_1_and_leaves_no_output() {
+    let scene = scratch("saturation.toml");
+    std::fs::write(
+        &scene,
+        "[simulation]\nh = 0.1\nt_end = 2.0\n\n[[part]]\nname = \"V\"\ntype = \"voltage_source\"\nwaveform = 1.0\n\n[[part]]\nname = \"L\"\ntype = \"saturating_inductor\"\nl0 = 1.0\nl_inf = 0.0\ni_sat = 1.0\n\n[[connection]]\ntype = \"node\"\nname = \"a\"\nports = [\"-V.i\", \"-L.i\"]\n",
+    )
+    .unwrap();
+    let out = scratch("saturation.csv");
+    let output = dirac()
+        .args(["run", scene.to_str().unwrap(), "--quiet"])
+        .args(["--out", out.to_str().unwrap()])
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8(output.stderr).unwrap();
     assert_eq!(output.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("step 0"), "{stderr}");
+    assert!(
+        stderr.contains("t = 1") && stderr.contains("`L.q`"),
+        "{stderr}"
+    );
     assert!(!out.exists());
 }
 

@@ -179,6 +179,9 @@ impl Model for VoltageSource {
     fn is_linear(&self) -> bool {
         true
     }
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        self.waveform.next_breakpoint(t)
+    }
     fn coordinate_name(&self, _i: usize) -> String {
         "q".into()
     }
@@ -261,6 +264,9 @@ impl Model for CurrentSource {
     }
     fn is_linear(&self) -> bool {
         true
+    }
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        self.waveform.next_breakpoint(t)
     }
     fn coordinate_name(&self, i: usize) -> String {
         ["q", "phi"][i].into()

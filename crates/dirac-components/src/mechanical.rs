@@ -335,6 +335,9 @@ impl CouplingElement for ForceSource {
     fn is_linear(&self) -> bool {
         true
     }
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        self.waveform.next_breakpoint(t)
+    }
     fn describe(&self) -> String {
         format!("force source {:?}", self.waveform)
     }
@@ -360,6 +363,9 @@ impl Model for ForceSource {
     }
     fn is_linear(&self) -> bool {
         true
+    }
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        self.waveform.next_breakpoint(t)
     }
     fn coordinate_name(&self, _i: usize) -> String {
         "x".into()

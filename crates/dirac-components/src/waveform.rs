@@ -132,6 +132,46 @@ impl Waveform {
         self.eval(t).1
     }
 
+    /// The first corner strictly after `t`: where the value or its slope jumps (a `PULSE`'s four
+    /// corners in every period, a `PWL` point, a `SIN`'s delayed start). `None` for `DC`, an
+    /// undelayed `SIN`, and after the last corner.
+    #[must_use]
+    pub fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        match self {
+            Self::Dc(_) => None,
+            Self::Sin {
+                delay,
+                frequency,
+                damping,
+                amplitude,
+                ..
+            } => {
+                let moves = *amplitude != 0.0 && (*frequency != 0.0 || *damping != 0.0);
+                (moves && *delay > t).then_some(*delay)
+            }
+            Self::Pulse {
+                delay,
+                rise,
+                fall,
+                width,
+                period,
+                ..
+            } => {
+                let corners = [0.0, *rise, rise + width, rise + width + fall];
+                let first = |start: f64| corners.iter().map(|c| start + c).find(|&c| c > t);
+                if t < *delay {
+                    return Some(*delay);
+                }
+                if !period.is_finite() || *period <= 0.0 {
+                    return first(*delay);
+                }
+                let k = ((t - delay) / period).floor();
+                first(delay + k * period).or_else(|| first(delay + (k + 1.0) * period))
+            }
+            Self::Pwl(points) => points.iter().map(|p| p.0).find(|&c| c > t),
+        }
+    }
+
     /// Value and slope at `t` (ngspice's `vsrcload.c` definitions; checked against ngspice 39 to
     /// 3e-13 on every waveform kind).
     fn eval(&self, t: f64) -> (f64, f64) {
@@ -221,6 +261,39 @@ impl From<f64> for Waveform {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Corners of each kind, listed by hand from the definitions above: the pulse's four corners in
+    /// its first and second period, a PWL's points, a delayed sine's start; nothing for DC and an
+    /// undelayed sine.
+    #[test]
+    fn breakpoints_are_the_corners() {
+        let p = Waveform::pulse(0.0, 5.0, 1.0, 0.5, 0.25, 2.0, 10.0);
+        let mut t = -1.0;
+        let mut seen = Vec::new();
+        while let Some(b) = p.next_breakpoint(t) {
+            if b > 21.2 {
+                break;
+            }
+            seen.push(b);
+            t = b;
+        }
+        assert_eq!(seen, [1.0, 1.5, 3.5, 3.75, 11.0, 11.5, 13.5, 13.75, 21.0]);
+        let single = Waveform::pulse(0.0, 5.0, 1.0, 0.5, 0.25, 2.0, f64::INFINITY);
+        assert_eq!(single.next_breakpoint(3.6), Some(3.75));
+        assert_eq!(single.next_breakpoint(3.75), None);
+        let pwl = Waveform::pwl(vec![(0.0, 0.0), (1.0, 2.0), (1.0, 3.0), (4.0, 3.0)]);
+        assert_eq!(pwl.next_breakpoint(0.0), Some(1.0));
+        assert_eq!(pwl.next_breakpoint(1.0), Some(4.0));
+        assert_eq!(pwl.next_breakpoint(4.0), None);
+        let mut s = Waveform::sin(0.0, 1.0, 50.0);
+        assert_eq!(s.next_breakpoint(0.0), None);
+        if let Waveform::Sin { delay, .. } = &mut s {
+            *delay = 0.02;
+        }
+        assert_eq!(s.next_breakpoint(0.0), Some(0.02));
+        assert_eq!(s.next_breakpoint(0.02), None);
+        assert_eq!(Waveform::Dc(1.0).next_breakpoint(0.0), None);
+    }
 
     /// Hand-evaluated values of each ngspice function at breakpoints and inside segments.
     #[test]

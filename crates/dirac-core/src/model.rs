@@ -115,6 +115,20 @@ pub trait Model {
         false
     }
 
+    /// Whether the force on coordinate `i` depends on `t` explicitly (a source). By default every
+    /// coordinate of a non-autonomous model does. Used to prefer a source's own equation when two
+    /// equations fix the same value (a capacitor across a voltage source).
+    fn depends_on_time(&self, _i: usize) -> bool {
+        !self.is_autonomous()
+    }
+
+    /// The first time after `t` at which the force stops being smooth in time (a corner of a
+    /// piecewise-linear or pulse source, the delayed start of a sine), if any. The integrator lands
+    /// a step on every such time, so a corner costs no more accuracy than a smooth stretch.
+    fn next_breakpoint(&self, _t: f64) -> Option<f64> {
+        None
+    }
+
     /// Name of coordinate `i`, for diagnostics and output headers.
     fn coordinate_name(&self, i: usize) -> String {
         format!("q{i}")
@@ -148,6 +162,12 @@ impl<M: Model + ?Sized> Model for &M {
     }
     fn is_autonomous(&self) -> bool {
         (**self).is_autonomous()
+    }
+    fn depends_on_time(&self, i: usize) -> bool {
+        (**self).depends_on_time(i)
+    }
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        (**self).next_breakpoint(t)
     }
     fn coordinate_name(&self, i: usize) -> String {
         (**self).coordinate_name(i)

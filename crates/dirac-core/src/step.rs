@@ -114,6 +114,9 @@ pub struct ForcedDiracStep {
     forms: Triplets,
     curvature: Triplets,
     contracted: Triplets,
+    /// Whether `forms` holds the covectors at `q_k` of the current start (they are reused by every
+    /// residual evaluation of the step).
+    forms_at_start: bool,
     g: Vec<f64>,
 }
 
@@ -162,6 +165,7 @@ impl ForcedDiracStep {
             forms: Triplets::new(),
             curvature: Triplets::new(),
             contracted: Triplets::new(),
+            forms_at_start: false,
             g: vec![0.0; m],
         }
     }
@@ -237,6 +241,7 @@ impl ForcedDiracStep {
         self.q0.copy_from_slice(q);
         self.p0.copy_from_slice(p);
         self.t0 = t;
+        self.forms_at_start = false;
     }
 
     /// `q_k`.
@@ -280,6 +285,23 @@ impl ForcedDiracStep {
         }
     }
 
+    /// Whether the residual needs the covectors at point `p`: as a multiplier covector of some
+    /// stationarity block, or in a one-form's kinematic row. With a linear path in the (+) flavour
+    /// only `q_k` is (holonomic rows then enter the residual through their values alone).
+    fn residual_uses(&self, p: Point) -> bool {
+        match p {
+            Point::Start => true,
+            Point::Control(l) => {
+                let one_form = self.kinds.contains(&ConstraintKind::OneForm);
+                (self.has_holonomic && l < self.s)
+                    || (one_form
+                        && (self.kinematic_point() == p
+                            || (1..self.s)
+                                .any(|j| self.multiplier_point(ConstraintKind::OneForm, j) == p)))
+            }
+        }
+    }
+
     /// Loads the position of point `p` into `self.point`.
     fn load_point(&mut self, x: &[f64], p: Point) {
         self.point.copy_from_slice(&self.q0);
@@ -308,6 +330,10 @@ impl ForcedDiracStep {
             // Constant forms were stamped once; their values do not depend on the point.
             return;
         }
+        if p == Point::Start && self.forms_at_start {
+            return;
+        }
+        self.forms_at_start = p == Point::Start;
         self.load_point(x, p);
         let mut forms = std::mem::take(&mut self.forms);
         forms.begin();
@@ -396,6 +422,9 @@ impl ForcedDiracStep {
             } else {
                 Point::Control(i)
             };
+            if !self.residual_uses(p) {
+                continue;
+            }
             self.eval_forms(constraints, x, p);
             for (a, col, val) in self.forms.iter() {
                 let kind = self.kinds[a];

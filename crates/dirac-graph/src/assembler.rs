@@ -8,7 +8,10 @@ use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, 
 
 use crate::coupling::CouplingElement;
 use crate::error::GraphError;
-use crate::interconnection::{Connection, Interconnection, PortRef, SubsystemId};
+use crate::interconnection::{
+    Connection, Interconnection, MAX_CONSTRAINT_PORTS, PortRef, SubsystemId,
+};
+use crate::port_constraint::PortConstraint;
 
 /// How couplings and connections become equations.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -279,6 +282,26 @@ impl Model for AssembledModel {
         self.autonomous
     }
 
+    fn depends_on_time(&self, i: usize) -> bool {
+        let part = self.parts.partition_point(|p| p.offset + p.dim <= i);
+        let own = self
+            .parts
+            .get(part)
+            .is_some_and(|p| i >= p.offset && p.model.depends_on_time(i - p.offset));
+        own || self.couplings.iter().any(|c| {
+            !c.element.is_autonomous() && c.ports().iter().any(|p| p.iter().any(|&(j, _)| j == i))
+        })
+    }
+
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        let parts = self.parts.iter().filter_map(|p| p.model.next_breakpoint(t));
+        let couplings = self
+            .couplings
+            .iter()
+            .filter_map(|c| c.element.next_breakpoint(t));
+        parts.chain(couplings).reduce(f64::min)
+    }
+
     fn coordinate_name(&self, i: usize) -> String {
         self.names[i].clone()
     }
@@ -291,12 +314,34 @@ struct ConnectionRow {
     entries: Coefficients,
 }
 
-/// Internal constraints of every subsystem (at their offsets) plus the connection rows.
+/// A holonomic connection placed on global coordinates: its rows start at `first_row`.
+#[derive(Clone)]
+struct PlacedHolonomic {
+    name: String,
+    constraint: Arc<dyn PortConstraint>,
+    /// The coefficients of each port it reads, in the constraint's port order.
+    ports: Vec<Coefficients>,
+    first_row: usize,
+}
+
+impl PlacedHolonomic {
+    /// Gathers the port values of `q` into `x` (the first `ports.len()` entries).
+    fn gather(&self, q: &[f64], x: &mut [f64; MAX_CONSTRAINT_PORTS]) {
+        for (xi, port) in x.iter_mut().zip(&self.ports) {
+            *xi = combine(q, port);
+        }
+    }
+}
+
+/// Internal constraints of every subsystem (at their offsets), the one-form connection rows, then
+/// the rows of holonomic connections.
 #[derive(Clone)]
 pub struct AssembledConstraints {
     parts: Vec<Placed>,
     internal_rows: usize,
     rows: Vec<ConnectionRow>,
+    holonomic: Vec<PlacedHolonomic>,
+    holonomic_rows: usize,
     constant: bool,
 }
 
@@ -311,16 +356,33 @@ impl AssembledConstraints {
             .get(i)
             .filter(|p| a >= p.row_offset && a < p.row_offset + p.rows)
     }
+
+    /// First row of the holonomic connections.
+    fn holonomic_start(&self) -> usize {
+        self.internal_rows + self.rows.len()
+    }
+
+    /// The holonomic connection owning row `a`, if any.
+    fn holonomic_of_row(&self, a: usize) -> Option<&PlacedHolonomic> {
+        if a < self.holonomic_start() {
+            return None;
+        }
+        let i = self
+            .holonomic
+            .partition_point(|h| h.first_row + h.constraint.rows() <= a);
+        self.holonomic.get(i)
+    }
 }
 
 impl Constraints for AssembledConstraints {
     fn count(&self) -> usize {
-        self.internal_rows + self.rows.len()
+        self.internal_rows + self.rows.len() + self.holonomic_rows
     }
 
     fn kind(&self, a: usize) -> ConstraintKind {
         match self.part_of_row(a) {
             Some(p) => p.constraints.kind(a - p.row_offset),
+            None if a >= self.holonomic_start() => ConstraintKind::Holonomic,
             None => ConstraintKind::OneForm,
         }
     }
@@ -336,6 +398,16 @@ impl Constraints for AssembledConstraints {
                 out.add(self.internal_rows + r, j, c);
             }
         }
+        let mut x = [0.0; MAX_CONSTRAINT_PORTS];
+        for h in &self.holonomic {
+            h.gather(q, &mut x);
+            // ∂gᵃ/∂q_j = Σᵢ ∂gᵃ/∂xᵢ · cᵢⱼ.
+            h.constraint.jacobian(&x[..h.ports.len()], &mut |a, i, v| {
+                for &(j, c) in &h.ports[i] {
+                    out.add(h.first_row + a, j, c * v);
+                }
+            });
+        }
     }
 
     fn values(&self, q: &[f64], out: &mut [f64]) {
@@ -345,6 +417,12 @@ impl Constraints for AssembledConstraints {
                 &q[p.offset..p.offset + p.dim],
                 &mut out[p.row_offset..p.row_offset + p.rows],
             );
+        }
+        let mut x = [0.0; MAX_CONSTRAINT_PORTS];
+        for h in &self.holonomic {
+            h.gather(q, &mut x);
+            let rows = h.first_row..h.first_row + h.constraint.rows();
+            h.constraint.values(&x[..h.ports.len()], &mut out[rows]);
         }
     }
 
@@ -366,6 +444,20 @@ impl Constraints for AssembledConstraints {
             );
         }
         out.set_offset(0, 0);
+        let mut x = [0.0; MAX_CONSTRAINT_PORTS];
+        for h in self.holonomic.iter().filter(|h| !h.constraint.is_linear()) {
+            h.gather(q, &mut x);
+            let rows = h.first_row..h.first_row + h.constraint.rows();
+            // Σₐ λₐ ∂²gᵃ/∂q_j∂q_l = Σᵢₖ Hᵢₖ cᵢⱼ cₖₗ.
+            h.constraint
+                .hessian(&x[..h.ports.len()], &lambda[rows], &mut |i, k, v| {
+                    for &(j, ci) in &h.ports[i] {
+                        for &(l, ck) in &h.ports[k] {
+                            out.add(j, l, ci * ck * v);
+                        }
+                    }
+                });
+        }
     }
 
     fn contracted_derivative(&self, q: &[f64], w: &[f64], out: &mut Triplets) {
@@ -382,11 +474,35 @@ impl Constraints for AssembledConstraints {
             );
         }
         out.set_offset(0, 0);
+        let mut x = [0.0; MAX_CONSTRAINT_PORTS];
+        let mut wx = [0.0; MAX_CONSTRAINT_PORTS];
+        let mut unit = Vec::new();
+        for h in self.holonomic.iter().filter(|h| !h.constraint.is_linear()) {
+            h.gather(q, &mut x);
+            h.gather(w, &mut wx);
+            let rows = h.constraint.rows();
+            unit.clear();
+            unit.resize(rows, 0.0);
+            // Σⱼ wⱼ ∂Aᵃⱼ/∂q_l = Σᵢₖ Hᵃᵢₖ (cᵢ·w) cₖₗ, one row at a time (λ = eₐ).
+            for a in 0..rows {
+                unit[a] = 1.0;
+                h.constraint
+                    .hessian(&x[..h.ports.len()], &unit, &mut |i, k, v| {
+                        for &(l, ck) in &h.ports[k] {
+                            out.add(h.first_row + a, l, wx[i] * ck * v);
+                        }
+                    });
+                unit[a] = 0.0;
+            }
+        }
     }
 
     fn name(&self, a: usize) -> String {
-        match self.part_of_row(a) {
-            Some(p) => format!("{}/{}", p.name, p.constraints.name(a - p.row_offset)),
+        if let Some(p) = self.part_of_row(a) {
+            return format!("{}/{}", p.name, p.constraints.name(a - p.row_offset));
+        }
+        match self.holonomic_of_row(a) {
+            Some(h) => format!("{} ({})", h.name, h.constraint.row_name(a - h.first_row)),
             None => self.rows[a - self.internal_rows].name.clone(),
         }
     }
@@ -446,10 +562,28 @@ impl AssembledSystem {
         self.constraints.count()
     }
 
-    /// The constraint row of connection `c` (joints, nodes, and couplings in constraint form).
+    /// The constraint row of connection `c` (joints, nodes, and couplings in constraint form; the
+    /// first of its rows for a holonomic constraint).
     #[must_use]
     pub fn connection_row(&self, c: usize) -> Option<usize> {
         self.connection_rows.get(c).copied().flatten()
+    }
+
+    /// The coefficients `(global coordinate, coefficient)` of connection `c`'s constraint row, if
+    /// it has one.
+    #[must_use]
+    pub fn connection_entries(&self, c: usize) -> Option<&[(usize, f64)]> {
+        let row = self.connection_row(c)?;
+        self.constraints
+            .rows
+            .get(row - self.constraints.internal_rows)
+            .map(|r| r.entries.as_slice())
+    }
+
+    /// Number of connections of the graph this system was assembled from.
+    #[must_use]
+    pub fn connection_count(&self) -> usize {
+        self.connection_rows.len()
     }
 
     /// Global vector from per-subsystem vectors; endpoint entries take the partner port's value
@@ -476,19 +610,28 @@ impl AssembledSystem {
         Ok(out)
     }
 
-    /// Interaction impulses of the connection rows: for each connection with a constraint row
+    /// Interaction impulses of the one-form connection rows: for each connection with such a row
     /// (node, joint, or coupling endpoint in the constraint form), `(connection index, global
-    /// coordinate, impulse Λ·c)` for every coordinate the row touches. `multipliers` holds one
-    /// value per constraint row (see `Integrator::last_multipliers_full`). Divided by `h` these
-    /// are the interaction forces; for a joint they act equal and opposite on its two ports.
+    /// coordinate, impulse)` for every coordinate the row touches, where the impulse is what the
+    /// connection adds to that coordinate's momentum over the step: `−Λ·c` for the row's
+    /// multiplier `Λ` and coefficient `c` (the step equations read
+    /// `p_k + D₁L_d + f_d⁻ − Σ Λ·A = 0`, MATH §4). `multipliers` holds one value per constraint
+    /// row (see `Integrator::last_multipliers_full`). Divided by `h` these are the interaction
+    /// forces; for a joint they act equal and opposite on its two ports. A coupling's endpoint row
+    /// (constraint form) delivers the coupling's impulse to the partner less the change of the
+    /// endpoint's own momentum, which [`AssembledSystem::subsystem_momenta`] pulls back onto the
+    /// partner.
     #[must_use]
     pub fn interaction_impulses(&self, multipliers: &[f64]) -> Vec<(usize, usize, f64)> {
         let mut out = Vec::new();
         for (c, row) in self.connection_rows.iter().enumerate() {
             let Some(row) = row else { continue };
+            if *row >= self.constraints.holonomic_start() {
+                continue;
+            }
             let entries = &self.constraints.rows[row - self.constraints.internal_rows].entries;
             for &(i, k) in entries {
-                out.push((c, i, multipliers[*row] * k));
+                out.push((c, i, -multipliers[*row] * k));
             }
         }
         out
@@ -581,8 +724,28 @@ impl Assembler {
         let mut rows = Vec::new();
         let mut endpoints = Vec::new();
         let mut connection_rows = Vec::with_capacity(graph.connections().len());
+        let mut holonomic = Vec::new();
+        let mut holonomic_rows = 0;
         for (index, connection) in graph.connections().iter().enumerate() {
             match connection {
+                Connection::Holonomic {
+                    name,
+                    ports,
+                    constraint,
+                } => {
+                    // Placed after every one-form row; the row index is fixed below.
+                    connection_rows.push(Some(holonomic_rows));
+                    holonomic.push(PlacedHolonomic {
+                        name: name.clone(),
+                        constraint: constraint.clone(),
+                        ports: ports
+                            .iter()
+                            .map(|&p| port_coefficients(graph, &offsets, p))
+                            .collect(),
+                        first_row: holonomic_rows,
+                    });
+                    holonomic_rows += constraint.rows();
+                }
                 Connection::Node { name, ports } => {
                     let mut entries = Vec::new();
                     for &(p, sign) in ports {
@@ -655,6 +818,15 @@ impl Assembler {
                 }
             }
         }
+        let holonomic_start = internal_rows + rows.len();
+        for h in &mut holonomic {
+            h.first_row += holonomic_start;
+        }
+        for (row, connection) in connection_rows.iter_mut().zip(graph.connections()) {
+            if let (Some(r), Connection::Holonomic { .. }) = (row.as_mut(), connection) {
+                *r += holonomic_start;
+            }
+        }
         let dim = offset + endpoints.len();
         let has_force = parts.iter().any(|p| p.model.has_force())
             || couplings.iter().any(|c| {
@@ -664,7 +836,8 @@ impl Assembler {
             && couplings.iter().all(|c| c.element.is_linear());
         let constant = parts
             .iter()
-            .all(|p| p.rows == 0 || p.constraints.is_constant());
+            .all(|p| p.rows == 0 || p.constraints.is_constant())
+            && holonomic.iter().all(|h| h.constraint.is_linear());
         let autonomous = parts.iter().all(|p| p.model.is_autonomous())
             && couplings.iter().all(|c| c.element.is_autonomous());
         let model = AssembledModel {
@@ -688,6 +861,8 @@ impl Assembler {
             parts,
             internal_rows,
             rows,
+            holonomic,
+            holonomic_rows,
             constant,
         };
         Ok(AssembledSystem {
@@ -855,6 +1030,24 @@ impl Model for FrozenCouplingModel {
     fn is_linear(&self) -> bool {
         self.inner.is_linear() && self.links.iter().all(|l| l.element.is_linear())
     }
+    fn depends_on_time(&self, i: usize) -> bool {
+        self.inner.depends_on_time(i)
+            || self
+                .links
+                .iter()
+                .any(|l| !l.element.is_autonomous() && l.mine.iter().any(|&(j, _)| j == i))
+    }
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        let links = self
+            .links
+            .iter()
+            .filter_map(|l| l.element.next_breakpoint(t));
+        self.inner
+            .next_breakpoint(t)
+            .into_iter()
+            .chain(links)
+            .reduce(f64::min)
+    }
     fn coordinate_name(&self, i: usize) -> String {
         self.inner.coordinate_name(i)
     }
@@ -895,4 +1088,486 @@ impl Constraints for SharedConstraints {
 pub struct StaggeredPlan {
     /// One model per subsystem, in graph order.
     pub models: Vec<FrozenCouplingModel>,
+}
+
+#[cfg(test)]
+mod tests {
+    //! The assembler against hand-written sums and finite differences: the assembled Lagrangian is
+    //! `Σ Lᵢ − Σ V_c` (monolithic, constraint) or `Σ Lᵢ` (force), evaluated here from the parts'
+    //! formulas; its gradient, Hessian and force Jacobian are checked against central differences
+    //! of the assembled Lagrangian and force, on ports that are combinations of coordinates with
+    //! coefficients other than one (so a dropped or squared coefficient shows).
+
+    use super::*;
+    use crate::coupling::{LinearDamper, LinearSpring};
+    use crate::subsystem::Subsystem;
+    use dirac_core::LinearForms;
+
+    /// `L = ½ m v² − ½ k x² − ¼ a x⁴`, `f = −c v (1 + x²)`.
+    #[derive(Clone, Copy)]
+    struct Bead {
+        m: f64,
+        k: f64,
+        a: f64,
+        c: f64,
+    }
+
+    impl Bead {
+        fn l(&self, x: f64, v: f64) -> f64 {
+            0.5 * self.m * v * v - 0.5 * self.k * x * x - 0.25 * self.a * x.powi(4)
+        }
+        fn f(&self, x: f64, v: f64) -> f64 {
+            -self.c * v * (1.0 + x * x)
+        }
+    }
+
+    impl Model for Bead {
+        fn dim(&self) -> usize {
+            1
+        }
+        fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64 {
+            self.l(q[0], v[0])
+        }
+        fn lagrangian_gradient(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+            lq[0] = -self.k * q[0] - self.a * q[0].powi(3);
+            lv[0] = self.m * v[0];
+        }
+        fn lagrangian_hessian(&self, q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
+            h.qq.add(0, 0, -self.k - 3.0 * self.a * q[0] * q[0]);
+            h.vv.add(0, 0, self.m);
+        }
+        fn has_force(&self) -> bool {
+            true
+        }
+        fn force(&self, q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
+            f[0] = self.f(q[0], v[0]);
+        }
+        fn force_jacobian(&self, q: &[f64], v: &[f64], _t: f64, j: &mut ForceJacobian) {
+            j.q.add(0, 0, -2.0 * self.c * v[0] * q[0]);
+            j.v.add(0, 0, -self.c * (1.0 + q[0] * q[0]));
+        }
+        fn coordinate_name(&self, _i: usize) -> String {
+            "x".into()
+        }
+    }
+
+    /// `L = ½(v₀² + 2v₁²) + 0.3 v₀ q₁ − ½(q₀ − q₁)²`, no force.
+    #[derive(Clone, Copy)]
+    struct Pair;
+
+    impl Pair {
+        fn l(q: &[f64], v: &[f64]) -> f64 {
+            0.5 * (v[0] * v[0] + 2.0 * v[1] * v[1]) + 0.3 * v[0] * q[1]
+                - 0.5 * (q[0] - q[1]).powi(2)
+        }
+    }
+
+    impl Model for Pair {
+        fn dim(&self) -> usize {
+            2
+        }
+        fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64 {
+            Self::l(q, v)
+        }
+        fn lagrangian_gradient(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+            lq[0] = -(q[0] - q[1]);
+            lq[1] = (q[0] - q[1]) + 0.3 * v[0];
+            lv[0] = v[0] + 0.3 * q[1];
+            lv[1] = 2.0 * v[1];
+        }
+        fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
+            h.qq.add(0, 0, -1.0);
+            h.qq.add(0, 1, 1.0);
+            h.qq.add(1, 0, 1.0);
+            h.qq.add(1, 1, -1.0);
+            h.qv.add(1, 0, 0.3);
+            h.vv.add(0, 0, 1.0);
+            h.vv.add(1, 1, 2.0);
+        }
+    }
+
+    /// `V = ⅓κ(x_a − x_b)³`, `f_a = −c(v_a − v_b)(1 + x_a²) = −f_b`: a nonlinear potential and a
+    /// position-dependent force, so every block of the coupling's derivatives is exercised.
+    struct Cubic {
+        kappa: f64,
+        c: f64,
+    }
+
+    impl CouplingElement for Cubic {
+        fn has_potential(&self) -> bool {
+            true
+        }
+        fn potential(&self, xa: f64, xb: f64) -> f64 {
+            self.kappa * (xa - xb).powi(3) / 3.0
+        }
+        fn potential_gradient(&self, xa: f64, xb: f64) -> [f64; 2] {
+            let g = self.kappa * (xa - xb).powi(2);
+            [g, -g]
+        }
+        fn potential_hessian(&self, xa: f64, xb: f64) -> [[f64; 2]; 2] {
+            let h = 2.0 * self.kappa * (xa - xb);
+            [[h, -h], [-h, h]]
+        }
+        fn has_force(&self) -> bool {
+            true
+        }
+        fn force(&self, x: [f64; 2], v: [f64; 2], _t: f64) -> [f64; 2] {
+            let f = -self.c * (v[0] - v[1]) * (1.0 + x[0] * x[0]);
+            [f, -f]
+        }
+        fn force_jacobian(&self, x: [f64; 2], v: [f64; 2], _t: f64) -> [[[f64; 2]; 2]; 2] {
+            let dx = -self.c * (v[0] - v[1]) * 2.0 * x[0];
+            let dv = -self.c * (1.0 + x[0] * x[0]);
+            [[[dx, 0.0], [-dx, 0.0]], [[dv, -dv], [-dv, dv]]]
+        }
+        fn is_linear(&self) -> bool {
+            false
+        }
+        fn describe(&self) -> String {
+            "cubic".into()
+        }
+    }
+
+    const A: Bead = Bead {
+        m: 1.5,
+        k: 2.0,
+        a: 0.7,
+        c: 0.2,
+    };
+    const B: Bead = Bead {
+        m: 0.5,
+        k: 1.0,
+        a: 0.0,
+        c: 0.0,
+    };
+
+    /// Pair P (internal row `q₀' − 2q₁' = 0`, port `y = 0.5 q₀ + 2 q₁`), beads A and B (port `x`),
+    /// bead C (port `x` = −1.5 x): a spring A–P, the cubic element P–B, a damper B–C, a joint A–C
+    /// and a node joining P.y, A.x and B.x.
+    fn graph() -> Interconnection {
+        let mut g = Interconnection::new();
+        let mut internal = LinearForms::new(2);
+        internal.push("slide", &[(0, 1.0), (1, -2.0)]);
+        g.add_subsystem(
+            Subsystem::new("P", Pair)
+                .with_constraints(internal)
+                .with_combination_port("y", vec![(0, 0.5), (1, 2.0)]),
+        )
+        .unwrap();
+        g.add_subsystem(Subsystem::new("A", A).with_port("x", 0))
+            .unwrap();
+        g.add_subsystem(Subsystem::new("B", B).with_port("x", 0))
+            .unwrap();
+        g.add_subsystem(Subsystem::new("C", B).with_combination_port("x", vec![(0, -1.5)]))
+            .unwrap();
+        let port = |g: &Interconnection, s: &str, p: &str| g.port(s, p).unwrap();
+        let (py, ax, bx, cx) = (
+            port(&g, "P", "y"),
+            port(&g, "A", "x"),
+            port(&g, "B", "x"),
+            port(&g, "C", "x"),
+        );
+        g.coupling("s", ax, py, LinearSpring { k: 3.0, rest: 0.2 });
+        g.coupling("cubic", py, bx, Cubic { kappa: 0.8, c: 0.3 });
+        g.coupling("d", bx, cx, LinearDamper { c: 0.4 });
+        g.joint("j", ax, cx);
+        g.node("n", vec![(py, 1.0), (ax, -1.0), (bx, 1.0)]).unwrap();
+        g
+    }
+
+    /// A state of the global coordinates (subsystems, then endpoints).
+    fn state(n: usize, seed: f64) -> Vec<f64> {
+        (0..n)
+            .map(|i| (seed + 0.37 * i as f64).sin() * 0.9)
+            .collect()
+    }
+
+    /// The assembled Lagrangian and force, written out from the parts' formulas.
+    fn by_hand(rep: Representation, q: &[f64], v: &[f64]) -> (f64, Vec<f64>) {
+        let (y, vy) = (0.5 * q[0] + 2.0 * q[1], 0.5 * v[0] + 2.0 * v[1]);
+        let (xa, xb) = (q[2], q[3]);
+        let (vb, vc) = (v[3], -1.5 * v[4]);
+        let mut l = Pair::l(&q[..2], &v[..2]) + A.l(q[2], v[2]) + B.l(q[3], v[3]) + B.l(q[4], v[4]);
+        let spring = |x1: f64, x2: f64| 0.5 * 3.0 * (x1 - x2 - 0.2).powi(2);
+        let cubic = |x1: f64, x2: f64| 0.8 * (x1 - x2).powi(3) / 3.0;
+        let mut f = vec![0.0; q.len()];
+        f[2] = A.f(q[2], v[2]);
+        // Cubic's force on its ports: f_a = −0.3(v_a − v_b)(1 + x_a²) on y, −f_a on B.x.
+        let fc = |x1: f64, v1: f64, v2: f64| -0.3 * (v1 - v2) * (1.0 + x1 * x1);
+        // Damper on B.x (first port) and C.x (second, coefficient −1.5): [fd, −fd].
+        let fd = -0.4 * (vb - vc);
+        match rep {
+            Representation::Monolithic => {
+                l -= spring(xa, y) + cubic(y, xb);
+                let g = fc(y, vy, vb);
+                f[0] += 0.5 * g;
+                f[1] += 2.0 * g;
+                f[3] += -g + fd;
+                f[4] += -1.5 * -fd;
+            }
+            Representation::InteractionForce => {
+                // Potentials become forces −∂V/∂x on the ports.
+                let gs = 3.0 * (xa - y - 0.2);
+                let gc = 0.8 * (y - xb).powi(2);
+                let g = fc(y, vy, vb);
+                f[2] += -gs;
+                f[0] += 0.5 * (gs - gc + g);
+                f[1] += 2.0 * (gs - gc + g);
+                f[3] += gc - g + fd;
+                f[4] += -1.5 * -fd;
+            }
+            Representation::Constraint => {
+                // Endpoints e_s (of A, for s, partner P.y), e_c (of P, for cubic, partner B.x),
+                // e_d (of B, for d, partner C.x) at 5, 6, 7; potentials act on the endpoint.
+                let (es, ec) = (q[5], q[6]);
+                let (vec_, ved) = (v[6], v[7]);
+                l -= spring(xa, es) + cubic(y, ec);
+                let g = fc(y, vy, vec_);
+                f[0] += 0.5 * g;
+                f[1] += 2.0 * g;
+                f[6] += -g;
+                let fd = -0.4 * (vb - ved);
+                f[3] += fd;
+                f[7] += -fd;
+            }
+        }
+        (l, f)
+    }
+
+    fn dense(t: &Triplets, n: usize) -> Vec<Vec<f64>> {
+        let mut m = vec![vec![0.0; n]; n];
+        for (r, c, v) in t.iter() {
+            m[r][c] += v;
+        }
+        m
+    }
+
+    /// Largest `|a − b|` relative to `1 + |b|` over two matrices or vectors.
+    fn close(a: &[f64], b: &[f64]) -> f64 {
+        a.iter()
+            .zip(b)
+            .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs() / (1.0 + y.abs())))
+    }
+
+    /// Central differences with δ = 1e-6 of a function of order one: truncation ≈ δ², round-off
+    /// ≈ ε/δ, so agreement to about 1e-9; the figures below measured at most 2e-10.
+    const DIFFERENCES: f64 = 1e-8;
+
+    #[test]
+    fn assembled_model_is_the_sum_of_its_parts() {
+        let g = graph();
+        for rep in [
+            Representation::Monolithic,
+            Representation::Constraint,
+            Representation::InteractionForce,
+        ] {
+            let system = Assembler::assemble(&g, rep).unwrap();
+            let model = &system.model;
+            let n = model.dim();
+            assert_eq!(
+                n,
+                if rep == Representation::Constraint {
+                    8
+                } else {
+                    5
+                }
+            );
+            let (q, v) = (state(n, 0.3), state(n, 1.1));
+            let (l, f) = by_hand(rep, &q, &v);
+            assert!(
+                (model.lagrangian(&q, &v) - l).abs() <= 1e-14 * (1.0 + l.abs()),
+                "{rep}: L = {} by hand {l}",
+                model.lagrangian(&q, &v)
+            );
+            let mut force = vec![f64::NAN; n];
+            model.force(&q, &v, 0.0, &mut force);
+            assert!(
+                close(&force, &f) <= 1e-14,
+                "{rep}: f = {force:?}, by hand {f:?}"
+            );
+
+            // Gradient and Hessian against central differences of L; force Jacobian of f.
+            let d = 1e-6;
+            let (mut lq, mut lv) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+            model.lagrangian_gradient(&q, &v, &mut lq, &mut lv);
+            let mut hess = LagrangianHessian::default();
+            hess.begin();
+            model.lagrangian_hessian(&q, &v, &mut hess);
+            let mut jac = ForceJacobian::default();
+            jac.begin();
+            model.force_jacobian(&q, &v, 0.0, &mut jac);
+            let (hqq, hqv, hvv) = (dense(&hess.qq, n), dense(&hess.qv, n), dense(&hess.vv, n));
+            let (jq, jv) = (dense(&jac.q, n), dense(&jac.v, n));
+            let mut worst = 0.0_f64;
+            for j in 0..n {
+                let shifted = |dq: f64, dv: f64| {
+                    let (mut q1, mut v1) = (q.clone(), v.clone());
+                    q1[j] += dq;
+                    v1[j] += dv;
+                    let (mut gq, mut gv, mut f1) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+                    model.lagrangian_gradient(&q1, &v1, &mut gq, &mut gv);
+                    model.force(&q1, &v1, 0.0, &mut f1);
+                    (model.lagrangian(&q1, &v1), gq, gv, f1)
+                };
+                let (lp, gqp, _, fp) = shifted(d, 0.0);
+                let (lm, gqm, _, fm) = shifted(-d, 0.0);
+                let (lvp, gq_vp, gv_vp, fvp) = shifted(0.0, d);
+                let (lvm, gq_vm, gv_vm, fvm) = shifted(0.0, -d);
+                let diff = |a: &[f64], b: &[f64]| -> Vec<f64> {
+                    a.iter().zip(b).map(|(x, y)| (x - y) / (2.0 * d)).collect()
+                };
+                worst = worst.max(close(&[lq[j]], &[(lp - lm) / (2.0 * d)]));
+                worst = worst.max(close(&[lv[j]], &[(lvp - lvm) / (2.0 * d)]));
+                // Column j of each block: ∂(∂L/∂q_i)/∂q_j = hqq[i][j], ∂(∂L/∂q_i)/∂v_j = hqv[i][j],
+                // ∂(∂L/∂v_i)/∂v_j = hvv[i][j]; ∂f_i/∂q_j = jq[i][j], ∂f_i/∂v_j = jv[i][j].
+                let column = |m: &[Vec<f64>]| -> Vec<f64> { m.iter().map(|r| r[j]).collect() };
+                worst = worst.max(close(&column(&hqq), &diff(&gqp, &gqm)));
+                worst = worst.max(close(&column(&hqv), &diff(&gq_vp, &gq_vm)));
+                worst = worst.max(close(&column(&hvv), &diff(&gv_vp, &gv_vm)));
+                worst = worst.max(close(&column(&jq), &diff(&fp, &fm)));
+                worst = worst.max(close(&column(&jv), &diff(&fvp, &fvm)));
+            }
+            println!("{rep}: derivatives against central differences {worst:.1e}");
+            assert!(worst <= DIFFERENCES, "{rep}: derivatives off by {worst:e}");
+        }
+    }
+
+    /// The constraint rows, written out: P's internal row at P's offset, then one row per node,
+    /// joint and (constraint form) coupling endpoint, with the ports' coefficients and signs.
+    #[test]
+    fn constraint_rows_are_the_internal_rows_and_the_connections() {
+        let g = graph();
+        // (name, entries) per row; coordinates: P = 0, 1; A = 2; B = 3; C = 4; endpoints 5, 6, 7.
+        let internal = ("P/slide", vec![(0, 1.0), (1, -2.0)]);
+        let joint = ("joint `j`", vec![(2, 1.0), (4, 1.5)]);
+        let node = (
+            "node `n` (KCL)",
+            vec![(0, 0.5), (1, 2.0), (2, -1.0), (3, 1.0)],
+        );
+        for rep in [
+            Representation::Monolithic,
+            Representation::Constraint,
+            Representation::InteractionForce,
+        ] {
+            let system = Assembler::assemble(&g, rep).unwrap();
+            let mut want = vec![internal.clone()];
+            // Connections in order: s, cubic, d, j, n.
+            let mut rows_of = vec![None, None, None, Some(1), Some(2)];
+            if rep == Representation::Constraint {
+                want.push(("joint `s` (endpoint)", vec![(5, 1.0), (0, -0.5), (1, -2.0)]));
+                want.push(("joint `cubic` (endpoint)", vec![(6, 1.0), (3, -1.0)]));
+                want.push(("joint `d` (endpoint)", vec![(7, 1.0), (4, 1.5)]));
+                rows_of = vec![Some(1), Some(2), Some(3), Some(4), Some(5)];
+            }
+            want.push(joint.clone());
+            want.push(node.clone());
+            let c = &system.constraints;
+            assert_eq!(c.count(), want.len(), "{rep}");
+            let n = system.coordinates();
+            let mut forms = Triplets::new();
+            forms.begin();
+            c.forms(&vec![0.3; n], &mut forms);
+            for (a, (name, entries)) in want.iter().enumerate() {
+                assert_eq!(&c.name(a), name, "{rep}: row {a}");
+                assert_eq!(c.kind(a), ConstraintKind::OneForm);
+                let mut got: Vec<(usize, f64)> = forms
+                    .iter()
+                    .filter(|(r, _, _)| *r == a)
+                    .map(|(_, j, v)| (j, v))
+                    .collect();
+                got.sort_by_key(|x| x.0);
+                let mut entries = entries.clone();
+                entries.sort_by_key(|x| x.0);
+                assert_eq!(got, entries, "{rep}: row {a} ({name})");
+            }
+            for (connection, row) in rows_of.iter().enumerate() {
+                assert_eq!(
+                    system.connection_row(connection),
+                    *row,
+                    "{rep}: {connection}"
+                );
+            }
+            assert!(c.is_constant());
+        }
+    }
+
+    /// Initial data: endpoint entries take the partner port's value; a wrong length is a typed
+    /// error naming the subsystem. Momenta: each endpoint's momentum is added to its partner
+    /// port's coordinates with the port's coefficients.
+    #[test]
+    fn endpoints_take_and_return_their_partners_values() {
+        let g = graph();
+        let system = Assembler::assemble(&g, Representation::Constraint).unwrap();
+        let names: Vec<String> = ["P", "A", "B", "C"].map(String::from).to_vec();
+        let per = vec![vec![0.2, -0.4], vec![1.0], vec![-0.5], vec![0.6]];
+        let q = system.global_vector(&per, &names).unwrap();
+        // Partners: s → P.y = 0.5·0.2 + 2·(−0.4); cubic → B.x; d → C.x = −1.5·0.6.
+        assert_eq!(
+            q,
+            vec![
+                0.2,
+                -0.4,
+                1.0,
+                -0.5,
+                0.6,
+                0.5 * 0.2 + 2.0 * -0.4,
+                -0.5,
+                -1.5 * 0.6
+            ]
+        );
+        let bad = vec![vec![0.2], vec![1.0], vec![-0.5], vec![0.6]];
+        assert_eq!(
+            system.global_vector(&bad, &names),
+            Err(GraphError::InitialDimension {
+                subsystem: "P".into(),
+                got: 1,
+                expected: 2
+            })
+        );
+        let p = [1.0, 2.0, 3.0, 4.0, 5.0, 10.0, 20.0, 30.0];
+        assert_eq!(
+            system.subsystem_momenta(&p),
+            vec![
+                1.0 + 0.5 * 10.0,
+                2.0 + 2.0 * 10.0,
+                3.0,
+                4.0 + 20.0,
+                5.0 - 1.5 * 30.0
+            ]
+        );
+        assert_eq!(system.subsystem_positions(&p), &p[..5]);
+        assert_eq!(system.subsystem_coordinates(), 5);
+        assert_eq!(system.global_index(crate::SubsystemId(2), 0), 3);
+    }
+
+    /// Staggered co-simulation needs couplings only; a subsystem's frozen-coupling model applies
+    /// the coupling's force with the partner held at the frozen value, on its own side.
+    #[test]
+    fn staggered_plan_freezes_the_partner() {
+        assert_eq!(
+            Assembler::staggered(&graph()).err(),
+            Some(GraphError::StaggeredNeedsCouplings("j".into()))
+        );
+        let mut g = Interconnection::new();
+        g.add_subsystem(Subsystem::new("A", A).with_port("x", 0))
+            .unwrap();
+        g.add_subsystem(Subsystem::new("B", B).with_combination_port("x", vec![(0, 2.0)]))
+            .unwrap();
+        let (a, b) = (g.port("A", "x").unwrap(), g.port("B", "x").unwrap());
+        g.coupling("s", a, b, LinearSpring { k: 3.0, rest: 0.2 });
+        let plan = Assembler::staggered(&g).unwrap();
+        let (ma, mb) = (&plan.models[0], &plan.models[1]);
+        ma.freeze(0, 0.7, 0.0);
+        mb.freeze(0, -0.4, 0.0);
+        let mut f = [f64::NAN];
+        // A at x = 0.1 against B.x frozen at 0.7: own force plus −k(x_a − x_b − ℓ).
+        ma.force(&[0.1], &[0.5], 0.0, &mut f);
+        let want = A.f(0.1, 0.5) - 3.0 * (0.1 - 0.7 - 0.2);
+        assert!((f[0] - want).abs() <= 1e-15, "{} vs {want}", f[0]);
+        // B (port 2·x) at x = 0.3 against A.x frozen at −0.4: 2·k(x_a − x_b − ℓ).
+        mb.force(&[0.3], &[0.0], 0.0, &mut f);
+        let want = 2.0 * 3.0 * (-0.4 - 0.6 - 0.2);
+        assert!((f[0] - want).abs() <= 1e-15, "{} vs {want}", f[0]);
+        assert_eq!(ma.links()[0].partner, crate::SubsystemId(1));
+    }
 }

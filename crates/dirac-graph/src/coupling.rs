@@ -40,6 +40,11 @@ pub trait CouplingElement: Send + Sync {
     fn is_autonomous(&self) -> bool {
         false
     }
+    /// The first time after `t` at which the force stops being smooth in time (see
+    /// [`dirac_core::Model::next_breakpoint`]).
+    fn next_breakpoint(&self, _t: f64) -> Option<f64> {
+        None
+    }
     /// A short description for diagnostics.
     fn describe(&self) -> String;
 }
@@ -105,5 +110,61 @@ impl CouplingElement for LinearDamper {
     }
     fn describe(&self) -> String {
         format!("damper c = {}", self.c)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The stock elements' derivatives against central differences of their potential and force.
+
+    use super::*;
+
+    /// Central differences at δ = 1e-6 of order-one functions: exact for the quadratic spring up
+    /// to round-off ε/δ ≈ 2e-10.
+    const DIFFERENCES: f64 = 1e-8;
+
+    #[test]
+    fn spring_derivatives_match_its_potential() {
+        let s = LinearSpring { k: 2.5, rest: 0.3 };
+        let (xa, xb, d) = (0.9, -0.4, 1e-6);
+        let g = s.potential_gradient(xa, xb);
+        let num = [
+            (s.potential(xa + d, xb) - s.potential(xa - d, xb)) / (2.0 * d),
+            (s.potential(xa, xb + d) - s.potential(xa, xb - d)) / (2.0 * d),
+        ];
+        // V = ½k(x_a − x_b − ℓ)² = ½·2.5·(1.3 − 0.3)².
+        assert!((s.potential(xa, xb) - 1.25).abs() <= 1e-15);
+        let h = s.potential_hessian(xa, xb);
+        for i in 0..2 {
+            assert!((g[i] - num[i]).abs() <= DIFFERENCES, "{g:?} vs {num:?}");
+            let shifted = |e: f64| {
+                let (a, b) = if i == 0 { (xa + e, xb) } else { (xa, xb + e) };
+                s.potential_gradient(a, b)
+            };
+            let (p, m) = (shifted(d), shifted(-d));
+            for r in 0..2 {
+                let num = (p[r] - m[r]) / (2.0 * d);
+                assert!((h[r][i] - num).abs() <= DIFFERENCES, "{h:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn damper_jacobian_matches_its_force() {
+        let c = LinearDamper { c: 0.7 };
+        let (x, v, d) = ([0.2, -0.1], [1.3, -0.4], 1e-6);
+        // f_a = −c(v_a − v_b) = −0.7·1.7.
+        assert!((c.force(x, v, 0.0)[0] + 0.7 * 1.7).abs() <= 1e-15);
+        let [jq, jv] = c.force_jacobian(x, v, 0.0);
+        for i in 0..2 {
+            let (mut vp, mut vm) = (v, v);
+            vp[i] += d;
+            vm[i] -= d;
+            let (fp, fm) = (c.force(x, vp, 0.0), c.force(x, vm, 0.0));
+            for r in 0..2 {
+                assert!((jv[r][i] - (fp[r] - fm[r]) / (2.0 * d)).abs() <= DIFFERENCES);
+                assert_eq!(jq[r][i], 0.0);
+            }
+        }
     }
 }

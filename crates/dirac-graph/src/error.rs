@@ -34,9 +34,22 @@ pub enum GraphError {
     /// A node joins fewer than two ports.
     #[error("connection `{0}` joins fewer than two ports")]
     TooFewPorts(String),
+    /// A holonomic connection reads no port or too many, or has no rows.
+    #[error(
+        "constraint `{connection}` reads {ports} ports and has {rows} rows (it needs 1 to {max} ports and at least one row)",
+        max = crate::interconnection::MAX_CONSTRAINT_PORTS
+    )]
+    ConstraintShape {
+        /// The connection.
+        connection: String,
+        /// Ports it reads.
+        ports: usize,
+        /// Rows it has.
+        rows: usize,
+    },
     /// Staggered co-simulation cannot split a constraint between subsystems.
     #[error(
-        "staggered co-simulation needs coupling elements between subsystems; connection `{0}` is a node or joint"
+        "staggered co-simulation needs coupling elements between subsystems; connection `{0}` is a node, joint or holonomic constraint"
     )]
     StaggeredNeedsCouplings(String),
     /// Initial data have the wrong length.

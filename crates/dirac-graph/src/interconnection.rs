@@ -7,6 +7,7 @@ use petgraph::graph::{NodeIndex, UnGraph};
 
 use crate::coupling::CouplingElement;
 use crate::error::GraphError;
+use crate::port_constraint::PortConstraint;
 use crate::subsystem::Subsystem;
 
 /// Handle of a subsystem in an [`Interconnection`].
@@ -56,16 +57,30 @@ pub enum Connection {
         /// The element.
         element: Arc<dyn CouplingElement>,
     },
+    /// A holonomic constraint `g(x) = 0` on the values of several ports (a joint between rigid
+    /// bodies), enforced at position level.
+    Holonomic {
+        /// Constraint name.
+        name: String,
+        /// The ports whose values `x` the constraint reads, in its order.
+        ports: Vec<PortRef>,
+        /// The constraint.
+        constraint: Arc<dyn PortConstraint>,
+    },
 }
+
+/// Most ports a [`Connection::Holonomic`] may read (their values are gathered on the stack).
+pub const MAX_CONSTRAINT_PORTS: usize = 32;
 
 impl Connection {
     /// The connection's name.
     #[must_use]
     pub fn name(&self) -> &str {
         match self {
-            Self::Node { name, .. } | Self::Joint { name, .. } | Self::Coupling { name, .. } => {
-                name
-            }
+            Self::Node { name, .. }
+            | Self::Joint { name, .. }
+            | Self::Coupling { name, .. }
+            | Self::Holonomic { name, .. } => name,
         }
     }
 
@@ -74,6 +89,7 @@ impl Connection {
     pub fn ports(&self) -> Vec<PortRef> {
         match self {
             Self::Node { ports, .. } => ports.iter().map(|(p, _)| *p).collect(),
+            Self::Holonomic { ports, .. } => ports.clone(),
             Self::Joint { a, b, .. } | Self::Coupling { a, b, .. } => vec![*a, *b],
         }
     }
@@ -104,6 +120,16 @@ impl std::fmt::Debug for Connection {
                 .field("a", a)
                 .field("b", b)
                 .field("element", &element.describe())
+                .finish(),
+            Self::Holonomic {
+                name,
+                ports,
+                constraint,
+            } => f
+                .debug_struct("Holonomic")
+                .field("name", name)
+                .field("ports", ports)
+                .field("rows", &constraint.rows())
                 .finish(),
         }
     }
@@ -226,6 +252,52 @@ impl Interconnection {
         })
     }
 
+    /// A holonomic constraint `g(x) = 0` on the values `x` of `ports` (in that order), such as a
+    /// joint between rigid bodies. Fails when it reads no port, more than
+    /// [`MAX_CONSTRAINT_PORTS`], or has no rows.
+    pub fn holonomic(
+        &mut self,
+        name: impl Into<String>,
+        ports: Vec<PortRef>,
+        constraint: impl PortConstraint + 'static,
+    ) -> Result<ConnectionId, GraphError> {
+        let name = name.into();
+        if ports.is_empty() || ports.len() > MAX_CONSTRAINT_PORTS || constraint.rows() == 0 {
+            return Err(GraphError::ConstraintShape {
+                connection: name,
+                ports: ports.len(),
+                rows: constraint.rows(),
+            });
+        }
+        Ok(self.add_connection(Connection::Holonomic {
+            name,
+            ports,
+            constraint: Arc::new(constraint),
+        }))
+    }
+
+    /// The subsystem named `name`.
+    #[must_use]
+    pub fn subsystem_id(&self, name: &str) -> Option<SubsystemId> {
+        self.by_name.get(name).copied()
+    }
+
+    /// The connection named `name` (the first, if names repeat).
+    #[must_use]
+    pub fn connection_id(&self, name: &str) -> Option<ConnectionId> {
+        self.connections
+            .iter()
+            .position(|c| c.name() == name)
+            .map(ConnectionId)
+    }
+
+    /// The local index of the coordinate named `coordinate` of subsystem `id`.
+    #[must_use]
+    pub fn coordinate_index(&self, id: SubsystemId, coordinate: &str) -> Option<usize> {
+        let model = self.subsystems.get(id.0)?.model();
+        (0..model.dim()).find(|&i| model.coordinate_name(i) == coordinate)
+    }
+
     /// The subsystems, in insertion order.
     #[must_use]
     pub fn subsystems(&self) -> &[Subsystem] {
@@ -284,5 +356,111 @@ impl Interconnection {
     #[must_use]
     pub fn component_count(&self) -> usize {
         petgraph::algo::connected_components(&self.graph)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! Building a graph: names and ports are checked when they are given, and the queries
+    //! (offsets, port values, neighbours, components) agree with the layout written out by hand.
+
+    use super::*;
+    use crate::coupling::LinearSpring;
+    use dirac_core::{LagrangianHessian, Model};
+
+    /// `n` free unit masses (`L = ½|v|²`).
+    struct Free(usize);
+
+    impl Model for Free {
+        fn dim(&self) -> usize {
+            self.0
+        }
+        fn lagrangian(&self, _q: &[f64], v: &[f64]) -> f64 {
+            0.5 * v.iter().map(|x| x * x).sum::<f64>()
+        }
+        fn lagrangian_gradient(&self, _q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+            lq.fill(0.0);
+            lv.copy_from_slice(v);
+        }
+        fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
+            for i in 0..self.0 {
+                h.vv.add(i, i, 1.0);
+            }
+        }
+    }
+
+    fn part(name: &str, dim: usize) -> Subsystem {
+        Subsystem::new(name, Free(dim))
+    }
+
+    #[test]
+    fn names_and_ports_are_checked() {
+        let mut g = Interconnection::new();
+        g.add_subsystem(part("a", 2).with_port("x", 1)).unwrap();
+        assert_eq!(
+            g.add_subsystem(part("a", 1)),
+            Err(GraphError::DuplicateSubsystem("a".into()))
+        );
+        assert_eq!(
+            g.add_subsystem(part("b", 2).with_combination_port("y", vec![(0, 1.0), (2, 1.0)])),
+            Err(GraphError::PortOutOfRange {
+                subsystem: "b".into(),
+                port: "y".into(),
+                coordinate: 2,
+                dim: 2
+            })
+        );
+        assert_eq!(
+            g.port("c", "x"),
+            Err(GraphError::UnknownSubsystem("c".into()))
+        );
+        assert_eq!(
+            g.port("a", "z"),
+            Err(GraphError::UnknownPort {
+                subsystem: "a".into(),
+                port: "z".into()
+            })
+        );
+        let x = g.port("a", "x").unwrap();
+        assert_eq!(
+            g.node("lonely", vec![(x, 1.0)]),
+            Err(GraphError::TooFewPorts("lonely".into()))
+        );
+        // Failed additions leave nothing behind.
+        assert_eq!(g.subsystems().len(), 1);
+        assert!(g.connections().is_empty());
+    }
+
+    /// Four parts (dims 2, 1, 3, 1): a–b by a spring, b–c by a joint, d alone.
+    #[test]
+    fn layout_and_neighbours() {
+        let mut g = Interconnection::new();
+        g.add_subsystem(part("a", 2).with_combination_port("x", vec![(0, 2.0), (1, -1.0)]))
+            .unwrap();
+        g.add_subsystem(part("b", 1).with_port("x", 0)).unwrap();
+        g.add_subsystem(part("c", 3).with_port("x", 2)).unwrap();
+        g.add_subsystem(part("d", 1).with_port("x", 0)).unwrap();
+        let port = |g: &Interconnection, s: &str| g.port(s, "x").unwrap();
+        let (a, b, c) = (port(&g, "a"), port(&g, "b"), port(&g, "c"));
+        let spring = g.coupling("s", a, b, LinearSpring { k: 1.0, rest: 0.0 });
+        let joint = g.joint("j", b, c);
+        assert_eq!((spring, joint), (ConnectionId(0), ConnectionId(1)));
+        assert_eq!(g.connections()[1].name(), "j");
+        assert_eq!(g.connections()[0].ports(), vec![a, b]);
+
+        let offsets = g.coordinate_offsets();
+        assert_eq!(offsets, vec![0, 2, 3, 6]);
+        let values = [1.0, 3.0, 5.0, 7.0, 11.0, 13.0, 17.0];
+        assert_eq!(g.port_value(&offsets, &values, a), 2.0 * 1.0 - 3.0);
+        assert_eq!(g.port_value(&offsets, &values, c), 13.0);
+        assert_eq!(g.port_value(&offsets, &values, port(&g, "d")), 17.0);
+
+        let mut nb = g.neighbours(SubsystemId(1));
+        nb.sort();
+        assert_eq!(nb, vec![SubsystemId(0), SubsystemId(2)]);
+        assert_eq!(g.neighbours(SubsystemId(0)), vec![SubsystemId(1)]);
+        assert!(g.neighbours(SubsystemId(3)).is_empty());
+        // {a, b, c} and {d}.
+        assert_eq!(g.component_count(), 2);
     }
 }

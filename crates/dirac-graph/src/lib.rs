@@ -2,8 +2,9 @@
 //!
 //! A [`Subsystem`] is a model on its own coordinates with internal constraints and named
 //! [`Port`]s; it knows nothing of the graph. An [`Interconnection`] joins ports by connections:
-//! electrical nodes (KCL), rigid joints (equal port velocities) and coupling elements (springs,
-//! dampers, any potential or force of two port coordinates). The [`Assembler`] turns one graph into
+//! electrical nodes (KCL), rigid joints (equal port velocities), coupling elements (springs,
+//! dampers, any potential or force of two port coordinates) and holonomic constraints on several
+//! port values ([`PortConstraint`]: joints between rigid bodies). The [`Assembler`] turns one graph into
 //! an ordinary [`dirac_core::Model`] plus [`dirac_core::Constraints`] on the global coordinates, in
 //! the representation asked for:
 //!
@@ -21,6 +22,7 @@ mod assembler;
 mod coupling;
 mod error;
 mod interconnection;
+mod port_constraint;
 mod subsystem;
 
 pub use assembler::{
@@ -29,5 +31,8 @@ pub use assembler::{
 };
 pub use coupling::{CouplingElement, LinearDamper, LinearSpring};
 pub use error::GraphError;
-pub use interconnection::{Connection, ConnectionId, Interconnection, PortRef, SubsystemId};
+pub use interconnection::{
+    Connection, ConnectionId, Interconnection, MAX_CONSTRAINT_PORTS, PortRef, SubsystemId,
+};
+pub use port_constraint::PortConstraint;
 pub use subsystem::{Port, Subsystem};

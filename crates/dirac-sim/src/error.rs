@@ -7,7 +7,7 @@ use thiserror::Error;
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SimError {
     /// Newton failed in a step; `likely_cause` explains what usually produces this failure.
-    #[error("step {step} (t = {t}): {source}; {likely_cause}")]
+    #[error("step {step} (t = {}): {source}; {likely_cause}", Time(*.t))]
     Newton {
         /// Index of the step that failed (0 is the first step).
         step: usize,
@@ -45,7 +45,27 @@ pub enum SimError {
     /// The interconnection could not be assembled.
     #[error(transparent)]
     Graph(#[from] dirac_graph::GraphError),
+    /// A recorded value is NaN or infinite (the state left the model's domain).
+    #[error("t = {}: `{what}` is not finite (the state left the model's domain)", Time(*.t))]
+    NonFinite {
+        /// The signal.
+        what: String,
+        /// The time of the row.
+        t: f64,
+    },
     /// A non-positive or non-finite step size.
     #[error("step size must be positive and finite, got {0}")]
     StepSize(f64),
+}
+
+/// A time for messages: rounded to 12 significant digits, so that `t₀ + k·h` prints as `0.9`
+/// rather than `0.8999999999999999`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Time(pub f64);
+
+impl std::fmt::Display for Time {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let rounded: f64 = format!("{:.11e}", self.0).parse().unwrap_or(self.0);
+        write!(f, "{rounded}")
+    }
 }

@@ -63,6 +63,10 @@ pub struct IntegratorOptions {
     /// steps: LC tank energy 4.5e-11 after 10⁶ steps) where the Newton path's rounding is a random
     /// walk (5.5e-13). Off by default.
     pub affine_map: bool,
+    /// Land a substep on every source breakpoint ([`dirac_core::Model::next_breakpoint`]) inside a
+    /// step (on by default). Off, a corner inside a step is seen only through the quadrature of
+    /// the force, which costs `O(h·jump)` at that step whatever the order.
+    pub breakpoints: bool,
     /// The step as a composition of substeps `γᵢ h` (each one step of `scheme`); a single step by
     /// default. With the symmetric scheme (or no constraints) the compositions of
     /// [`Composition`] raise the order of a second-order discretisation to 4, 6 or 8.
@@ -80,8 +84,16 @@ impl IntegratorOptions {
             solver: SolverChoice::Auto,
             newton: NewtonOptions::default(),
             affine_map: false,
+            breakpoints: true,
             composition: Composition::single(),
         }
+    }
+
+    /// Lands substeps on source breakpoints (see [`IntegratorOptions::breakpoints`]).
+    #[must_use]
+    pub fn breakpoints(mut self, on: bool) -> Self {
+        self.breakpoints = on;
+        self
     }
 
     /// Composes the step from substeps `γᵢ h` (see [`IntegratorOptions::composition`]).
@@ -151,7 +163,30 @@ pub struct Integrator<M, C> {
     p_next: Vec<f64>,
     stats: NewtonStats,
     affine: Affine,
+    /// Constraint impulses of the last step (all substeps and multiplier blocks), per active row.
+    impulse: Vec<f64>,
+    /// The state at the start of the step (restored when a substep fails and is cut).
+    saved_q: Vec<f64>,
+    saved_p: Vec<f64>,
+    saved_impulse: Vec<f64>,
+    counters: StepCounters,
 }
+
+/// How often steps were split: at source breakpoints and after Newton failures.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StepCounters {
+    /// Substeps ending on a breakpoint of a source (a step containing one corner takes two).
+    pub breakpoint_substeps: usize,
+    /// Times a substep failed and was retried as two halves.
+    pub step_cuts: usize,
+}
+
+/// Breakpoints closer than this fraction of `h` to a grid point or to each other are merged
+/// (a substep that short would only add round-off).
+const BREAKPOINT_SNAP: f64 = 1e-9;
+
+/// How many times a failing substep is halved before the failure is reported (down to h/1024).
+const MAX_CUT_DEPTH: u32 = 10;
 
 /// Largest state dimension `2n` (and unknown count) for which the step is applied as a dense map.
 const AFFINE_LIMIT: usize = 32;
@@ -209,6 +244,14 @@ struct Stage {
     older: Vec<f64>,
     /// Work space for diagnostics that re-evaluate the step equations.
     scratch: Vec<f64>,
+    /// This substep's size as a fraction of `h` (a composition's `γᵢ`, halved by the symmetric
+    /// scheme).
+    fraction: f64,
+    /// Newton for substeps of other sizes (landing on a breakpoint, a cut step), so the regular
+    /// step keeps its factorisation.
+    aux: Option<(Newton<AutoLu>, f64)>,
+    /// The size of the last solve (the guess of the next one is scaled from it).
+    last_size: f64,
 }
 
 impl Stage {
@@ -222,6 +265,9 @@ impl Stage {
         let step = ForcedDiracStep::new(model, constraints, &options.discretisation, flavour, h);
         let unknowns = step.unknowns();
         Self {
+            fraction: h / options.h,
+            aux: None,
+            last_size: h,
             newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
             x: vec![0.0; unknowns],
             older: vec![0.0; unknowns],
@@ -333,6 +379,11 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             p_next: vec![0.0; n],
             stats: NewtonStats::default(),
             affine: Affine::Unknown,
+            impulse: Vec::new(),
+            saved_q: vec![0.0; n],
+            saved_p: vec![0.0; n],
+            saved_impulse: Vec::new(),
+            counters: StepCounters::default(),
         })
     }
 
@@ -462,6 +513,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         if matches!(self.affine, Affine::Unknown) {
             self.affine = self.build_affine()?;
         }
+        self.impulse.clear();
+        self.impulse.resize(self.constraints.count(), 0.0);
         if let Affine::Map { x, p, x0, p0, z } = &mut self.affine {
             let n = self.q.len();
             z[..n].copy_from_slice(&self.q);
@@ -475,21 +528,195 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             }
             stage.step.set_start(&self.q, &self.p, self.t);
             stage.step.end_position(&stage.x, &mut self.q);
+            Self::add_impulse(&mut self.impulse, stage);
             self.k += 1;
             self.t = self.t0 + self.k as f64 * self.options.h;
             return Ok(StepReport {
                 newton: NewtonStats::default(),
             });
         }
+        let h = self.options.h;
+        let t_end = self.t0 + (self.k + 1) as f64 * h;
         let mut stats = NewtonStats::default();
-        for i in 0..self.stages.len() {
-            stats.accumulate(&self.substep(i)?);
+        loop {
+            let t = self.t;
+            let mut corner = if self.options.breakpoints {
+                self.model.next_breakpoint(t)
+            } else {
+                None
+            };
+            while let Some(b) = corner.filter(|b| *b <= t + BREAKPOINT_SNAP * h) {
+                corner = self.model.next_breakpoint(b);
+            }
+            match corner.filter(|b| *b < t_end - BREAKPOINT_SNAP * h) {
+                Some(b) => {
+                    self.counters.breakpoint_substeps += 1;
+                    stats.accumulate(&self.advance(b - t, 0)?);
+                    self.t = b;
+                }
+                None => {
+                    stats.accumulate(&self.advance(t_end - t, 0)?);
+                    break;
+                }
+            }
         }
         self.k += 1;
         // t_k = t₀ + k h, not a running sum (which drifts by ~k·ε·h).
-        self.t = self.t0 + self.k as f64 * self.options.h;
+        self.t = t_end;
         self.stats.accumulate(&stats);
         Ok(StepReport { newton: stats })
+    }
+
+    /// Advances by `size` (every substep of the scheme, scaled), halving it up to
+    /// [`MAX_CUT_DEPTH`] times while Newton fails.
+    fn advance(&mut self, size: f64, depth: u32) -> Result<NewtonStats, SimError> {
+        let regular = (size - self.options.h).abs() <= 1e-12 * self.options.h;
+        // The state before this attempt, restored if it fails (preallocated for the first
+        // attempt, so a step that needs no cut allocates nothing).
+        let saved = if depth == 0 {
+            self.saved_q.copy_from_slice(&self.q);
+            self.saved_p.copy_from_slice(&self.p);
+            self.saved_impulse.clone_from(&self.impulse);
+            None
+        } else {
+            Some((self.q.clone(), self.p.clone(), self.impulse.clone()))
+        };
+        let t = self.t;
+        let mut stats = NewtonStats::default();
+        let mut result = Ok(());
+        for i in 0..self.stages.len() {
+            let solved = if regular {
+                self.substep(i)
+            } else {
+                let fraction = self.stages[i].fraction;
+                self.substep_sized(i, fraction * size)
+            };
+            match solved {
+                Ok(s) => stats.accumulate(&s),
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            }
+        }
+        let error = match result {
+            Ok(()) => return Ok(stats),
+            Err(e) => e,
+        };
+        let retry = matches!(
+            &error,
+            SimError::Newton {
+                source: NewtonError::NotConverged { .. }
+                    | NewtonError::NonFiniteResidual { .. }
+                    | NewtonError::Linear {
+                        source: LinearSolveError::NumericallySingular { .. }
+                            | LinearSolveError::NonFinite { .. },
+                        ..
+                    },
+                ..
+            }
+        );
+        if !retry || depth >= MAX_CUT_DEPTH {
+            return Err(match error {
+                SimError::Newton {
+                    step,
+                    t,
+                    source,
+                    likely_cause,
+                } if depth > 0 => SimError::Newton {
+                    step,
+                    t,
+                    source,
+                    likely_cause: format!(
+                        "{likely_cause} (the step was cut {depth} times, to h/{}, without success)",
+                        1u64 << depth
+                    ),
+                },
+                other => other,
+            });
+        }
+        match saved {
+            None => {
+                self.q.copy_from_slice(&self.saved_q);
+                self.p.copy_from_slice(&self.saved_p);
+                self.impulse.clone_from(&self.saved_impulse);
+            }
+            Some((q, p, impulse)) => {
+                self.q = q;
+                self.p = p;
+                self.impulse = impulse;
+            }
+        }
+        self.t = t;
+        self.counters.step_cuts += 1;
+        let half = 0.5 * size;
+        let first = self.advance(half, depth + 1)?;
+        self.t = t + half;
+        let second = self.advance(half, depth + 1)?;
+        stats.accumulate(&first);
+        stats.accumulate(&second);
+        Ok(stats)
+    }
+
+    /// Substep `i` at a size other than its regular one, solved with the stage's auxiliary Newton
+    /// (the regular factorisation is kept).
+    fn substep_sized(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
+        let stage = &mut self.stages[i];
+        let nominal = stage.step.step_size();
+        stage.step.set_step_size(size);
+        stage.step.set_start(&self.q, &self.p, self.t);
+        if self.k == 0 && stage.last_size == nominal {
+            stage
+                .step
+                .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
+        } else {
+            let ratio = size / stage.last_size;
+            for x in &mut stage.x {
+                *x *= ratio;
+            }
+        }
+        let options = self.options.newton;
+        let solver = self.options.solver;
+        let unknowns = stage.step.unknowns();
+        let (newton, aux_size) = stage.aux.get_or_insert_with(|| {
+            (
+                Newton::new(AutoLu::for_size(solver, unknowns), options),
+                size,
+            )
+        });
+        if *aux_size != size {
+            newton.invalidate_factorisation();
+            *aux_size = size;
+        }
+        let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
+        let result = self.solve_stage(i, scale, false, true);
+        let stage = &mut self.stages[i];
+        stage.step.set_step_size(nominal);
+        stage.last_size = size;
+        let stats = result?;
+        stage.step.set_step_size(size);
+        stage
+            .step
+            .end_momentum(&self.model, &stage.x, &mut self.p_next);
+        stage.step.end_position(&stage.x, &mut self.q);
+        stage.step.set_step_size(nominal);
+        // The next regular step starts its predictor afresh from this solution.
+        stage.older.copy_from_slice(&stage.x);
+        Self::add_impulse(&mut self.impulse, stage);
+        std::mem::swap(&mut self.p, &mut self.p_next);
+        self.t += size;
+        Ok(stats)
+    }
+
+    /// Adds every multiplier block of stage `stage`'s solution to `impulse`.
+    fn add_impulse(impulse: &mut [f64], stage: &Stage) {
+        let m = impulse.len();
+        for j in 0..stage.step.degree() {
+            let o = stage.step.multiplier_offset(j);
+            for (acc, l) in impulse.iter_mut().zip(&stage.x[o..o + m]) {
+                *acc += l;
+            }
+        }
     }
 
     /// Solves stage `i`'s step equations from its current start and guess, reporting a failure
@@ -501,8 +728,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         i: usize,
         scale: f64,
         end_momentum: bool,
+        aux: bool,
     ) -> Result<NewtonStats, SimError> {
         let stage = &mut self.stages[i];
+        let newton = match (&mut stage.aux, aux) {
+            (Some((newton, _)), true) => newton,
+            _ => &mut stage.newton,
+        };
         let mut system = StepSystem {
             model: &self.model,
             constraints: &self.constraints,
@@ -513,7 +745,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             scale,
             end_momentum: end_momentum.then_some(&mut stage.linear_end.at_guess[..]),
         };
-        match stage.newton.solve(&mut system, &mut stage.x) {
+        match newton.solve(&mut system, &mut stage.x) {
             Ok(stats) => Ok(stats),
             Err(source) => {
                 let likely_cause = self.likely_cause(&source);
@@ -537,7 +769,16 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let constant = stage
             .step
             .jacobian_is_constant(&self.model, &self.constraints);
-        if self.k == 0 {
+        let nominal = stage.step.step_size();
+        if stage.last_size != nominal {
+            // After a substep of another size: scale its solution, extrapolate nothing.
+            let ratio = nominal / stage.last_size;
+            for (x, old) in stage.x.iter_mut().zip(stage.older.iter_mut()) {
+                *x *= ratio;
+                *old = *x;
+            }
+            stage.last_size = nominal;
+        } else if self.k == 0 {
             stage
                 .step
                 .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
@@ -554,7 +795,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             stage.linear_end.guess.copy_from_slice(&stage.x);
         }
         let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
-        let stats = self.solve_stage(i, scale, constant)?;
+        let stats = self.solve_stage(i, scale, constant, false)?;
         let stage = &mut self.stages[i];
         if constant {
             let end = &mut stage.linear_end;
@@ -573,6 +814,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .end_momentum(&self.model, &stage.x, &mut self.p_next);
         }
         stage.step.end_position(&stage.x, &mut self.q);
+        Self::add_impulse(&mut self.impulse, stage);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.t += stage.step.step_size();
         Ok(stats)
@@ -616,7 +858,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             let stage = &mut self.stages[0];
             stage.step.set_start(&column[..n], &column[n..], self.t);
             stage.x.fill(0.0);
-            let stats = self.solve_stage(0, 1.0, false)?;
+            let stats = self.solve_stage(0, 1.0, false, false)?;
             self.stats.accumulate(&stats);
             let stage = &mut self.stages[0];
             stage
@@ -678,34 +920,61 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     }
 
     fn likely_cause(&self, error: &NewtonError) -> String {
+        let linear = self.model.is_linear();
+        let first = self.k == 0;
         match error {
-            NewtonError::Linear { source, .. } => match source {
+            NewtonError::Linear {
+                source,
+                worst_equation,
+                ..
+            } => match source {
                 LinearSolveError::EmptyRow { row } => format!(
-                    "{} has no entries (an empty constraint row)",
+                    "singular model: {} has no entries (an empty constraint row)",
                     self.describe_equation(*row)
                 ),
                 LinearSolveError::EmptyColumn { col } => format!(
-                    "{} appears in no equation (a degenerate direction with neither potential nor constraint)",
+                    "singular model: {} appears in no equation (a degenerate direction with neither potential nor constraint)",
                     self.describe_unknown(*col)
                 ),
                 LinearSolveError::NumericallySingular { index }
                 | LinearSolveError::StructurallySingular { index }
-                | LinearSolveError::NonFinite { index } => format!(
-                    "singular Newton matrix near {}: a coordinate no equation determines, or redundant or contradicting constraints",
-                    self.describe_unknown(
-                        (*index).min(self.stages[0].step.unknowns().saturating_sub(1))
-                    )
-                ),
+                | LinearSolveError::NonFinite { index } => {
+                    let unknown = self.describe_unknown(
+                        (*index).min(self.stages[0].step.unknowns().saturating_sub(1)),
+                    );
+                    let equation = self.describe_equation(*worst_equation);
+                    if linear || matches!(source, LinearSolveError::StructurallySingular { .. }) {
+                        format!(
+                            "singular model: the Newton matrix is singular near {unknown} (largest residual in {equation}): a coordinate no equation determines, or redundant or contradicting constraints"
+                        )
+                    } else if first {
+                        format!(
+                            "the Newton matrix is singular near {unknown} at the start (largest residual in {equation}): a coordinate no equation determines, redundant or contradicting constraints, or initial data at a singular point of a nonlinear part"
+                        )
+                    } else {
+                        format!(
+                            "the Newton matrix became singular near {unknown} (largest residual in {equation}), having been regular on the steps before: a nonlinear part reached a singular point of its characteristic (an inductor at its saturation flux, say) or the step is too large for it"
+                        )
+                    }
+                }
                 LinearSolveError::Pattern(_) => {
                     "a model or constraint emitted a different derivative pattern between calls"
                         .into()
                 }
                 LinearSolveError::Backend(_) => "the sparse solver failed".into(),
             },
-            NewtonError::NotConverged { worst_equation, .. } => format!(
-                "largest residual in {}: step too large for the nonlinearity, or constraints that cannot all hold",
-                self.describe_equation(*worst_equation)
-            ),
+            NewtonError::NotConverged { worst_equation, .. } => {
+                let equation = self.describe_equation(*worst_equation);
+                if first {
+                    format!(
+                        "largest residual in {equation}: initial data inconsistent with a nonlinear part, a step too large for the nonlinearity, or constraints that cannot all hold"
+                    )
+                } else {
+                    format!(
+                        "largest residual in {equation}: step too large for a nonlinear part, or constraints that cannot all hold"
+                    )
+                }
+            }
             NewtonError::NonFiniteResidual { equation, .. } => format!(
                 "the model returned NaN or infinity in {}: the state left the model's domain",
                 self.describe_equation(*equation)
@@ -741,6 +1010,26 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     #[must_use]
     pub fn stats(&self) -> NewtonStats {
         self.stats
+    }
+
+    /// How often steps were split at breakpoints or cut after a Newton failure.
+    #[must_use]
+    pub fn counters(&self) -> StepCounters {
+        self.counters
+    }
+
+    /// The constraint impulses of the last step, one per active row: the sum of every
+    /// multiplier block of every substep (divided by `h`, the mean constraint force over the
+    /// step).
+    #[must_use]
+    pub fn last_step_impulses(&self) -> &[f64] {
+        &self.impulse
+    }
+
+    /// The step size `h`.
+    #[must_use]
+    pub fn step_size(&self) -> f64 {
+        self.options.h
     }
 
     /// The model.
@@ -907,5 +1196,167 @@ fn project_velocity<C: Constraints + ?Sized>(
             constraint: format!("velocity projection ({other})"),
             residual: f64::NAN,
         }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The integrator's bookkeeping against values worked out by hand: option checks, the
+    //! velocity projection, the time grid, multipliers of dropped rows, failure reports.
+
+    use super::*;
+    use crate::test_models::Masses;
+    use dirac_core::{LinearForms, NoConstraints};
+
+    /// `v₀ − v₁ = 0`, optionally written twice.
+    fn joint(twice: bool) -> LinearForms {
+        let mut forms = LinearForms::new(2);
+        forms.push("joint", &[(0, 1.0), (1, -1.0)]);
+        if twice {
+            forms.push("joint again", &[(0, -2.0), (1, 2.0)]);
+        }
+        forms
+    }
+
+    fn options(h: f64) -> IntegratorOptions {
+        IntegratorOptions::new(Discretisation::midpoint(), h)
+    }
+
+    #[test]
+    fn bad_options_and_lengths_are_typed_errors() {
+        for h in [0.0, -0.1, f64::NAN, f64::INFINITY] {
+            let err = Integrator::new(Masses::new(&[1.0], &[1.0]), NoConstraints, options(h));
+            assert!(matches!(err, Err(SimError::StepSize(_))), "h = {h}");
+        }
+        let mut sim = Integrator::new(
+            Masses::new(&[1.0, 1.0], &[1.0, 1.0]),
+            NoConstraints,
+            options(0.1),
+        )
+        .unwrap();
+        assert_eq!(
+            sim.set_state(&[0.0], &[0.0, 0.0], 0.0),
+            Err(SimError::Dimension {
+                what: "q",
+                got: 1,
+                expected: 2
+            })
+        );
+        assert_eq!(
+            sim.initialise(&[0.0, 0.0], &[0.0; 3], 0.0),
+            Err(SimError::Dimension {
+                what: "v",
+                got: 3,
+                expected: 2
+            })
+        );
+        assert_eq!(Scheme::from(Flavour::Minus), Scheme::Minus);
+        assert_eq!(Scheme::from(Flavour::Plus), Scheme::default());
+    }
+
+    /// Masses 1 and 3 joined by `v₀ = v₁`, started with v = (1, 0): the Euclidean projection onto
+    /// `ker A` is (½, ½), so p = M·(½, ½) = (½, 3/2).
+    #[test]
+    fn initialise_projects_the_velocities() {
+        let mut sim = Integrator::new(
+            Masses::new(&[1.0, 3.0], &[0.0, 0.0]),
+            joint(false),
+            options(0.1),
+        )
+        .unwrap();
+        sim.initialise(&[0.0, 0.0], &[1.0, 0.0], 0.0).unwrap();
+        assert!((sim.p()[0] - 0.5).abs() <= 1e-15 && (sim.p()[1] - 1.5).abs() <= 1e-15);
+        // Free motion of the joined pair at the common velocity ½: x = t/2.
+        for _ in 0..10 {
+            sim.step().unwrap();
+        }
+        assert!((sim.q()[0] - 0.5).abs() <= 1e-14 && (sim.q()[1] - 0.5).abs() <= 1e-14);
+    }
+
+    /// `t_k = t₀ + k·h` exactly (a running sum of h drifts by about k·ε·h).
+    #[test]
+    fn time_is_computed_not_accumulated() {
+        let (t0, h) = (1.0 / 3.0, 0.1);
+        let mut sim =
+            Integrator::new(Masses::new(&[1.0], &[1.0]), NoConstraints, options(h)).unwrap();
+        sim.set_state(&[1.0], &[0.0], t0).unwrap();
+        let mut sum = t0;
+        let mut drifted = false;
+        for k in 1..=1000 {
+            sim.step().unwrap();
+            sum += h;
+            drifted |= sum != t0 + k as f64 * h;
+            assert_eq!(sim.t(), t0 + k as f64 * h, "step {k}");
+            assert_eq!(sim.steps_taken(), k);
+        }
+        assert!(drifted, "a running sum would have passed too");
+    }
+
+    /// A spring on mass 0 only, the pair joined twice (the second row is dropped with a warning):
+    /// the joint's impulse on the free mass 1 is its whole momentum change, `Λ` (the row has
+    /// coefficient −1 there and adds `−Λ·c`), and the dropped row reports 0.
+    #[test]
+    fn multipliers_of_dropped_rows_are_zero() {
+        let mut sim = Integrator::new(
+            Masses::new(&[1.0, 3.0], &[2.0, 0.0]),
+            joint(true),
+            options(0.05),
+        )
+        .unwrap();
+        sim.initialise(&[0.4, 0.4], &[0.0, 0.0], 0.0).unwrap();
+        assert_eq!(sim.warnings().len(), 1, "{:?}", sim.warnings());
+        assert!(sim.warnings()[0].contains("joint again"));
+        assert_eq!(sim.active_constraints().count(), 1);
+        for _ in 0..20 {
+            let p1 = sim.p()[1];
+            sim.step().unwrap();
+            let full = sim.last_multipliers_full();
+            assert_eq!(full.len(), 2);
+            assert_eq!(full[1], 0.0);
+            assert_eq!(sim.last_multipliers(), &full[..1]);
+            let gained = sim.p()[1] - p1;
+            assert!(gained.abs() > 1e-3 && (full[0] - gained).abs() <= 1e-15);
+        }
+    }
+
+    /// A model that returns NaN in a step: an error naming the step, its start time and the
+    /// likely cause, and equations and unknowns described by name.
+    #[test]
+    fn a_non_finite_model_is_reported_with_step_and_time() {
+        let mut model = Masses::new(&[1.0, 1.0], &[1.0, 1.0]);
+        model.nan_above = 0.5;
+        let mut sim = Integrator::new(model, joint(false), options(0.1)).unwrap();
+        sim.initialise(&[0.0, 0.0], &[1.0, 1.0], 2.0).unwrap();
+        let mut failure = None;
+        for _ in 0..20 {
+            if let Err(e) = sim.step() {
+                failure = Some(e);
+                break;
+            }
+        }
+        // x₀ ≈ sin(t − 2) passes 0.5 in the sixth step (t from 2.5 to 2.6). The failing step is
+        // retried in halved substeps first, and `t` is where the last failing substep started:
+        // inside the step, not necessarily at its start.
+        match failure {
+            Some(SimError::Newton {
+                step,
+                t,
+                source: NewtonError::NonFiniteResidual { .. },
+                likely_cause,
+            }) => {
+                assert_eq!(step, 5);
+                assert!((2.5..2.6).contains(&t), "t = {t}");
+                assert!(likely_cause.contains("NaN"), "{likely_cause}");
+            }
+            other => panic!("expected a non-finite residual, got {other:?}"),
+        }
+        assert_eq!(
+            sim.describe_equation(1),
+            "momentum balance of coordinate `x1` at control point 0"
+        );
+        assert_eq!(sim.describe_equation(2), "constraint `joint`");
+        assert_eq!(sim.describe_unknown(0), "coordinate `x0`");
+        assert_eq!(sim.describe_unknown(2), "multiplier of constraint `joint`");
+        assert_eq!(sim.unknowns(), 3);
     }
 }

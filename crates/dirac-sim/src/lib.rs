@@ -9,13 +9,30 @@ mod composition;
 mod error;
 mod integrator;
 mod linear;
+mod modes;
+mod readout;
 mod shooting;
+mod signal;
+mod simulation;
 mod staggered;
+mod steady;
+#[cfg(test)]
+mod test_models;
+mod trajectory;
 
 pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
-pub use error::SimError;
-pub use integrator::{Integrator, IntegratorOptions, Scheme, StepReport};
+pub use error::{SimError, Time};
+pub use integrator::{Integrator, IntegratorOptions, Scheme, StepCounters, StepReport};
 pub use linear::{AutoLu, SolverChoice};
+pub use modes::{
+    FAST_DECAY_EXACT, MIN_STEPS_PER_PERIOD, MODAL_LIMIT, MethodResponse, Mode, ModeKind,
+    ModesError, NaturalModes, SLOW_METHOD_DAMPING,
+};
+pub use readout::{Readout, ReadoutError, ReadoutRow};
 pub use shooting::ShootingIntegrator;
+pub use signal::{Probe, Signal, Snapshot};
+pub use simulation::{Execution, RunError, RunSummary, Simulation, Start};
 pub use staggered::{Splitting, Staggered};
+pub use steady::{SteadyState, SteadyStateError};
+pub use trajectory::{Sink, Trajectory};

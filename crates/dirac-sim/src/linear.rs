@@ -61,3 +61,43 @@ impl LinearSolver for AutoLu {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `Auto` is dense up to `DenseLu::AUTO_LIMIT` unknowns and sparse above; explicit choices
+    /// hold at any size; both solve the same system to round-off.
+    #[test]
+    fn auto_choice_follows_the_size() {
+        let limit = DenseLu::AUTO_LIMIT;
+        assert!(matches!(
+            AutoLu::for_size(SolverChoice::Auto, limit),
+            AutoLu::Dense(_)
+        ));
+        assert!(matches!(
+            AutoLu::for_size(SolverChoice::Auto, limit + 1),
+            AutoLu::Sparse(_)
+        ));
+        assert!(matches!(
+            AutoLu::for_size(SolverChoice::Sparse, 2),
+            AutoLu::Sparse(_)
+        ));
+        assert!(matches!(
+            AutoLu::for_size(SolverChoice::Dense, 10 * limit),
+            AutoLu::Dense(_)
+        ));
+        // [[4, 1], [2, 3]] x = [1, 2]: x = (1/10, 6/10).
+        for choice in [SolverChoice::Dense, SolverChoice::Sparse] {
+            let mut lu = AutoLu::for_size(choice, 2);
+            lu.analyse(2, &[0, 0, 1, 1], &[0, 1, 0, 1]).unwrap();
+            lu.factor(&[4.0, 1.0, 2.0, 3.0]).unwrap();
+            let mut x = [1.0, 2.0];
+            lu.solve_in_place(&mut x).unwrap();
+            assert!(
+                (x[0] - 0.1).abs() <= 1e-15 && (x[1] - 0.6).abs() <= 1e-15,
+                "{x:?}"
+            );
+        }
+    }
+}

@@ -69,11 +69,13 @@ pub enum NewtonError {
         iterations: usize,
     },
     /// The Newton matrix could not be factorised or solved.
-    #[error("Newton matrix: {source} (residual {residual:.3e})")]
+    #[error("Newton matrix: {source} (residual {residual:.3e} in equation {worst_equation})")]
     Linear {
         /// Underlying linear-solver failure.
         source: LinearSolveError,
         /// Max-norm of the residual when it failed.
         residual: f64,
+        /// Equation with the largest residual when it failed.
+        worst_equation: usize,
     },
 }

@@ -8,15 +8,20 @@
 //! equilibrated, and for systems whose Jacobian is constant the factorisation is reused for the
 //! whole run. Every solve is checked for non-finite values, so a numerically singular matrix is
 //! reported as an error instead of propagating NaN.
+//!
+//! [`Structure`] analyses a pattern without values (maximum matching, Dulmage–Mendelsohn partition):
+//! which unknowns no equation can fix and which equations over-determine theirs.
 
 mod dense;
 mod error;
 mod newton;
 mod sparse;
+mod structure;
 mod triplets;
 
 pub use dense::DenseLu;
 pub use error::{LinearSolveError, NewtonError};
 pub use newton::{LinearSolver, Newton, NewtonOptions, NewtonStats, NonlinearSystem};
 pub use sparse::SparseLu;
+pub use structure::Structure;
 pub use triplets::{PatternMismatch, Triplets};

@@ -244,6 +244,7 @@ impl<S: LinearSolver> Newton<S> {
                     .map_err(|source| NewtonError::Linear {
                         source,
                         residual: rnorm,
+                        worst_equation: worst,
                     })?;
                 stats.factorisations += 1;
                 kept_iterations = 0;
@@ -270,6 +271,7 @@ impl<S: LinearSolver> Newton<S> {
                 .map_err(|source| NewtonError::Linear {
                     source,
                     residual: rnorm,
+                    worst_equation: worst,
                 })?;
             stats.iterations += 1;
             let mut unorm = 0.0_f64;

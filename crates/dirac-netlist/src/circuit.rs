@@ -1,0 +1,530 @@
+//! A parsed netlist turned into an interconnection of stock parts, ready to simulate.
+
+use std::collections::HashMap;
+
+use dirac_components::{
+    Capacitor, CoupledInductors, CurrentSource, Diode, Inductor, Resistor, VoltageSource, Waveform,
+};
+use dirac_graph::{ConnectionId, GraphError, Interconnection, PortRef, Subsystem};
+use dirac_sim::{
+    Discretisation, Execution, IntegratorOptions, Probe, RunError, Signal, Simulation, Start,
+};
+use thiserror::Error;
+
+use crate::{Element, Netlist, SourceSpec, Tran};
+
+/// A netlist that cannot be turned into a circuit model.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum CircuitError {
+    /// An inductor appears in more than one `K` card.
+    #[error(
+        "{file}:{line}:{column}: inductor `{inductor}` is coupled by more than one K card (not supported)"
+    )]
+    MultipleCoupling {
+        /// File name.
+        file: String,
+        /// Line of the second K card.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// The inductor.
+        inductor: String,
+    },
+    /// A signal names a node or element the circuit does not have, or is not of a known form.
+    #[error("unknown signal `{signal}`: {reason}")]
+    UnknownSignal {
+        /// The signal as written.
+        signal: String,
+        /// Why, with what is available.
+        reason: String,
+    },
+    /// A `.print`/`.probe`/`.save` signal that cannot be recorded.
+    #[error("{file}:{line}:{column}: {message}")]
+    BadOutput {
+        /// File name.
+        file: String,
+        /// Line.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// Assembling the graph failed.
+    #[error(transparent)]
+    Graph(#[from] GraphError),
+}
+
+/// A circuit built from a netlist: the parts joined at their nodes, the initial state, the signals
+/// to record and the analyses the netlist asks for.
+#[derive(Debug, Clone)]
+pub struct Circuit {
+    /// Parts (one subsystem per element; two coupled inductors form one part) joined by KCL nodes
+    /// (every non-ground node; ground is the reference and has no row).
+    pub graph: Interconnection,
+    /// Initial positions per part (capacitor charges from `IC=` or `.ic`).
+    pub q0: Vec<Vec<f64>>,
+    /// Initial rates per part (inductor currents from `IC=`).
+    pub v0: Vec<Vec<f64>>,
+    /// Which initial positions were stated (a capacitor's `IC=` or `.ic` on both its nodes).
+    pub given_q: Vec<Vec<bool>>,
+    /// Which initial rates were stated (an inductor's `IC=`).
+    pub given_v: Vec<Vec<bool>>,
+    /// The signals to record: those of `.print`/`.probe`/`.save` if any, else the contract's
+    /// default: `v(<node>)` for every non-ground node, `i(<name>)` for every inductor and voltage
+    /// source, `q(<name>)` for every capacitor.
+    pub signals: Vec<Signal>,
+    /// The `.tran` card, if any.
+    pub tran: Option<Tran>,
+    /// Whether the netlist asks for the operating point (`.op`).
+    pub op: bool,
+    /// Node potentials `.ic` holds while the operating point is solved (without `UIC`).
+    pub holds: Vec<(ConnectionId, f64)>,
+    /// The discretisation `.options method=` maps to, if any.
+    pub method: Option<Discretisation>,
+    /// Notes on what the netlist asks that dirac does differently (`.options` it does not use).
+    pub warnings: Vec<String>,
+    defaults: Vec<Signal>,
+    nodes: HashMap<String, ConnectionId>,
+    branches: HashMap<String, Branch>,
+    capacitors: Vec<String>,
+}
+
+/// The runtime waveform of a parsed source.
+#[must_use]
+pub fn waveform(spec: &SourceSpec) -> Waveform {
+    match spec {
+        SourceSpec::Dc(v) => Waveform::Dc(*v),
+        SourceSpec::Sin {
+            vo,
+            va,
+            freq,
+            td,
+            theta,
+            phase,
+        } => Waveform::Sin {
+            offset: *vo,
+            amplitude: *va,
+            frequency: *freq,
+            delay: *td,
+            damping: *theta,
+            phase_deg: *phase,
+        },
+        SourceSpec::Pulse {
+            v1,
+            v2,
+            td,
+            tr,
+            tf,
+            pw,
+            per,
+        } => Waveform::Pulse {
+            v1: *v1,
+            v2: *v2,
+            delay: *td,
+            rise: *tr,
+            fall: *tf,
+            width: *pw,
+            period: if *per > 0.0 { *per } else { f64::INFINITY },
+        },
+        SourceSpec::Pwl(points) => Waveform::Pwl(points.clone()),
+    }
+}
+
+/// Where an element's branch lives: subsystem, port and coordinate.
+#[derive(Debug, Clone)]
+struct Branch {
+    subsystem: usize,
+    port: &'static str,
+    coordinate: usize,
+}
+
+impl Circuit {
+    /// The start the netlist asks for: the given values with `UIC`, else the operating point.
+    #[must_use]
+    pub fn start(&self) -> Start {
+        if self.tran.is_some_and(|t| t.uic) {
+            Start::Given
+        } else {
+            Start::SteadyState
+        }
+    }
+
+    /// The step and end time of `.tran`, if any.
+    #[must_use]
+    pub fn tran_settings(&self) -> Option<(f64, f64)> {
+        self.tran.map(|t| (t.tstep, t.tstop))
+    }
+
+    /// A simulation of this circuit with the netlist's start, initial values and `.ic` holds.
+    ///
+    /// # Errors
+    /// When the initial values do not fit the parts (a programming error of this crate).
+    pub fn simulation(
+        &self,
+        execution: Execution,
+        options: IntegratorOptions,
+        start: Start,
+    ) -> Result<Simulation, RunError> {
+        let mut sim = Simulation::new(self.graph.clone(), execution, options).start(start);
+        sim.set_initial(&self.q0, &self.v0, &self.given_q, &self.given_v)?;
+        for &(c, v) in &self.holds {
+            sim.hold(c, v);
+        }
+        Ok(sim)
+    }
+
+    /// The signals of the operating point: `v(<node>)` for every non-ground node, `i(<name>)`
+    /// for every inductor and voltage source (as SPICE's `.op` prints them).
+    #[must_use]
+    pub fn operating_point_signals(&self) -> Vec<Signal> {
+        self.defaults
+            .iter()
+            .filter(|s| !s.name.starts_with("q("))
+            .cloned()
+            .collect()
+    }
+
+    /// The contract's default signals (whatever `.print`/`.probe`/`.save` chose instead).
+    #[must_use]
+    pub fn default_signals(&self) -> &[Signal] {
+        &self.defaults
+    }
+
+    /// Resolves a signal name: `v(node)`, `v(a,b)` (a difference), `i(element)` (the branch
+    /// current from its first node through it to its second, for every element), `q(capacitor)`.
+    /// Names are case-insensitive; the ground node (`0`, `gnd`) reads 0.
+    ///
+    /// # Errors
+    /// [`CircuitError::UnknownSignal`] naming what is missing and what is available.
+    pub fn signal(&self, name: &str) -> Result<Signal, CircuitError> {
+        let lower: String = name
+            .chars()
+            .filter(|c| !c.is_whitespace())
+            .collect::<String>()
+            .to_ascii_lowercase();
+        let unknown = |reason: String| CircuitError::UnknownSignal {
+            signal: name.to_string(),
+            reason,
+        };
+        let inner = lower
+            .strip_suffix(')')
+            .and_then(|s| s.split_once('('))
+            .ok_or_else(|| {
+                unknown("expected v(node), v(a,b), i(element) or q(capacitor)".into())
+            })?;
+        let probe = match inner {
+            ("v", args) => match args.split_once(',') {
+                Some((a, b)) => Probe::Sum(vec![
+                    (self.potential(a, &unknown)?, 1.0),
+                    (self.potential(b, &unknown)?, -1.0),
+                ]),
+                None => self.potential(args, &unknown)?,
+            },
+            ("i", element) => {
+                let b = self.branches.get(element).ok_or_else(|| {
+                    unknown(format!(
+                        "no element `{element}`; elements: {}",
+                        self.element_list()
+                    ))
+                })?;
+                Probe::Flow(self.port_of(b)?)
+            }
+            ("q", element) => {
+                if !self.capacitors.iter().any(|c| c == element) {
+                    return Err(unknown(format!(
+                        "`{element}` is not a capacitor; capacitors: {}",
+                        self.capacitors.join(", ")
+                    )));
+                }
+                let b = &self.branches[element];
+                Probe::Position {
+                    part: dirac_graph::SubsystemId(b.subsystem),
+                    coordinate: b.coordinate,
+                }
+            }
+            (kind, _) => {
+                return Err(unknown(format!(
+                    "`{kind}(…)` is not a signal kind; use v(node), v(a,b), i(element) or q(capacitor)"
+                )));
+            }
+        };
+        Ok(Signal::new(lower, probe))
+    }
+
+    fn potential(
+        &self,
+        node: &str,
+        unknown: &impl Fn(String) -> CircuitError,
+    ) -> Result<Probe, CircuitError> {
+        if node == "0" || node == "gnd" {
+            return Ok(Probe::Constant(0.0));
+        }
+        let c = self.nodes.get(node).ok_or_else(|| {
+            let mut names: Vec<&String> = self.nodes.keys().collect();
+            names.sort();
+            let names: Vec<&str> = names.iter().map(|s| s.as_str()).collect();
+            unknown(format!("no node `{node}`; nodes: {}", names.join(", ")))
+        })?;
+        Ok(Probe::Effort(*c))
+    }
+
+    fn port_of(&self, b: &Branch) -> Result<PortRef, CircuitError> {
+        let name = self.graph.subsystems()[b.subsystem].name();
+        Ok(self.graph.port(name, b.port)?)
+    }
+
+    fn element_list(&self) -> String {
+        let mut names: Vec<&str> = self.branches.keys().map(String::as_str).collect();
+        names.sort_unstable();
+        names.join(", ")
+    }
+}
+
+/// Builds the circuit of `netlist` (read from `file`).
+///
+/// # Errors
+/// An inductor coupled twice, a `.print`/`.probe`/`.save` signal that does not exist, or a graph
+/// that cannot be built.
+pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitError> {
+    // Inductors joined by a K card become one CoupledInductors part.
+    let mut coupled: HashMap<&str, (usize, usize)> = HashMap::new();
+    for (e, element) in netlist.elements.iter().enumerate() {
+        if let Element::K { l1, l2, .. } = element {
+            for (winding, l) in [l1, l2].into_iter().enumerate() {
+                if coupled.insert(l.as_str(), (e, winding)).is_some() {
+                    let origin = &netlist.origins[e];
+                    return Err(CircuitError::MultipleCoupling {
+                        file: file.to_string(),
+                        line: origin.line,
+                        column: origin.column,
+                        inductor: l.clone(),
+                    });
+                }
+            }
+        }
+    }
+    let mut graph = Interconnection::new();
+    let mut q0 = Vec::new();
+    let mut v0 = Vec::new();
+    let mut given_q = Vec::new();
+    let mut given_v = Vec::new();
+    let mut branches: HashMap<String, Branch> = HashMap::new();
+    let mut k_subsystem: HashMap<usize, usize> = HashMap::new();
+    let mut capacitors = Vec::new();
+
+    let mut add = |graph: &mut Interconnection,
+                   s: Subsystem,
+                   q: (Vec<f64>, Vec<bool>),
+                   v: (Vec<f64>, Vec<bool>)|
+     -> Result<usize, GraphError> {
+        let id = graph.add_subsystem(s)?;
+        q0.push(q.0);
+        given_q.push(q.1);
+        v0.push(v.0);
+        given_v.push(v.1);
+        Ok(id.0)
+    };
+    let none = |n: usize| (vec![0.0; n], vec![false; n]);
+    // K parts first need both inductor values: find them.
+    for (e, element) in netlist.elements.iter().enumerate() {
+        let Element::K { name, l1, l2, k } = element else {
+            continue;
+        };
+        let ((v1, ic1), (v2, ic2)) = (
+            netlist.inductor(l1).unwrap_or((0.0, None)),
+            netlist.inductor(l2).unwrap_or((0.0, None)),
+        );
+        let part = CoupledInductors {
+            l1: v1,
+            l2: v2,
+            k: *k,
+        };
+        let s = add(
+            &mut graph,
+            part.subsystem(name.clone()),
+            none(2),
+            (
+                vec![ic1.unwrap_or(0.0), ic2.unwrap_or(0.0)],
+                vec![ic1.is_some(), ic2.is_some()],
+            ),
+        )?;
+        k_subsystem.insert(e, s);
+    }
+    for element in &netlist.elements {
+        let (name, part, q, v) = match element {
+            Element::R { name, value, .. } => (
+                name,
+                Resistor { r: *value }.subsystem(name.clone()),
+                none(1),
+                none(1),
+            ),
+            Element::L {
+                name, value, ic, ..
+            } => {
+                if let Some(&(k, winding)) = coupled.get(name.as_str()) {
+                    let subsystem = k_subsystem[&k];
+                    let port = if winding == 0 { "i1" } else { "i2" };
+                    branches.insert(
+                        name.clone(),
+                        Branch {
+                            subsystem,
+                            port,
+                            coordinate: winding,
+                        },
+                    );
+                    continue;
+                }
+                (
+                    name,
+                    Inductor { l: *value }.subsystem(name.clone()),
+                    none(1),
+                    (vec![ic.unwrap_or(0.0)], vec![ic.is_some()]),
+                )
+            }
+            Element::C {
+                name,
+                n1,
+                n2,
+                value,
+                ic,
+            } => {
+                capacitors.push(name.clone());
+                let volts = netlist.capacitor_voltage(n1, n2, *ic);
+                (
+                    name,
+                    Capacitor { c: *value }.subsystem(name.clone()),
+                    (vec![value * volts.unwrap_or(0.0)], vec![volts.is_some()]),
+                    none(1),
+                )
+            }
+            Element::V { name, source, .. } => (
+                name,
+                VoltageSource::new(waveform(source)).subsystem(name.clone()),
+                none(1),
+                none(1),
+            ),
+            Element::I { name, source, .. } => (
+                name,
+                CurrentSource::new(waveform(source)).subsystem(name.clone()),
+                none(2),
+                none(2),
+            ),
+            Element::D { name, model, .. } => {
+                let diode = Diode {
+                    is: model.is,
+                    n: model.n,
+                    vt: Diode::VT_300K,
+                    rs: model.rs,
+                };
+                (name, diode.subsystem(name.clone()), none(2), none(2))
+            }
+            Element::K { .. } => continue,
+        };
+        let s = add(&mut graph, part, q, v)?;
+        branches.insert(
+            name.clone(),
+            Branch {
+                subsystem: s,
+                port: "i",
+                coordinate: 0,
+            },
+        );
+    }
+    // KCL at every non-ground node: a branch's flow leaves its first node and enters its second.
+    let node_names = netlist.nodes();
+    let mut terminals: HashMap<&str, Vec<(PortRef, f64)>> = HashMap::new();
+    for element in &netlist.elements {
+        let Some((a, b)) = element.terminals() else {
+            continue;
+        };
+        let branch = &branches[element.name()];
+        let port = graph.port(graph.subsystems()[branch.subsystem].name(), branch.port)?;
+        terminals.entry(a).or_default().push((port, -1.0));
+        terminals.entry(b).or_default().push((port, 1.0));
+    }
+    let mut nodes = HashMap::new();
+    let mut signals = Vec::new();
+    for node in &node_names {
+        let ports = terminals.remove(node.as_str()).unwrap_or_default();
+        let connection = graph.node(node.clone(), ports)?;
+        nodes.insert(node.clone(), connection);
+        signals.push(Signal::new(format!("v({node})"), Probe::Effort(connection)));
+    }
+    let holds = netlist
+        .ic
+        .iter()
+        .filter_map(|(node, value)| nodes.get(node).map(|c| (*c, *value)))
+        .collect();
+    let mut circuit = Circuit {
+        graph,
+        q0,
+        v0,
+        given_q,
+        given_v,
+        signals: Vec::new(),
+        tran: netlist.tran,
+        op: netlist.op,
+        holds,
+        method: None,
+        warnings: Vec::new(),
+        defaults: Vec::new(),
+        nodes,
+        branches,
+        capacitors,
+    };
+    for element in &netlist.elements {
+        if let Element::L { name, .. } | Element::V { name, .. } = element {
+            signals.push(circuit.signal(&format!("i({name})"))?);
+        }
+    }
+    for element in &netlist.elements {
+        if let Element::C { name, .. } = element {
+            signals.push(circuit.signal(&format!("q({name})"))?);
+        }
+    }
+    circuit.defaults.clone_from(&signals);
+    circuit.signals = if netlist.outputs.is_empty() {
+        signals
+    } else {
+        let mut chosen: Vec<Signal> = Vec::new();
+        for request in &netlist.outputs {
+            let signal = circuit
+                .signal(&request.signal)
+                .map_err(|e| CircuitError::BadOutput {
+                    file: file.to_string(),
+                    line: request.pos.line,
+                    column: request.pos.column,
+                    message: e.to_string(),
+                })?;
+            if !chosen.iter().any(|s| s.name == signal.name) {
+                chosen.push(signal);
+            }
+        }
+        chosen
+    };
+    circuit.read_options(netlist, file);
+    Ok(circuit)
+}
+
+impl Circuit {
+    /// Maps `.options method=` to a discretisation and notes every option dirac does not use.
+    fn read_options(&mut self, netlist: &Netlist, file: &str) {
+        for option in &netlist.options {
+            let at = format!("{file}:{}:{}", option.pos.line, option.pos.column);
+            match (option.key.as_str(), option.value.as_deref()) {
+                ("method", Some("trap" | "trapezoidal")) => {
+                    // On linear circuits the trapezoidal rule and the midpoint rule give the same
+                    // charges (both second order, A-stable, not L-stable).
+                    self.method = Some(Discretisation::midpoint());
+                }
+                ("method", Some(other)) => self.warnings.push(format!(
+                    "{at}: `.options method={other}` has no equivalent (dirac has no BDF/Gear method, which damps ringing that the midpoint rule keeps); using the midpoint rule; choose another with --method"
+                )),
+                (key, _) => self.warnings.push(format!(
+                    "{at}: `.options {key}` ignored (dirac steps at the fixed .tran TSTEP with its own Newton tolerances)"
+                )),
+            }
+        }
+    }
+}

@@ -1,0 +1,773 @@
+//! Subcircuit expansion and parameter evaluation: syntax tree to a flat [`Netlist`].
+//!
+//! Parameters are evaluated lazily, so a `.param` may refer to one defined later in the same
+//! scope; a cycle is an error. Each `X` instance opens a scope holding its parameters (the
+//! subcircuit's defaults, overridden by the instance's `name=value`s, evaluated in the caller's
+//! scope) and the `.param`s of the body; names not found there are looked up in the enclosing
+//! instance's scope and so on up to the top level. Subcircuit and model definitions are looked up
+//! the same way, innermost first.
+
+use std::cell::{Cell, RefCell};
+use std::collections::{HashMap, HashSet};
+use std::rc::Rc;
+
+use super::error::{ErrorKind, NetlistError, Pos, Warning};
+use super::expr::{self, ExprTok};
+use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef};
+use super::source::SourceSpec;
+use super::{DiodeModel, Element, Netlist, Origin, Tran};
+
+enum Slot {
+    Value(f64),
+    Pending(ExprTok),
+    Evaluating,
+}
+
+/// One level of parameter scope.
+struct Scope<'p> {
+    parent: Option<&'p Scope<'p>>,
+    slots: RefCell<HashMap<String, Slot>>,
+    /// How many parameter evaluations are in progress, shared by all scopes.
+    depth: Rc<Cell<usize>>,
+}
+
+/// Bound on the nesting of parameters defined through each other: the sum of the expression
+/// depths along the chain being evaluated (keeps evaluation far from a stack overflow).
+const MAX_PARAM_DEPTH: usize = 400;
+
+/// Deepest subcircuit nesting.
+const MAX_SUBCKT_DEPTH: usize = 50;
+
+/// Most elements and instances subcircuit expansion may create (cards written at the top level
+/// are not counted: their cost is that of reading them). Nested instances multiply: ten levels of
+/// ten instances are 10¹⁰ elements, which would exhaust memory instead of failing (found by
+/// fuzzing, `fuzz/regressions/netlist/exponential_subckt.cir`). 10⁵ is the size of the largest
+/// benchmark ladder; expanding that many takes well under a second and about 50 MB (a flat
+/// netlist of any size is read as written).
+const MAX_EXPANDED: usize = 100_000;
+
+impl<'p> Scope<'p> {
+    fn new(parent: Option<&'p Scope<'p>>) -> Self {
+        Self {
+            parent,
+            slots: RefCell::new(HashMap::new()),
+            depth: parent.map_or_else(|| Rc::new(Cell::new(0)), |p| Rc::clone(&p.depth)),
+        }
+    }
+
+    fn define(&self, name: &str, slot: Slot) {
+        self.slots.borrow_mut().insert(name.to_owned(), slot);
+    }
+
+    fn lookup(&self, name: &str, pos: Pos) -> Result<f64, NetlistError> {
+        let pending = {
+            let mut slots = self.slots.borrow_mut();
+            match slots.get_mut(name) {
+                None => None,
+                Some(Slot::Value(v)) => return Ok(*v),
+                Some(Slot::Evaluating) => {
+                    return Err(NetlistError::new(
+                        ErrorKind::RecursiveParam,
+                        pos,
+                        name,
+                        format!("parameter `{name}` depends on itself"),
+                    ));
+                }
+                Some(slot @ Slot::Pending(_)) => match std::mem::replace(slot, Slot::Evaluating) {
+                    Slot::Pending(e) => Some(e),
+                    _ => None,
+                },
+            }
+        };
+        match pending {
+            Some(e) => {
+                let depth = self.depth.get() + e.depth;
+                if depth > MAX_PARAM_DEPTH {
+                    return Err(NetlistError::new(
+                        ErrorKind::Unsupported,
+                        pos,
+                        name,
+                        format!("parameter `{name}`: definitions nested this deep not supported"),
+                    ));
+                }
+                self.depth.set(depth);
+                let v = self.eval(&e);
+                self.depth.set(depth - e.depth);
+                let v = v?;
+                self.define(name, Slot::Value(v));
+                Ok(v)
+            }
+            None => match self.parent {
+                Some(parent) => parent.lookup(name, pos),
+                None => Err(NetlistError::new(
+                    ErrorKind::UnknownParam,
+                    pos,
+                    name,
+                    format!("unknown parameter `{name}`"),
+                )),
+            },
+        }
+    }
+
+    /// Evaluates an expression in this scope; the result must be finite.
+    fn eval(&self, e: &ExprTok) -> Result<f64, NetlistError> {
+        let v = expr::eval(&e.expr, &|name, pos| self.lookup(name, pos))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(NetlistError::bad_value(
+                e.pos,
+                e.text.clone(),
+                format!("`{}` evaluates to {v}", e.text),
+            ))
+        }
+    }
+}
+
+/// One level of instance expansion.
+struct Ctx<'a, 'p> {
+    block: &'a Block,
+    scope: &'p Scope<'p>,
+    parent: Option<&'p Ctx<'a, 'p>>,
+    /// Hierarchical instance name (`x1.x2`), empty at the top level.
+    prefix: String,
+    /// The same as written.
+    orig_prefix: String,
+    /// Port name → caller's node.
+    ports: HashMap<String, String>,
+    def: Option<&'a SubcktDef>,
+}
+
+impl Ctx<'_, '_> {
+    fn join(prefix: &str, name: &str) -> String {
+        if prefix.is_empty() {
+            name.to_owned()
+        } else {
+            format!("{prefix}.{name}")
+        }
+    }
+
+    fn node(&self, n: &Name) -> String {
+        if n.norm == "0" {
+            return "0".to_owned();
+        }
+        match self.ports.get(&n.norm) {
+            Some(mapped) => mapped.clone(),
+            None => Self::join(&self.prefix, &n.norm),
+        }
+    }
+}
+
+struct KRef {
+    index: usize,
+    l1: (String, Name),
+    l2: (String, Name),
+}
+
+#[derive(Default)]
+struct Out {
+    elements: Vec<Element>,
+    origins: Vec<Origin>,
+    /// Hierarchical name → element index (`None` for subcircuit instances).
+    names: HashMap<String, Option<usize>>,
+    krefs: Vec<KRef>,
+    ics: Vec<(String, f64, Name)>,
+    warnings: Vec<Warning>,
+    /// Elements and instances created inside subcircuits so far.
+    expanded: usize,
+}
+
+impl Out {
+    fn claim(
+        &mut self,
+        full: &str,
+        name: &Name,
+        orig: &str,
+        index: Option<usize>,
+    ) -> Result<(), NetlistError> {
+        if self.names.contains_key(full) {
+            return Err(NetlistError::new(
+                ErrorKind::DuplicateElement,
+                name.pos,
+                name.orig.clone(),
+                format!("element `{orig}` defined twice"),
+            ));
+        }
+        self.names.insert(full.to_owned(), index);
+        Ok(())
+    }
+}
+
+fn source(
+    f: &SourceFn,
+    scope: &Scope<'_>,
+    warnings: &mut Vec<Warning>,
+) -> Result<SourceSpec, NetlistError> {
+    let eval_all = |args: &[ExprTok]| -> Result<Vec<f64>, NetlistError> {
+        args.iter().map(|a| scope.eval(a)).collect()
+    };
+    let non_negative = |args: &[ExprTok], vals: &[f64], from: usize, what: &[&str]| {
+        for (k, name) in what.iter().enumerate() {
+            let i = from + k;
+            if let (Some(a), Some(&v)) = (args.get(i), vals.get(i))
+                && v < 0.0
+            {
+                return Err(NetlistError::bad_value(
+                    a.pos,
+                    a.text.clone(),
+                    format!("{name} must not be negative, got `{}` = {v}", a.text),
+                ));
+            }
+        }
+        Ok(())
+    };
+    Ok(match f {
+        SourceFn::Dc(v) => SourceSpec::Dc(scope.eval(v)?),
+        SourceFn::Sin(args) => {
+            let v = eval_all(args)?;
+            let at = |i: usize| v.get(i).copied().unwrap_or(0.0);
+            SourceSpec::Sin {
+                vo: at(0),
+                va: at(1),
+                freq: at(2),
+                td: at(3),
+                theta: at(4),
+                phase: at(5),
+            }
+        }
+        SourceFn::Pulse(args) => {
+            let v = eval_all(args)?;
+            non_negative(
+                args,
+                &v,
+                3,
+                &[
+                    "PULSE rise time",
+                    "PULSE fall time",
+                    "PULSE width",
+                    "PULSE period",
+                ],
+            )?;
+            let at = |i: usize| v.get(i).copied().unwrap_or(0.0);
+            SourceSpec::Pulse {
+                v1: at(0),
+                v2: at(1),
+                td: at(2),
+                tr: at(3),
+                tf: at(4),
+                pw: at(5),
+                per: at(6),
+            }
+        }
+        SourceFn::Pwl(args) => {
+            let v = eval_all(args)?;
+            let points: Vec<(f64, f64)> = v.chunks_exact(2).map(|c| (c[0], c[1])).collect();
+            for k in 1..points.len() {
+                if points[k].0 == points[k - 1].0 {
+                    let a = &args[2 * k];
+                    warnings.push(Warning::new(
+                        a.pos,
+                        a.text.clone(),
+                        format!(
+                            "PWL time `{}` = {} repeated: the waveform jumps there",
+                            a.text, points[k].0
+                        ),
+                    ));
+                }
+                if points[k].0 < points[k - 1].0 {
+                    let a = &args[2 * k];
+                    return Err(NetlistError::bad_value(
+                        a.pos,
+                        a.text.clone(),
+                        format!(
+                            "PWL times must not decrease: `{}` = {} after {}",
+                            a.text,
+                            points[k].0,
+                            points[k - 1].0
+                        ),
+                    ));
+                }
+            }
+            SourceSpec::Pwl(points)
+        }
+    })
+}
+
+fn diode_model(
+    model: &ModelDef,
+    scope: &Scope<'_>,
+    out: &mut Out,
+) -> Result<DiodeModel, NetlistError> {
+    let mut m = DiodeModel {
+        name: model.name.norm.clone(),
+        is: 1e-14,
+        n: 1.0,
+        rs: 0.0,
+        ignored: Vec::new(),
+    };
+    for (name, e) in &model.params {
+        let v = scope.eval(e)?;
+        let bad = |what: &str| {
+            NetlistError::bad_value(
+                e.pos,
+                e.text.clone(),
+                format!(
+                    "diode model `{}`: {} must be {what}, got {v}",
+                    model.name.orig, name.orig
+                ),
+            )
+        };
+        match name.norm.as_str() {
+            "is" => {
+                if v <= 0.0 {
+                    return Err(bad("positive"));
+                }
+                m.is = v;
+            }
+            "n" => {
+                if v <= 0.0 {
+                    return Err(bad("positive"));
+                }
+                m.n = v;
+            }
+            "rs" => {
+                if v < 0.0 {
+                    return Err(bad("non-negative"));
+                }
+                m.rs = v;
+            }
+            other => {
+                out.warnings.push(Warning::new(
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "diode model `{}`: parameter `{}` ignored (only IS, N and RS are used)",
+                        model.name.orig, name.orig
+                    ),
+                ));
+                m.ignored.push((other.to_owned(), v));
+            }
+        }
+    }
+    Ok(m)
+}
+
+fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
+    for el in &ctx.block.elements {
+        if !ctx.prefix.is_empty() {
+            out.expanded += 1;
+            if out.expanded > MAX_EXPANDED {
+                return Err(NetlistError::new(
+                    ErrorKind::Unsupported,
+                    el.name.pos,
+                    el.name.orig.clone(),
+                    format!(
+                        "subcircuit expansion creates more than {MAX_EXPANDED} elements (nested instances multiply) not supported"
+                    ),
+                ));
+            }
+        }
+        let full = Ctx::join(&ctx.prefix, &el.name.norm);
+        let orig = Ctx::join(&ctx.orig_prefix, &el.name.orig);
+        if let ElemKind::X(sub, params) = &el.kind {
+            out.claim(&full, &el.name, &orig, None)?;
+            instantiate(ctx, el, sub, params, full, orig, out)?;
+            continue;
+        }
+        let nodes: Vec<String> = el.nodes.iter().map(|n| ctx.node(n)).collect();
+        let n = |i: usize| nodes.get(i).cloned().unwrap_or_default();
+        let scope = ctx.scope;
+        let index = out.elements.len();
+        out.claim(&full, &el.name, &orig, Some(index))?;
+        let element = match &el.kind {
+            ElemKind::R(v) => {
+                let value = scope.eval(v)?;
+                if value == 0.0 {
+                    return Err(NetlistError::bad_value(
+                        v.pos,
+                        v.text.clone(),
+                        format!("resistance of `{}` must not be zero", el.name.orig),
+                    ));
+                }
+                Element::R {
+                    name: full,
+                    n1: n(0),
+                    n2: n(1),
+                    value,
+                }
+            }
+            ElemKind::L(v, ic) => Element::L {
+                name: full,
+                n1: n(0),
+                n2: n(1),
+                value: scope.eval(v)?,
+                ic: ic.as_ref().map(|e| scope.eval(e)).transpose()?,
+            },
+            ElemKind::C(v, ic) => Element::C {
+                name: full,
+                n1: n(0),
+                n2: n(1),
+                value: scope.eval(v)?,
+                ic: ic.as_ref().map(|e| scope.eval(e)).transpose()?,
+            },
+            ElemKind::V(f) => Element::V {
+                name: full,
+                n_plus: n(0),
+                n_minus: n(1),
+                source: source(f, scope, &mut out.warnings)?,
+            },
+            ElemKind::I(f) => Element::I {
+                name: full,
+                n_plus: n(0),
+                n_minus: n(1),
+                source: source(f, scope, &mut out.warnings)?,
+            },
+            ElemKind::K(l1, l2, k) => {
+                let kv = scope.eval(k)?;
+                if !(-1.0..=1.0).contains(&kv) {
+                    return Err(NetlistError::bad_value(
+                        k.pos,
+                        k.text.clone(),
+                        format!(
+                            "coupling coefficient of `{}` must be in [-1, 1], got {kv}",
+                            el.name.orig
+                        ),
+                    ));
+                }
+                if l1.norm == l2.norm {
+                    return Err(NetlistError::bad_value(
+                        l2.pos,
+                        l2.orig.clone(),
+                        format!("`{}` couples `{}` with itself", el.name.orig, l1.orig),
+                    ));
+                }
+                let l1_full = Ctx::join(&ctx.prefix, &l1.norm);
+                let l2_full = Ctx::join(&ctx.prefix, &l2.norm);
+                out.krefs.push(KRef {
+                    index,
+                    l1: (l1_full.clone(), l1.clone()),
+                    l2: (l2_full.clone(), l2.clone()),
+                });
+                Element::K {
+                    name: full,
+                    l1: l1_full,
+                    l2: l2_full,
+                    k: kv,
+                }
+            }
+            ElemKind::D(model) => {
+                let mut found = None;
+                let mut c = Some(ctx);
+                while let Some(cx) = c {
+                    if let Some(m) = cx.block.models.iter().find(|m| m.name.norm == model.norm) {
+                        found = Some((m, cx.scope));
+                        break;
+                    }
+                    c = cx.parent;
+                }
+                let Some((m, mscope)) = found else {
+                    return Err(NetlistError::new(
+                        ErrorKind::MissingModel,
+                        model.pos,
+                        model.orig.clone(),
+                        format!(
+                            "diode `{}` uses undefined model `{}`",
+                            el.name.orig, model.orig
+                        ),
+                    ));
+                };
+                Element::D {
+                    name: full,
+                    anode: n(0),
+                    cathode: n(1),
+                    model: diode_model(m, mscope, out)?,
+                }
+            }
+            ElemKind::X(..) => continue,
+        };
+        out.elements.push(element);
+        out.origins.push(Origin {
+            name: orig,
+            line: el.name.pos.line,
+            column: el.name.pos.column,
+        });
+    }
+    for (node, e) in &ctx.block.ics {
+        let v = ctx.scope.eval(e)?;
+        out.ics.push((ctx.node(node), v, node.clone()));
+    }
+    Ok(())
+}
+
+fn instantiate(
+    ctx: &Ctx<'_, '_>,
+    el: &super::parser::ElemCard,
+    sub: &Name,
+    params: &[(Name, ExprTok)],
+    full: String,
+    orig: String,
+    out: &mut Out,
+) -> Result<(), NetlistError> {
+    let mut found = None;
+    let mut c = Some(ctx);
+    while let Some(cx) = c {
+        if let Some(d) = cx.block.subckts.iter().find(|d| d.name.norm == sub.norm) {
+            found = Some(d);
+            break;
+        }
+        c = cx.parent;
+    }
+    let Some(def) = found else {
+        return Err(NetlistError::new(
+            ErrorKind::UnknownSubckt,
+            sub.pos,
+            sub.orig.clone(),
+            format!(
+                "`{}` instantiates undefined subcircuit `{}`",
+                el.name.orig, sub.orig
+            ),
+        ));
+    };
+    let mut c = Some(ctx);
+    let mut levels = 0;
+    while let Some(cx) = c {
+        levels += 1;
+        if levels > MAX_SUBCKT_DEPTH {
+            return Err(NetlistError::new(
+                ErrorKind::Unsupported,
+                sub.pos,
+                sub.orig.clone(),
+                format!(
+                    "subcircuits nested more than {MAX_SUBCKT_DEPTH} levels deep not supported"
+                ),
+            ));
+        }
+        if cx.def.is_some_and(|d| std::ptr::eq(d, def)) {
+            return Err(NetlistError::new(
+                ErrorKind::RecursiveSubckt,
+                sub.pos,
+                sub.orig.clone(),
+                format!(
+                    "`{}` instantiates subcircuit `{}` inside itself",
+                    el.name.orig, def.name.orig
+                ),
+            ));
+        }
+        c = cx.parent;
+    }
+    if el.nodes.len() != def.ports.len() {
+        return Err(NetlistError::new(
+            ErrorKind::PortMismatch,
+            sub.pos,
+            sub.orig.clone(),
+            format!(
+                "`{}` connects {} node{} but subcircuit `{}` has {} port{}",
+                el.name.orig,
+                el.nodes.len(),
+                if el.nodes.len() == 1 { "" } else { "s" },
+                def.name.orig,
+                def.ports.len(),
+                if def.ports.len() == 1 { "" } else { "s" },
+            ),
+        ));
+    }
+    let scope = Scope::new(Some(ctx.scope));
+    for (name, e) in &def.defaults {
+        scope.define(&name.norm, Slot::Pending(e.clone()));
+    }
+    for (name, e) in params {
+        if !def.defaults.iter().any(|(d, _)| d.norm == name.norm) {
+            return Err(NetlistError::new(
+                ErrorKind::UnknownParam,
+                name.pos,
+                name.orig.clone(),
+                format!(
+                    "subcircuit `{}` has no parameter `{}`",
+                    def.name.orig, name.orig
+                ),
+            ));
+        }
+        let v = ctx.scope.eval(e)?;
+        scope.define(&name.norm, Slot::Value(v));
+    }
+    for (name, e) in &def.body.params {
+        scope.define(&name.norm, Slot::Pending(e.clone()));
+    }
+    let ports = def
+        .ports
+        .iter()
+        .zip(&el.nodes)
+        .map(|(p, n)| (p.norm.clone(), ctx.node(n)))
+        .collect();
+    let inner = Ctx {
+        block: &def.body,
+        scope: &scope,
+        parent: Some(ctx),
+        prefix: full,
+        orig_prefix: orig,
+        ports,
+        def: Some(def),
+    };
+    expand(&inner, out)
+}
+
+fn tran(parsed: &Parsed, scope: &Scope<'_>) -> Result<Option<Tran>, NetlistError> {
+    let Some(card) = &parsed.tran else {
+        return Ok(None);
+    };
+    let v: Vec<f64> = card
+        .values
+        .iter()
+        .map(|e| scope.eval(e))
+        .collect::<Result<_, _>>()?;
+    let bad = |i: usize, what: &str| {
+        let e = &card.values[i];
+        NetlistError::bad_value(
+            e.pos,
+            e.text.clone(),
+            format!("`.tran` {what}, got `{}` = {}", e.text, v[i]),
+        )
+    };
+    let tstep = v[0];
+    let tstop = v[1];
+    if tstep <= 0.0 {
+        return Err(bad(0, "TSTEP must be positive"));
+    }
+    if tstop <= 0.0 {
+        return Err(bad(1, "TSTOP must be positive"));
+    }
+    let tstart = v.get(2).copied().unwrap_or(0.0);
+    if v.len() > 2 && !(0.0..tstop).contains(&tstart) {
+        return Err(bad(2, "TSTART must be in [0, TSTOP)"));
+    }
+    let tmax = v.get(3).copied();
+    if let Some(t) = tmax
+        && t <= 0.0
+    {
+        return Err(bad(3, "TMAX must be positive"));
+    }
+    Ok(Some(Tran {
+        tstep,
+        tstop,
+        tstart,
+        tmax,
+        uic: card.uic,
+    }))
+}
+
+/// Expands subcircuits and evaluates parameters.
+pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
+    let global = Scope::new(None);
+    for (name, e) in &parsed.top.params {
+        global.define(&name.norm, Slot::Pending(e.clone()));
+    }
+    let mut out = Out {
+        warnings: parsed.warnings.clone(),
+        ..Out::default()
+    };
+    let root = Ctx {
+        block: &parsed.top,
+        scope: &global,
+        parent: None,
+        prefix: String::new(),
+        orig_prefix: String::new(),
+        ports: HashMap::new(),
+        def: None,
+    };
+    expand(&root, &mut out)?;
+    // Evaluate the top-level parameters nobody used, so their errors are not hidden.
+    for (name, _) in &parsed.top.params {
+        global.lookup(&name.norm, name.pos)?;
+    }
+    let tran = tran(&parsed, &global)?;
+
+    for k in &out.krefs {
+        for (full, name) in [&k.l1, &k.l2] {
+            let is_inductor = matches!(
+                out.names.get(full),
+                Some(Some(i)) if matches!(out.elements.get(*i), Some(Element::L { .. }))
+            );
+            if !is_inductor {
+                let kname = out
+                    .origins
+                    .get(k.index)
+                    .map(|o| o.name.clone())
+                    .unwrap_or_default();
+                return Err(NetlistError::new(
+                    ErrorKind::UnknownElement,
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "`{kname}` couples `{}`, which is not an inductor",
+                        name.orig
+                    ),
+                ));
+            }
+        }
+    }
+
+    let mut nodes: HashSet<&str> = HashSet::new();
+    for e in &out.elements {
+        nodes.extend(e.nodes());
+    }
+    let mut ic: Vec<(String, f64)> = Vec::new();
+    for (node, v, name) in &out.ics {
+        if node == "0" || !nodes.contains(node.as_str()) {
+            return Err(NetlistError::new(
+                ErrorKind::UnknownNode,
+                name.pos,
+                name.orig.clone(),
+                if node == "0" {
+                    "`.ic` on the ground node".to_owned()
+                } else {
+                    format!(
+                        "`.ic` names node `{}` that no element connects to",
+                        name.orig
+                    )
+                },
+            ));
+        }
+        if let Some(slot) = ic.iter_mut().find(|(n, _)| n == node) {
+            out.warnings.push(Warning::new(
+                name.pos,
+                name.orig.clone(),
+                format!(
+                    "second `.ic` for node `{}`; the last one is used",
+                    name.orig
+                ),
+            ));
+            slot.1 = *v;
+        } else {
+            ic.push((node.clone(), *v));
+        }
+    }
+
+    let mut elements = out.elements;
+    if let Some(t) = &tran {
+        for e in &mut elements {
+            if let Element::V { source, .. } | Element::I { source, .. } = e {
+                *source = source.resolved(t.tstep, t.tstop);
+            }
+        }
+    }
+
+    let mut seen = HashSet::new();
+    let mut warnings: Vec<Warning> = out
+        .warnings
+        .into_iter()
+        .filter(|w| seen.insert((w.line, w.column, w.message.clone())))
+        .collect();
+    warnings.sort_by_key(|w| (w.line, w.column));
+
+    Ok(Netlist {
+        title: parsed.title,
+        elements,
+        origins: out.origins,
+        tran,
+        ic,
+        op: parsed.op,
+        options: parsed.options,
+        outputs: parsed.outputs,
+        warnings,
+    })
+}

@@ -1,0 +1,369 @@
+//! The SPICE-subset netlist reader: [`parse_netlist`] turns netlist text into a flat [`Netlist`]
+//! (subcircuits expanded, parameters evaluated to `f64`), and [`build_circuit`] turns a netlist into
+//! a [`Circuit`]: an interconnection of stock parts with its initial state, its recorded signals
+//! and its analyses, ready for [`dirac_sim::Simulation`].
+//!
+//! # Supported subset
+//!
+//! Element cards (the first letter gives the type; names are case-insensitive):
+//!
+//! | card | meaning |
+//! | --- | --- |
+//! | `Rname n1 n2 value` | resistor (a zero value is an error) |
+//! | `Lname n1 n2 value [IC=i0]` | inductor, optional initial current |
+//! | `Cname n1 n2 value [IC=v0]` | capacitor, optional initial voltage |
+//! | `Vname n+ n- [[DC] v] [SIN(..)\|PULSE(..)\|PWL(..)] [AC ..]` | voltage source |
+//! | `Iname n+ n- ...` | current source, same forms as `V` |
+//! | `Kname L1 L2 k` | coupling of two inductors, `-1 ≤ k ≤ 1` |
+//! | `Dname anode cathode model` | diode; `model` names a `.model NAME D(IS=.. N=.. RS=..)` |
+//! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
+//!
+//! Source functions: `SIN(VO VA [FREQ [TD [THETA [PHASE]]]])`, `PULSE(V1 V2 [TD [TR [TF [PW
+//! [PER]]]]])`, `PWL(t1 v1 t2 v2 ...)`, with or without parentheses, values separated by blanks or
+//! commas; see [`SourceSpec`] for the exact (ngspice) definitions and defaults. When both a DC
+//! value and a transient function are given, the function is used (with a warning). An `AC`
+//! specification is ignored with a warning. A source without any value is `DC 0` (with a warning).
+//!
+//! Control cards:
+//!
+//! - `.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]` (at most one);
+//! - `.ic V(node)=value ...`;
+//! - `.param name=expr ...`, see below;
+//! - `.model NAME D(IS=.. N=.. RS=..)` (parentheses optional; other diode parameters such as `CJO`
+//!   are kept in [`DiodeModel::ignored`] with a warning);
+//! - `.subckt NAME n1 n2 ... [params:] [a=1 ...]` ... `.ends [NAME]`, nestable;
+//! - `.end` (anything after it is ignored).
+//!
+//! - `.op` (the DC operating point, [`Netlist::op`]);
+//! - `.options`/`.option`/`.opt` (kept as pairs in [`Netlist::options`]; [`build_circuit`] maps
+//!   `method` and warns about the rest);
+//! - `.print`, `.plot`, `.probe`, `.save` (the signals they name are kept in
+//!   [`Netlist::outputs`] and become the recorded signals).
+//!
+//! Accepted and **ignored with a recorded [`Warning`]**: `.meas`/`.measure`, and whole `.control`
+//! ... `.endc` blocks.
+//!
+//! Everything else is an error of kind [`ErrorKind::Unsupported`] whose message contains "not
+//! supported": other element types (`M Q J E F G H B T S W A U O Z`, ...), other dot-cards (`.ac`,
+//! `.dc`, `.include`, `.lib`, `.global`, `.func`, `.nodeset`, `.temp`, ...), other source
+//! functions (`EXP`, `SFFM`, `AM`, `TRNOISE`, ...), `PWL` options (`r=`, `td=`), model types other
+//! than `D`, instance parameters other than `IC=` on `L`/`C`.
+//!
+//! # Lexical rules
+//!
+//! - The first line is the title (SPICE convention) and is never parsed as a card.
+//! - Lines whose first non-blank character is `*` are comments; `;` starts a comment that runs to
+//!   the end of the line (`$` comments are not recognised).
+//! - A line starting with `+` continues the previous card.
+//! - Names and keywords are case-insensitive. Node and element names are normalised to lowercase;
+//!   the ground node is `0` or `gnd`, normalised to `"0"`.
+//! - Numbers take SPICE engineering suffixes `f p n u m k meg g t` (and `mil`), any case, with
+//!   `m` = milli and `meg` = mega; letters after the suffix are ignored (`10uF`, `1kOhm`, `5V`).
+//!   See [`parse_spice_number`].
+//!
+//! # Parameters and expressions
+//!
+//! `.param a=1k b={2*a} c = sqrt(a) + 1` defines parameters. Values are expressions with `+ - * /`,
+//! `^` or `**` (right-associative, binding tighter than unary minus: `-2^2 = -4`), parentheses,
+//! unary minus, the functions `sqrt exp log ln log10 sin cos tan atan abs` (`log` is the natural
+//! logarithm, as in ngspice) and `min max pow`, numbers with suffixes and references to other
+//! parameters (in any order; cycles are errors). In element values and source arguments an
+//! expression is written `{expr}` or `'expr'`, or bare without blanks (`2*r0`, `rval`). In
+//! `.param`, `.subckt`/`X` parameters and `.model` parameters a bare expression may contain blanks.
+//!
+//! # Subcircuits
+//!
+//! `X` instances are expanded in place. Elements inside get hierarchical names (`x1.r2`,
+//! `x1.x2.c1`), internal nodes are prefixed the same way (`x1.n3`), ports are replaced by the
+//! instance's nodes, and ground stays global. Instance parameters override the subcircuit's
+//! defaults and are evaluated in the caller's scope; an instance may only pass parameters the
+//! subcircuit declares. Scoping is dynamic: a name not found in an instance's scope (its
+//! parameters and body `.param`s) is looked up in the enclosing instance, up to the top level; the
+//! same holds for `.subckt` and `.model` definitions.
+//!
+//! # Errors and warnings
+//!
+//! Errors are [`NetlistError`]s with line, column, offending text and an [`ErrorKind`]; `Display`
+//! gives `file:line:column: message`, e.g. ``file.cir:12:5: card `M1 d g s 0 nmos` not
+//! supported``. Positions inside a subcircuit body refer to the definition's lines.
+
+mod error;
+mod expr;
+mod flatten;
+mod lexer;
+mod parser;
+mod source;
+mod units;
+
+mod circuit;
+
+pub use circuit::{Circuit, CircuitError, build_circuit, waveform};
+pub use error::{ErrorKind, NetlistError, Pos, Warning};
+pub use parser::{OptionCard, OutputRequest};
+pub use source::SourceSpec;
+pub use units::parse_spice_number;
+
+/// Diode model parameters from `.model NAME D(...)`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DiodeModel {
+    /// The model's name, lowercased.
+    pub name: String,
+    /// Saturation current `IS` in A (default 1e-14).
+    pub is: f64,
+    /// Emission coefficient `N` (default 1).
+    pub n: f64,
+    /// Series resistance `RS` in Ω (default 0).
+    pub rs: f64,
+    /// Other parameters given (`CJO`, `TT`, `BV`, ...), lowercased, which are not used; each
+    /// produced a warning.
+    pub ignored: Vec<(String, f64)>,
+}
+
+/// The `.tran` analysis card.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tran {
+    /// `TSTEP`, the output (printing) step in seconds.
+    pub tstep: f64,
+    /// `TSTOP`, the final time in seconds.
+    pub tstop: f64,
+    /// `TSTART`, the first output time (default 0).
+    pub tstart: f64,
+    /// `TMAX`, the largest internal step, if given.
+    pub tmax: Option<f64>,
+    /// `UIC`: start from the given initial conditions instead of an operating point.
+    pub uic: bool,
+}
+
+/// One element of the flat netlist. Names are hierarchical and lowercase (`r1`, `x1.r2`); nodes
+/// are lowercase, ground is `"0"`, internal subcircuit nodes are prefixed (`x1.n3`).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Element {
+    /// Resistor, `value` in Ω.
+    R {
+        /// Element name.
+        name: String,
+        /// First node.
+        n1: String,
+        /// Second node.
+        n2: String,
+        /// Resistance in Ω (non-zero).
+        value: f64,
+    },
+    /// Inductor, `value` in H; current flows from `n1` through the inductor to `n2`.
+    L {
+        /// Element name.
+        name: String,
+        /// First node.
+        n1: String,
+        /// Second node.
+        n2: String,
+        /// Inductance in H.
+        value: f64,
+        /// Initial current (`IC=`), if given.
+        ic: Option<f64>,
+    },
+    /// Capacitor, `value` in F.
+    C {
+        /// Element name.
+        name: String,
+        /// First node.
+        n1: String,
+        /// Second node.
+        n2: String,
+        /// Capacitance in F.
+        value: f64,
+        /// Initial voltage `V(n1) - V(n2)` (`IC=`), if given.
+        ic: Option<f64>,
+    },
+    /// Independent voltage source: `V(n_plus) - V(n_minus) = source(t)`.
+    V {
+        /// Element name.
+        name: String,
+        /// Positive node.
+        n_plus: String,
+        /// Negative node.
+        n_minus: String,
+        /// The waveform.
+        source: SourceSpec,
+    },
+    /// Independent current source: `source(t)` flows from `n_plus` through the source to
+    /// `n_minus` (SPICE convention).
+    I {
+        /// Element name.
+        name: String,
+        /// Positive node.
+        n_plus: String,
+        /// Negative node.
+        n_minus: String,
+        /// The waveform.
+        source: SourceSpec,
+    },
+    /// Mutual coupling of two inductors: `M = k·sqrt(L1·L2)`.
+    K {
+        /// Element name.
+        name: String,
+        /// Hierarchical name of the first inductor (an [`Element::L`] of this netlist).
+        l1: String,
+        /// Hierarchical name of the second inductor.
+        l2: String,
+        /// Coupling coefficient in `[-1, 1]`.
+        k: f64,
+    },
+    /// Diode from `anode` to `cathode`.
+    D {
+        /// Element name.
+        name: String,
+        /// Anode node.
+        anode: String,
+        /// Cathode node.
+        cathode: String,
+        /// The model's parameters.
+        model: DiodeModel,
+    },
+}
+
+impl Element {
+    /// The element's hierarchical, lowercase name.
+    pub fn name(&self) -> &str {
+        match self {
+            Element::R { name, .. }
+            | Element::L { name, .. }
+            | Element::C { name, .. }
+            | Element::V { name, .. }
+            | Element::I { name, .. }
+            | Element::K { name, .. }
+            | Element::D { name, .. } => name,
+        }
+    }
+
+    /// The branch's `(from, to)` nodes: its current flows from the first through the element to
+    /// the second (`None` for `K`, which has no branch of its own).
+    pub fn terminals(&self) -> Option<(&str, &str)> {
+        match self {
+            Element::R { n1, n2, .. } | Element::L { n1, n2, .. } | Element::C { n1, n2, .. } => {
+                Some((n1, n2))
+            }
+            Element::V {
+                n_plus, n_minus, ..
+            }
+            | Element::I {
+                n_plus, n_minus, ..
+            } => Some((n_plus, n_minus)),
+            Element::D { anode, cathode, .. } => Some((anode, cathode)),
+            Element::K { .. } => None,
+        }
+    }
+
+    /// The nodes the element connects, in card order (none for `K`).
+    pub fn nodes(&self) -> Vec<&str> {
+        match self {
+            Element::R { n1, n2, .. } | Element::L { n1, n2, .. } | Element::C { n1, n2, .. } => {
+                vec![n1, n2]
+            }
+            Element::V {
+                n_plus, n_minus, ..
+            }
+            | Element::I {
+                n_plus, n_minus, ..
+            } => vec![n_plus, n_minus],
+            Element::K { .. } => Vec::new(),
+            Element::D { anode, cathode, .. } => vec![anode, cathode],
+        }
+    }
+}
+
+/// Where an element came from: its name as written (hierarchical, original case, e.g. `X1.R2`)
+/// and the position of its card (inside the subcircuit definition for expanded elements).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Origin {
+    /// The element's hierarchical name with the original spelling.
+    pub name: String,
+    /// 1-based line of the element's card.
+    pub line: usize,
+    /// 1-based column of the element's name.
+    pub column: usize,
+}
+
+/// A flat netlist: subcircuits expanded, parameters evaluated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Netlist {
+    /// The title (first line).
+    pub title: String,
+    /// The elements in card order, subcircuit contents in place of their `X` card.
+    pub elements: Vec<Element>,
+    /// Where each element came from; `origins[i]` belongs to `elements[i]`.
+    pub origins: Vec<Origin>,
+    /// The `.tran` card, if any. When present, the defaults of every source waveform have been
+    /// resolved with its `TSTEP` and `TSTOP` (see [`SourceSpec::resolved`]).
+    pub tran: Option<Tran>,
+    /// Node initial voltages from `.ic V(node)=value`, node names normalised, in card order (a
+    /// repeated node keeps its first place and its last value).
+    pub ic: Vec<(String, f64)>,
+    /// Whether an `.op` card asks for the operating point.
+    pub op: bool,
+    /// `.options` pairs in card order (interpreted by [`build_circuit`]).
+    pub options: Vec<OptionCard>,
+    /// Signals named by `.print`, `.probe`, `.save` and `.plot`, in card order.
+    pub outputs: Vec<OutputRequest>,
+    /// Things accepted but ignored.
+    pub warnings: Vec<Warning>,
+}
+
+impl Netlist {
+    /// Non-ground nodes in order of first appearance in [`elements`](Self::elements) (the natural
+    /// column order for output).
+    pub fn nodes(&self) -> Vec<String> {
+        let mut seen = std::collections::HashSet::new();
+        let mut out = Vec::new();
+        for e in &self.elements {
+            for n in e.nodes() {
+                if n != "0" && seen.insert(n) {
+                    out.push(n.to_owned());
+                }
+            }
+        }
+        out
+    }
+
+    /// The element with the given (case-insensitive, hierarchical) name.
+    pub fn element(&self, name: &str) -> Option<&Element> {
+        let name = name.to_lowercase();
+        self.elements.iter().find(|e| e.name() == name)
+    }
+
+    /// Inductance and `IC=` current of the inductor named `name` (`None` if it is not one).
+    pub fn inductor(&self, name: &str) -> Option<(f64, Option<f64>)> {
+        match self.element(name) {
+            Some(Element::L { value, ic, .. }) => Some((*value, *ic)),
+            _ => None,
+        }
+    }
+
+    /// Initial voltage `V(n1) − V(n2)` of a capacitor between `n1` and `n2` with `IC=` value `ic`:
+    /// the `IC=` value if given, else from the `.ic` node voltages (ground is 0), else `None`.
+    pub fn capacitor_voltage(&self, n1: &str, n2: &str, ic: Option<f64>) -> Option<f64> {
+        let node = |n: &str| {
+            if n == "0" {
+                Some(0.0)
+            } else {
+                self.ic.iter().find(|(m, _)| m == n).map(|(_, v)| *v)
+            }
+        };
+        ic.or_else(|| Some(node(n1)? - node(n2)?))
+    }
+}
+
+/// Parses SPICE netlist text into a flat [`Netlist`]. `file_name` is only used in error messages
+/// (`file_name:line:column: ...`).
+///
+/// # Errors
+///
+/// The first problem found, as a [`NetlistError`]; see [`ErrorKind`] for the kinds.
+pub fn parse_netlist(source: &str, file_name: &str) -> Result<Netlist, NetlistError> {
+    let run = || -> Result<Netlist, NetlistError> {
+        let lexed = lexer::lex(source)?;
+        let parsed = parser::parse(lexed)?;
+        flatten::flatten(parsed)
+    };
+    run().map_err(|e| e.in_file(file_name))
+}

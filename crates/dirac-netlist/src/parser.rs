@@ -1,0 +1,947 @@
+//! Cards to a hierarchical syntax tree (subcircuits still unexpanded, expressions unevaluated).
+
+use super::error::{ErrorKind, NetlistError, Pos, Warning};
+use super::expr::ExprTok;
+use super::lexer::{Card, Cursor, Lexed, Spanned};
+
+/// A name as written and normalised (lowercase; ground `gnd` → `0` for nodes).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Name {
+    pub orig: String,
+    pub norm: String,
+    pub pos: Pos,
+}
+
+impl Name {
+    fn plain(s: &Spanned) -> Self {
+        Self {
+            orig: s.text.clone(),
+            norm: s.lower(),
+            pos: s.start(),
+        }
+    }
+
+    fn node(s: &Spanned) -> Self {
+        let lower = s.lower();
+        let norm = if lower == "gnd" {
+            "0".to_owned()
+        } else {
+            lower
+        };
+        Self {
+            orig: s.text.clone(),
+            norm,
+            pos: s.start(),
+        }
+    }
+}
+
+/// A source's waveform as written.
+#[derive(Debug, Clone)]
+pub(crate) enum SourceFn {
+    Dc(ExprTok),
+    Sin(Vec<ExprTok>),
+    Pulse(Vec<ExprTok>),
+    Pwl(Vec<ExprTok>),
+}
+
+/// What kind of element a card is, with its element-specific fields.
+#[derive(Debug, Clone)]
+pub(crate) enum ElemKind {
+    R(ExprTok),
+    L(ExprTok, Option<ExprTok>),
+    C(ExprTok, Option<ExprTok>),
+    V(SourceFn),
+    I(SourceFn),
+    K(Name, Name, ExprTok),
+    D(Name),
+    X(Name, Vec<(Name, ExprTok)>),
+}
+
+/// An element card.
+#[derive(Debug, Clone)]
+pub(crate) struct ElemCard {
+    pub name: Name,
+    pub nodes: Vec<Name>,
+    pub kind: ElemKind,
+}
+
+/// A `.model NAME D(...)` card.
+#[derive(Debug, Clone)]
+pub(crate) struct ModelDef {
+    pub name: Name,
+    pub params: Vec<(Name, ExprTok)>,
+}
+
+/// A `.subckt` definition.
+#[derive(Debug, Clone)]
+pub(crate) struct SubcktDef {
+    pub name: Name,
+    pub ports: Vec<Name>,
+    pub defaults: Vec<(Name, ExprTok)>,
+    pub body: Block,
+}
+
+/// A `.tran` card.
+#[derive(Debug, Clone)]
+pub(crate) struct TranCard {
+    pub values: Vec<ExprTok>,
+    pub uic: bool,
+}
+
+/// The contents of the top level or of one subcircuit body.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Block {
+    pub elements: Vec<ElemCard>,
+    pub params: Vec<(Name, ExprTok)>,
+    pub models: Vec<ModelDef>,
+    pub subckts: Vec<SubcktDef>,
+    pub ics: Vec<(Name, ExprTok)>,
+}
+
+/// A parsed netlist before flattening.
+#[derive(Debug)]
+pub(crate) struct Parsed {
+    pub title: String,
+    pub top: Block,
+    pub tran: Option<TranCard>,
+    pub op: bool,
+    pub options: Vec<OptionCard>,
+    pub outputs: Vec<OutputRequest>,
+    pub warnings: Vec<Warning>,
+}
+
+/// One `key[=value]` of an `.options` card, lowercased.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OptionCard {
+    /// The option's name.
+    pub key: String,
+    /// Its value, if written `key=value`.
+    pub value: Option<String>,
+    /// Where it was written.
+    pub pos: Pos,
+}
+
+/// A signal named by `.print`, `.probe`, `.save` or `.plot` (`v(out)`, `v(a,b)`, `i(vin)`),
+/// lowercased, blanks removed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OutputRequest {
+    /// The signal as written, normalised (`v(a,b)`).
+    pub signal: String,
+    /// Where it was written.
+    pub pos: Pos,
+}
+
+/// The `key[=value]` pairs of an `.options` card (after its keyword).
+fn option_pairs(card: &Card, text: &str) -> Vec<OptionCard> {
+    let start = card.start();
+    let body = text.split_once(char::is_whitespace).map_or("", |(_, b)| b);
+    let mut out = Vec::new();
+    let normalised = body.replace(" =", "=").replace("= ", "=");
+    for word in normalised.split_whitespace() {
+        let (key, value) = match word.split_once('=') {
+            Some((k, v)) => (k.to_ascii_lowercase(), Some(v.to_ascii_lowercase())),
+            None => (word.to_ascii_lowercase(), None),
+        };
+        out.push(OptionCard {
+            key,
+            value,
+            pos: start,
+        });
+    }
+    out
+}
+
+/// The signals of an output card: every `name(args)` group, plus bare words other than an
+/// analysis name (`tran`, `dc`, `ac`, `op`, `noise`, `all`).
+fn output_requests(card: &Card, text: &str) -> Vec<OutputRequest> {
+    let start = card.start();
+    let body = text.split_once(char::is_whitespace).map_or("", |(_, b)| b);
+    let mut out = Vec::new();
+    let mut chars = body.chars().peekable();
+    let mut word = String::new();
+    while let Some(c) = chars.next() {
+        if c == '(' {
+            let mut group = format!("{}(", word.to_ascii_lowercase());
+            for d in chars.by_ref() {
+                if d == ')' {
+                    break;
+                }
+                if !d.is_whitespace() {
+                    group.push(d.to_ascii_lowercase());
+                }
+            }
+            group.push(')');
+            out.push(OutputRequest {
+                signal: group,
+                pos: start,
+            });
+            word.clear();
+        } else if c.is_whitespace() || c == ',' {
+            if !word.is_empty() {
+                let w = word.to_ascii_lowercase();
+                if !["tran", "dc", "ac", "op", "noise", "all"].contains(&w.as_str()) {
+                    out.push(OutputRequest {
+                        signal: w,
+                        pos: start,
+                    });
+                }
+                word.clear();
+            }
+        } else {
+            word.push(c);
+        }
+    }
+    if !word.is_empty() {
+        let w = word.to_ascii_lowercase();
+        if !["tran", "dc", "ac", "op", "noise", "all"].contains(&w.as_str()) {
+            out.push(OutputRequest {
+                signal: w,
+                pos: start,
+            });
+        }
+    }
+    out
+}
+
+/// Checks that a parameter name can be referred to in expressions (`[A-Za-z_][A-Za-z0-9_]*`).
+fn param_name(s: &Spanned, card: &str) -> Result<Name, NetlistError> {
+    let mut chars = s.text.chars();
+    let ok = chars.next().is_some_and(|c| c.is_alphabetic() || c == '_')
+        && chars.all(|c| c.is_alphanumeric() || c == '_');
+    if ok {
+        Ok(Name::plain(s))
+    } else {
+        Err(NetlistError::syntax(
+            s.start(),
+            s.text.clone(),
+            format!(
+                "`{}` is not a valid parameter name in card `{card}`",
+                s.text
+            ),
+        ))
+    }
+}
+
+/// Dot-cards accepted and ignored with a warning (measurements).
+const IGNORED_DOT_CARDS: &[&str] = &[".meas", ".measure"];
+
+/// Dot-cards that name the signals to record.
+const OUTPUT_DOT_CARDS: &[&str] = &[".print", ".plot", ".probe", ".save"];
+
+struct CardParser<'a> {
+    card: &'a Card,
+    cur: Cursor<'a>,
+    text: String,
+}
+
+/// `name=value` assignments in card order.
+type Assignments = Vec<(Name, ExprTok)>;
+impl<'a> CardParser<'a> {
+    fn new(card: &'a Card) -> Self {
+        Self {
+            card,
+            cur: Cursor::new(card),
+            text: card.text(),
+        }
+    }
+
+    fn syntax(&mut self, message: impl Into<String>) -> NetlistError {
+        let pos = self.cur.pos();
+        let rest = self.cur.rest().text;
+        let rest = if rest.is_empty() {
+            self.text.clone()
+        } else {
+            rest
+        };
+        NetlistError::syntax(
+            pos,
+            rest,
+            format!("{} in card `{}`", message.into(), self.text),
+        )
+    }
+
+    fn word(&mut self, what: &str) -> Result<Spanned, NetlistError> {
+        match self.cur.word() {
+            Some(w) => Ok(w),
+            None => Err(if self.cur.at_end() {
+                self.syntax(format!("missing {what}"))
+            } else {
+                self.syntax(format!("expected {what}"))
+            }),
+        }
+    }
+
+    fn node(&mut self) -> Result<Name, NetlistError> {
+        self.word("node").map(|w| Name::node(&w))
+    }
+
+    fn value(&mut self, what: &str) -> Result<ExprTok, NetlistError> {
+        match self.cur.value()? {
+            Some(v) => ExprTok::parse(&v),
+            None => Err(if self.cur.at_end() {
+                self.syntax(format!("missing {what}"))
+            } else {
+                self.syntax(format!("expected {what}"))
+            }),
+        }
+    }
+
+    fn assigned_value(&mut self, name: &Name) -> Result<ExprTok, NetlistError> {
+        match self.cur.assigned_value()? {
+            Some(v) => ExprTok::parse(&v),
+            None => Err(self.syntax(format!("missing value for `{}`", name.orig))),
+        }
+    }
+
+    /// Trailing `NAME=value` parameters, of which only `allowed` are supported.
+    fn trailing_params(&mut self, allowed: &[&str]) -> Result<Vec<(Name, ExprTok)>, NetlistError> {
+        let mut out = Vec::new();
+        while !self.cur.at_end() {
+            let Some(w) = self.cur.word() else {
+                return Err(self.syntax("unexpected text"));
+            };
+            let name = Name::plain(&w);
+            if !self.cur.eat('=') {
+                return Err(NetlistError::syntax(
+                    name.pos,
+                    name.orig.clone(),
+                    format!("unexpected `{}` in card `{}`", name.orig, self.text),
+                ));
+            }
+            if !allowed.contains(&name.norm.as_str()) {
+                return Err(NetlistError::unsupported_in(
+                    name.pos,
+                    &name.orig,
+                    &format!("parameter `{}`", name.orig),
+                    &self.text,
+                ));
+            }
+            let value = self.assigned_value(&name)?;
+            out.push((name, value));
+        }
+        Ok(out)
+    }
+
+    fn finish(&mut self) -> Result<(), NetlistError> {
+        if self.cur.at_end() {
+            Ok(())
+        } else {
+            Err(self.syntax("unexpected text"))
+        }
+    }
+
+    /// Reads the arguments of `SIN`/`PULSE`/`PWL`: in parentheses, or to the end of the card.
+    fn function_args(&mut self) -> Result<Vec<ExprTok>, NetlistError> {
+        let mut args = Vec::new();
+        let open = self.cur.pos();
+        if self.cur.eat('(') {
+            loop {
+                if self.cur.eat(')') {
+                    return Ok(args);
+                }
+                if self.cur.at_end() {
+                    return Err(NetlistError::syntax(
+                        open,
+                        "(",
+                        format!("unbalanced `(` in card `{}`", self.text),
+                    ));
+                }
+                args.push(self.value("value")?);
+            }
+        }
+        while !self.cur.at_end() {
+            args.push(self.value("value")?);
+        }
+        Ok(args)
+    }
+
+    fn source(&mut self, warnings: &mut Vec<Warning>) -> Result<SourceFn, NetlistError> {
+        let mut dc: Option<ExprTok> = None;
+        let mut tran: Option<SourceFn> = None;
+        while !self.cur.at_end() {
+            let pos = self.cur.pos();
+            let word = self.cur.peek_word();
+            match word.as_deref() {
+                Some("dc") => {
+                    self.cur.word();
+                    if dc.is_some() {
+                        return Err(NetlistError::syntax(
+                            pos,
+                            "DC",
+                            format!("two DC values in card `{}`", self.text),
+                        ));
+                    }
+                    dc = Some(self.value("DC value")?);
+                }
+                Some("ac") => {
+                    self.cur.word();
+                    let mut n = 0;
+                    while n < 2 && !self.cur.at_end() {
+                        let w = self.cur.peek_word();
+                        if matches!(w.as_deref(), Some("dc" | "sin" | "sine" | "pulse" | "pwl")) {
+                            break;
+                        }
+                        self.value("AC value")?;
+                        n += 1;
+                    }
+                    warnings.push(Warning::new(
+                        pos,
+                        "AC",
+                        format!("AC specification ignored in card `{}`", self.text),
+                    ));
+                }
+                Some(f @ ("sin" | "sine" | "pulse" | "pwl")) => {
+                    let f = f.to_owned();
+                    let kw = self.cur.word().map(|w| w.text).unwrap_or_default();
+                    if tran.is_some() {
+                        return Err(NetlistError::syntax(
+                            pos,
+                            kw,
+                            format!("two transient functions in card `{}`", self.text),
+                        ));
+                    }
+                    let args = self.function_args()?;
+                    let range = match f.as_str() {
+                        "pulse" => (2, 7),
+                        "pwl" => (2, usize::MAX),
+                        _ => (2, 6),
+                    };
+                    if args.len() < range.0 || args.len() > range.1 {
+                        let wanted = if f == "pwl" {
+                            "at least 2".to_owned()
+                        } else {
+                            format!("{} to {}", range.0, range.1)
+                        };
+                        return Err(NetlistError::syntax(
+                            pos,
+                            kw.clone(),
+                            format!(
+                                "`{kw}` takes {wanted} values, got {} in card `{}`",
+                                args.len(),
+                                self.text
+                            ),
+                        ));
+                    }
+                    if f == "pwl" && args.len() % 2 != 0 {
+                        return Err(NetlistError::syntax(
+                            pos,
+                            kw.clone(),
+                            format!(
+                                "`{kw}` needs time-value pairs, got {} values in card `{}`",
+                                args.len(),
+                                self.text
+                            ),
+                        ));
+                    }
+                    // PWL options such as `r=` and `td=` are not supported.
+                    if f == "pwl" && self.cur.peek_word().is_some() {
+                        let save_pos = self.cur.pos();
+                        let w = self.cur.peek_word().unwrap_or_default();
+                        if matches!(w.as_str(), "r" | "td") {
+                            return Err(NetlistError::unsupported_in(
+                                save_pos,
+                                &w,
+                                &format!("PWL option `{w}`"),
+                                &self.text,
+                            ));
+                        }
+                    }
+                    tran = Some(match f.as_str() {
+                        "pulse" => SourceFn::Pulse(args),
+                        "pwl" => SourceFn::Pwl(args),
+                        _ => SourceFn::Sin(args),
+                    });
+                }
+                Some(
+                    f @ ("exp" | "sffm" | "am" | "trnoise" | "trrandom" | "external" | "distof1"
+                    | "distof2" | "portnum" | "z0" | "pat"),
+                ) => {
+                    let f = f.to_uppercase();
+                    let kw = self.cur.word().map(|w| w.text).unwrap_or_default();
+                    return Err(NetlistError::unsupported_in(
+                        pos,
+                        &kw,
+                        &format!("source function `{f}`"),
+                        &self.text,
+                    ));
+                }
+                _ => {
+                    if dc.is_some() {
+                        return Err(self.syntax("unexpected text"));
+                    }
+                    dc = Some(self.value("value")?);
+                }
+            }
+        }
+        match (dc, tran) {
+            (Some(dc), Some(f)) => {
+                warnings.push(Warning::new(
+                    dc.pos,
+                    dc.text.clone(),
+                    format!(
+                        "DC value ignored in favour of the transient function in card `{}`",
+                        self.text
+                    ),
+                ));
+                Ok(f)
+            }
+            (None, Some(f)) => Ok(f),
+            (Some(dc), None) => Ok(SourceFn::Dc(dc)),
+            (None, None) => {
+                let pos = self.card.start();
+                warnings.push(Warning::new(
+                    pos,
+                    self.text.clone(),
+                    format!(
+                        "source without a value taken as DC 0 in card `{}`",
+                        self.text
+                    ),
+                ));
+                let zero = Spanned {
+                    text: "0".into(),
+                    positions: vec![pos],
+                    end: pos,
+                };
+                Ok(SourceFn::Dc(ExprTok::parse(&zero)?))
+            }
+        }
+    }
+
+    fn element(&mut self, warnings: &mut Vec<Warning>) -> Result<ElemCard, NetlistError> {
+        let name_span = self.word("element name")?;
+        let name = Name::plain(&name_span);
+        let letter = name.norm.chars().next().unwrap_or(' ');
+        let two_nodes =
+            |p: &mut Self| -> Result<Vec<Name>, NetlistError> { Ok(vec![p.node()?, p.node()?]) };
+        let (nodes, kind) = match letter {
+            'r' => {
+                let nodes = two_nodes(self)?;
+                let value = self.value("resistance")?;
+                self.trailing_params(&[])?;
+                (nodes, ElemKind::R(value))
+            }
+            'l' | 'c' => {
+                let nodes = two_nodes(self)?;
+                let value = self.value(if letter == 'l' {
+                    "inductance"
+                } else {
+                    "capacitance"
+                })?;
+                let mut ic = None;
+                for (_, v) in self.trailing_params(&["ic"])? {
+                    ic = Some(v);
+                }
+                if letter == 'l' {
+                    (nodes, ElemKind::L(value, ic))
+                } else {
+                    (nodes, ElemKind::C(value, ic))
+                }
+            }
+            'v' | 'i' => {
+                let nodes = two_nodes(self)?;
+                let f = self.source(warnings)?;
+                if letter == 'v' {
+                    (nodes, ElemKind::V(f))
+                } else {
+                    (nodes, ElemKind::I(f))
+                }
+            }
+            'k' => {
+                let l1 = Name::plain(&self.word("inductor name")?);
+                let l2 = Name::plain(&self.word("inductor name")?);
+                let k = self.value("coupling coefficient")?;
+                self.finish()?;
+                (Vec::new(), ElemKind::K(l1, l2, k))
+            }
+            'd' => {
+                let nodes = two_nodes(self)?;
+                let model = Name::plain(&self.word("model name")?);
+                if !self.cur.at_end() {
+                    let pos = self.cur.pos();
+                    let rest = self.cur.rest().text;
+                    return Err(NetlistError::unsupported_in(
+                        pos,
+                        &rest,
+                        &format!("diode instance parameters `{rest}`"),
+                        &self.text,
+                    ));
+                }
+                (nodes, ElemKind::D(model))
+            }
+            'x' => {
+                let (mut words, params) =
+                    self.words_then_assignments("node or subcircuit name", |_, _| Ok(()))?;
+                let Some(sub) = words.pop() else {
+                    return Err(self.syntax("missing subcircuit name"));
+                };
+                let nodes = words.iter().map(Name::node).collect();
+                (nodes, ElemKind::X(Name::plain(&sub), params))
+            }
+            _ => {
+                return Err(NetlistError::unsupported_card(
+                    self.card.start(),
+                    &self.text,
+                ));
+            }
+        };
+        Ok(ElemCard { name, nodes, kind })
+    }
+
+    /// Plain words, then `name=value` assignments (optionally after the keyword `params:`), to
+    /// the end of the card: the shape of an `X` instance and of a `.subckt` header. A plain word
+    /// after `params:` or after an assignment is an error naming it; `check` sees each plain word
+    /// (with the card's text) as it is read, so errors come in card order.
+    fn words_then_assignments(
+        &mut self,
+        what: &str,
+        mut check: impl FnMut(&Spanned, &str) -> Result<(), NetlistError>,
+    ) -> Result<(Vec<Spanned>, Assignments), NetlistError> {
+        let mut words: Vec<Spanned> = Vec::new();
+        let mut assignments = Vec::new();
+        let mut params_mode = false;
+        while !self.cur.at_end() {
+            if self.cur.eat_keyword("params:") {
+                params_mode = true;
+                continue;
+            }
+            let w = self.word(what)?;
+            if self.cur.eat('=') {
+                let pname = param_name(&w, &self.text)?;
+                let v = self.assigned_value(&pname)?;
+                assignments.push((pname, v));
+            } else if params_mode || !assignments.is_empty() {
+                return Err(NetlistError::syntax(
+                    w.start(),
+                    w.text.clone(),
+                    format!(
+                        "expected `name=value`, found `{}` in card `{}`",
+                        w.text, self.text
+                    ),
+                ));
+            } else {
+                check(&w, &self.text)?;
+                words.push(w);
+            }
+        }
+        Ok((words, assignments))
+    }
+
+    fn params(&mut self) -> Result<Vec<(Name, ExprTok)>, NetlistError> {
+        let mut out = Vec::new();
+        while !self.cur.at_end() {
+            let w = self.word("parameter name")?;
+            let name = param_name(&w, &self.text)?;
+            if !self.cur.eat('=') {
+                return Err(self.syntax(format!("expected `=` after `{}`", name.orig)));
+            }
+            let v = self.assigned_value(&name)?;
+            out.push((name, v));
+        }
+        Ok(out)
+    }
+
+    fn model(&mut self) -> Result<ModelDef, NetlistError> {
+        let name = Name::plain(&self.word("model name")?);
+        let ty = self.word("model type")?;
+        if ty.lower() != "d" {
+            return Err(NetlistError::unsupported_in(
+                ty.start(),
+                &ty.text,
+                &format!("model type `{}`", ty.text),
+                &self.text,
+            ));
+        }
+        let open = self.cur.pos();
+        let paren = self.cur.eat('(');
+        let mut params = Vec::new();
+        loop {
+            if paren && self.cur.eat(')') {
+                break;
+            }
+            if self.cur.at_end() {
+                if paren {
+                    return Err(NetlistError::syntax(
+                        open,
+                        "(",
+                        format!("unbalanced `(` in card `{}`", self.text),
+                    ));
+                }
+                break;
+            }
+            let w = self.word("model parameter")?;
+            let pname = Name::plain(&w);
+            if !self.cur.eat('=') {
+                return Err(self.syntax(format!("expected `=` after `{}`", pname.orig)));
+            }
+            let v = self.assigned_value(&pname)?;
+            params.push((pname, v));
+        }
+        self.finish()?;
+        Ok(ModelDef { name, params })
+    }
+
+    fn subckt(&mut self) -> Result<SubcktDef, NetlistError> {
+        let name = Name::plain(&self.word("subcircuit name")?);
+        let mut ports: Vec<Name> = Vec::new();
+        let (_, defaults) = self.words_then_assignments("port or parameter", |w, card| {
+            let port = Name::node(w);
+            if port.norm == "0" {
+                return Err(NetlistError::bad_value(
+                    port.pos,
+                    port.orig.clone(),
+                    format!("the ground node cannot be a port in card `{card}`"),
+                ));
+            }
+            if ports.iter().any(|p| p.norm == port.norm) {
+                return Err(NetlistError::syntax(
+                    port.pos,
+                    port.orig.clone(),
+                    format!("port `{}` listed twice in card `{card}`", port.orig),
+                ));
+            }
+            ports.push(port);
+            Ok(())
+        })?;
+        Ok(SubcktDef {
+            name,
+            ports,
+            defaults,
+            body: Block::default(),
+        })
+    }
+
+    fn tran(&mut self) -> Result<TranCard, NetlistError> {
+        let mut values = Vec::new();
+        let mut uic = false;
+        while !self.cur.at_end() {
+            if self.cur.eat_keyword("uic") {
+                uic = true;
+                continue;
+            }
+            if uic {
+                return Err(self.syntax("unexpected text after `uic`"));
+            }
+            values.push(self.value("time")?);
+        }
+        if values.len() < 2 || values.len() > 4 {
+            return Err(NetlistError::syntax(
+                self.card.start(),
+                self.text.clone(),
+                format!(
+                    "`.tran` takes TSTEP TSTOP [TSTART [TMAX]] [UIC], got {} values in card `{}`",
+                    values.len(),
+                    self.text
+                ),
+            ));
+        }
+        Ok(TranCard { values, uic })
+    }
+
+    fn ic(&mut self) -> Result<Vec<(Name, ExprTok)>, NetlistError> {
+        let mut out = Vec::new();
+        if self.cur.at_end() {
+            return Err(self.syntax("missing `V(node)=value`"));
+        }
+        while !self.cur.at_end() {
+            let pos = self.cur.pos();
+            let ok = self.cur.eat_keyword("v") && self.cur.eat('(');
+            if !ok {
+                return Err(NetlistError::syntax(
+                    pos,
+                    self.text.clone(),
+                    format!("expected `V(node)=value` in card `{}`", self.text),
+                ));
+            }
+            let node = self.node()?;
+            if !self.cur.eat(')') {
+                return Err(self.syntax("expected `)`"));
+            }
+            if !self.cur.eat('=') {
+                return Err(self.syntax("expected `=`"));
+            }
+            let v = self.value("initial voltage")?;
+            out.push((node, v));
+        }
+        Ok(out)
+    }
+}
+
+/// A `.subckt` being read, with the position of its card.
+struct Open {
+    def: SubcktDef,
+    start: Pos,
+    text: String,
+}
+
+fn add_subckt(block: &mut Block, def: SubcktDef) -> Result<(), NetlistError> {
+    if block.subckts.iter().any(|s| s.name.norm == def.name.norm) {
+        return Err(NetlistError::new(
+            ErrorKind::DuplicateDefinition,
+            def.name.pos,
+            def.name.orig.clone(),
+            format!("subcircuit `{}` defined twice", def.name.orig),
+        ));
+    }
+    block.subckts.push(def);
+    Ok(())
+}
+
+/// Parses the cards of `lexed` into a syntax tree.
+pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
+    let mut warnings = lexed.warnings;
+    let mut top = Block::default();
+    let mut stack: Vec<Open> = Vec::new();
+    let mut tran: Option<TranCard> = None;
+    let mut op = false;
+    let mut options = Vec::new();
+    let mut outputs = Vec::new();
+
+    for card in &lexed.cards {
+        let mut p = CardParser::new(card);
+        let first = card.first_word();
+        let start = card.start();
+        if first.starts_with('.') {
+            let kw = p.cur.word().map(|w| w.lower()).unwrap_or_default();
+            let block = match stack.last_mut() {
+                Some(open) => &mut open.def.body,
+                None => &mut top,
+            };
+            match kw.as_str() {
+                ".param" => {
+                    let params = p.params()?;
+                    if params.is_empty() {
+                        return Err(p.syntax("missing `name=value`"));
+                    }
+                    for (name, value) in params {
+                        if block.params.iter().any(|(n, _)| n.norm == name.norm) {
+                            warnings.push(Warning::new(
+                                name.pos,
+                                name.orig.clone(),
+                                format!(
+                                    "parameter `{}` redefined; the last definition is used",
+                                    name.orig
+                                ),
+                            ));
+                            block.params.retain(|(n, _)| n.norm != name.norm);
+                        }
+                        block.params.push((name, value));
+                    }
+                }
+                ".model" => {
+                    let model = p.model()?;
+                    if block.models.iter().any(|m| m.name.norm == model.name.norm) {
+                        return Err(NetlistError::new(
+                            ErrorKind::DuplicateDefinition,
+                            model.name.pos,
+                            model.name.orig.clone(),
+                            format!("model `{}` defined twice", model.name.orig),
+                        ));
+                    }
+                    block.models.push(model);
+                }
+                ".ic" => {
+                    let ics = p.ic()?;
+                    block.ics.extend(ics);
+                }
+                ".tran" => {
+                    if !stack.is_empty() {
+                        return Err(NetlistError::unsupported_in(
+                            start,
+                            ".tran",
+                            "`.tran` inside `.subckt`",
+                            &p.text,
+                        ));
+                    }
+                    if tran.is_some() {
+                        return Err(NetlistError::new(
+                            ErrorKind::Unsupported,
+                            start,
+                            p.text.clone(),
+                            format!("a second `.tran` card `{}` not supported", p.text),
+                        ));
+                    }
+                    tran = Some(p.tran()?);
+                }
+                ".subckt" => {
+                    let def = p.subckt()?;
+                    stack.push(Open {
+                        def,
+                        start,
+                        text: p.text.clone(),
+                    });
+                }
+                ".ends" => {
+                    let Some(open) = stack.pop() else {
+                        return Err(NetlistError::syntax(
+                            start,
+                            p.text.clone(),
+                            "`.ends` without `.subckt`",
+                        ));
+                    };
+                    if let Some(w) = p.cur.word()
+                        && w.lower() != open.def.name.norm
+                    {
+                        return Err(NetlistError::syntax(
+                            w.start(),
+                            w.text.clone(),
+                            format!(
+                                "`.ends {}` closes subcircuit `{}`",
+                                w.text, open.def.name.orig
+                            ),
+                        ));
+                    }
+                    p.finish()?;
+                    let parent = match stack.last_mut() {
+                        Some(o) => &mut o.def.body,
+                        None => &mut top,
+                    };
+                    add_subckt(parent, open.def)?;
+                }
+                ".endc" => {
+                    return Err(NetlistError::syntax(
+                        start,
+                        p.text.clone(),
+                        "`.endc` without `.control`",
+                    ));
+                }
+                ".op" => op = true,
+                ".options" | ".option" | ".opt" => options.extend(option_pairs(card, &p.text)),
+                k if OUTPUT_DOT_CARDS.contains(&k) => {
+                    outputs.extend(output_requests(card, &p.text))
+                }
+                k if IGNORED_DOT_CARDS.contains(&k) => {
+                    warnings.push(Warning::new(
+                        start,
+                        p.text.clone(),
+                        format!("`{k}` card ignored: `{}`", p.text),
+                    ));
+                }
+                _ => return Err(NetlistError::unsupported_card(start, &p.text)),
+            }
+        } else {
+            let element = p.element(&mut warnings)?;
+            let block = match stack.last_mut() {
+                Some(open) => &mut open.def.body,
+                None => &mut top,
+            };
+            block.elements.push(element);
+        }
+    }
+    if let Some(open) = stack.pop() {
+        return Err(NetlistError::syntax(
+            open.start,
+            open.text,
+            format!("`.subckt {}` without `.ends`", open.def.name.orig),
+        ));
+    }
+    Ok(Parsed {
+        title: lexed.title,
+        top,
+        tran,
+        op,
+        options,
+        outputs,
+        warnings,
+    })
+}

@@ -1,0 +1,932 @@
+//! Netlist front end: every supported feature, and every error kind with its exact position.
+
+use dirac_netlist::{DiodeModel, Element, ErrorKind, Netlist, SourceSpec, Tran, parse_netlist};
+
+fn parse(src: &str) -> Netlist {
+    parse_netlist(src, "t.cir").unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn err(src: &str) -> dirac_netlist::NetlistError {
+    parse_netlist(src, "t.cir").expect_err("should fail")
+}
+
+/// Asserts kind and `line:column` of the error of `src`.
+fn assert_err(
+    src: &str,
+    kind: ErrorKind,
+    line: usize,
+    column: usize,
+) -> dirac_netlist::NetlistError {
+    let e = err(src);
+    assert_eq!(
+        (e.kind, e.line, e.column),
+        (kind, line, column),
+        "wrong error for {src:?}: {e}"
+    );
+    assert_eq!(e.file, "t.cir");
+    assert!(
+        e.to_string()
+            .starts_with(&format!("t.cir:{line}:{column}: ")),
+        "{e}"
+    );
+    e
+}
+
+fn value_of(net: &Netlist, name: &str) -> f64 {
+    match net.element(name) {
+        Some(Element::R { value, .. } | Element::L { value, .. } | Element::C { value, .. }) => {
+            *value
+        }
+        other => panic!("{name}: {other:?}"),
+    }
+}
+
+fn source_of<'a>(net: &'a Netlist, name: &str) -> &'a SourceSpec {
+    match net.element(name) {
+        Some(Element::V { source, .. } | Element::I { source, .. }) => source,
+        other => panic!("{name}: {other:?}"),
+    }
+}
+
+#[test]
+fn rlc_cards_with_initial_conditions() {
+    let net = parse(
+        "R1 a b 1k is the title, not a card\nR1 N1 gnd 100\nL1 n1 N2 2m IC=0.5\nC1 n2 GND 3u ic=-1\nC2 n2 0 1p\n",
+    );
+    assert_eq!(net.title, "R1 a b 1k is the title, not a card");
+    assert_eq!(
+        net.elements,
+        vec![
+            Element::R {
+                name: "r1".into(),
+                n1: "n1".into(),
+                n2: "0".into(),
+                value: 100.0
+            },
+            Element::L {
+                name: "l1".into(),
+                n1: "n1".into(),
+                n2: "n2".into(),
+                value: 2e-3,
+                ic: Some(0.5)
+            },
+            Element::C {
+                name: "c1".into(),
+                n1: "n2".into(),
+                n2: "0".into(),
+                value: 3e-6,
+                ic: Some(-1.0)
+            },
+            Element::C {
+                name: "c2".into(),
+                n1: "n2".into(),
+                n2: "0".into(),
+                value: 1e-12,
+                ic: None
+            },
+        ]
+    );
+    assert_eq!(net.nodes(), ["n1", "n2"]);
+    assert_eq!(net.origins[0].name, "R1");
+    assert_eq!((net.origins[2].line, net.origins[2].column), (4, 1));
+    assert!(net.tran.is_none());
+    assert!(net.warnings.is_empty());
+}
+
+#[test]
+fn engineering_suffixes_and_unit_letters() {
+    let net = parse(
+        "suffixes\nC1 a 0 10uF\nR1 a b 1meg\nR2 b c 1m\nR3 c d 2.2k\nR4 d e 1e-3\nR5 e f 1kOhm\nL1 f g 4.7nH\nC2 g 0 100pF\nR6 g h 1MEG\nR7 h i 3.3K\n",
+    );
+    assert_eq!(value_of(&net, "c1"), 1e-5);
+    assert_eq!(value_of(&net, "r1"), 1e6);
+    assert_eq!(value_of(&net, "r2"), 1e-3);
+    assert_eq!(value_of(&net, "r3"), 2200.0);
+    assert_eq!(value_of(&net, "r4"), 1e-3);
+    assert_eq!(value_of(&net, "r5"), 1000.0);
+    assert_eq!(value_of(&net, "l1"), 4.7e-9);
+    assert_eq!(value_of(&net, "c2"), 1e-10);
+    assert_eq!(value_of(&net, "r6"), 1e6);
+    assert_eq!(value_of(&net, "r7"), 3300.0);
+    let net = parse("t\nV1 a 0 5V\nR1 a 0 1\n");
+    assert_eq!(source_of(&net, "v1"), &SourceSpec::Dc(5.0));
+    assert_eq!(dirac_netlist::parse_spice_number("10uF"), Some(1e-5));
+}
+
+#[test]
+fn source_forms() {
+    let net = parse(
+        "sources
+V1 a 0 5
+V2 b 0 DC 2.5
+I1 0 c dc 1m
+V3 d 0 SIN(0.5 2 1k 1m 10 45)
+V4 e 0 sin 0 1 50
+V5 f 0 PULSE(0, 5, 1u, 2u, 3u, 10u, 20u)
+V6 g 0 pulse (1 -1)
+I2 h 0 PWL(0 0 1m 1 2m 1)
+V7 i 0 DC 1 SIN(0 1 1k) AC 1 0
+V8 j 0 AC 1
+V9 k 0
+R1 a b 1
+",
+    );
+    assert_eq!(source_of(&net, "v1"), &SourceSpec::Dc(5.0));
+    assert_eq!(source_of(&net, "v2"), &SourceSpec::Dc(2.5));
+    assert_eq!(source_of(&net, "i1"), &SourceSpec::Dc(1e-3));
+    assert_eq!(
+        source_of(&net, "v3"),
+        &SourceSpec::Sin {
+            vo: 0.5,
+            va: 2.0,
+            freq: 1e3,
+            td: 1e-3,
+            theta: 10.0,
+            phase: 45.0
+        }
+    );
+    assert_eq!(
+        source_of(&net, "v4"),
+        &SourceSpec::Sin {
+            vo: 0.0,
+            va: 1.0,
+            freq: 50.0,
+            td: 0.0,
+            theta: 0.0,
+            phase: 0.0
+        }
+    );
+    assert_eq!(
+        source_of(&net, "v5"),
+        &SourceSpec::Pulse {
+            v1: 0.0,
+            v2: 5.0,
+            td: 1e-6,
+            tr: 2e-6,
+            tf: 3e-6,
+            pw: 1e-5,
+            per: 2e-5
+        }
+    );
+    // No .tran: unresolved defaults stay 0.
+    assert_eq!(
+        source_of(&net, "v6"),
+        &SourceSpec::Pulse {
+            v1: 1.0,
+            v2: -1.0,
+            td: 0.0,
+            tr: 0.0,
+            tf: 0.0,
+            pw: 0.0,
+            per: 0.0
+        }
+    );
+    assert_eq!(
+        source_of(&net, "i2"),
+        &SourceSpec::Pwl(vec![(0.0, 0.0), (1e-3, 1.0), (2e-3, 1.0)])
+    );
+    assert!(matches!(
+        source_of(&net, "v7"),
+        SourceSpec::Sin { freq, .. } if *freq == 1e3
+    ));
+    assert_eq!(source_of(&net, "v8"), &SourceSpec::Dc(0.0));
+    assert_eq!(source_of(&net, "v9"), &SourceSpec::Dc(0.0));
+    let messages: Vec<&str> = net.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert!(
+        messages.iter().any(|m| m.starts_with("DC value ignored")),
+        "{messages:?}"
+    );
+    assert_eq!(
+        messages
+            .iter()
+            .filter(|m| m.starts_with("AC specification ignored"))
+            .count(),
+        2
+    );
+    assert!(
+        messages
+            .iter()
+            .any(|m| m.starts_with("source without a value"))
+    );
+    match net.element("I1") {
+        Some(Element::I {
+            n_plus, n_minus, ..
+        }) => assert_eq!((n_plus.as_str(), n_minus.as_str()), ("0", "c")),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn tran_resolves_source_defaults() {
+    let net = parse(
+        "defaults\nV1 a 0 PULSE(0 1 1m)\nV2 b 0 SIN(1 2 0 1m 0 30)\nR1 a b 1\n.tran 0.1m 5m uic\n",
+    );
+    assert_eq!(
+        net.tran,
+        Some(Tran {
+            tstep: 1e-4,
+            tstop: 5e-3,
+            tstart: 0.0,
+            tmax: None,
+            uic: true
+        })
+    );
+    assert_eq!(
+        source_of(&net, "v1"),
+        &SourceSpec::Pulse {
+            v1: 0.0,
+            v2: 1.0,
+            td: 1e-3,
+            tr: 1e-4,
+            tf: 1e-4,
+            pw: 5e-3,
+            per: 5e-3
+        }
+    );
+    assert!(matches!(
+        source_of(&net, "v2"),
+        SourceSpec::Sin { freq, .. } if *freq == 200.0
+    ));
+}
+
+#[test]
+fn tran_forms() {
+    let t = parse("t\nR1 a 0 1\n.tran 1u 1m\n").tran.expect("tran");
+    assert_eq!(
+        (t.tstep, t.tstop, t.tstart, t.tmax, t.uic),
+        (1e-6, 1e-3, 0.0, None, false)
+    );
+    let t = parse("t\n.param ts=2u\nR1 a 0 1\n.TRAN {ts} 10m 1m 5u UIC\n")
+        .tran
+        .expect("tran");
+    assert_eq!(
+        (t.tstep, t.tstop, t.tstart, t.tmax, t.uic),
+        (2e-6, 1e-2, 1e-3, Some(5e-6), true)
+    );
+}
+
+#[test]
+fn coupled_inductors() {
+    let net = parse("k\nL1 a 0 1m\nL2 b 0 4m\nK1 L1 l2 0.5\nR1 b 0 1\n");
+    assert_eq!(
+        net.element("k1"),
+        Some(&Element::K {
+            name: "k1".into(),
+            l1: "l1".into(),
+            l2: "l2".into(),
+            k: 0.5
+        })
+    );
+    assert_eq!(net.nodes(), ["a", "b"]);
+}
+
+#[test]
+fn diode_with_model() {
+    let net = parse(
+        "diode\nD1 a K dmod\nD2 k 0 Plain\n.model DMOD D(IS=2e-14 N=1.5 RS=0.25 CJO=1p)\n.model plain d\nR1 a 0 1\n",
+    );
+    assert_eq!(
+        net.element("d1"),
+        Some(&Element::D {
+            name: "d1".into(),
+            anode: "a".into(),
+            cathode: "k".into(),
+            model: DiodeModel {
+                name: "dmod".into(),
+                is: 2e-14,
+                n: 1.5,
+                rs: 0.25,
+                ignored: vec![("cjo".into(), 1e-12)]
+            }
+        })
+    );
+    match net.element("d2") {
+        Some(Element::D { model, .. }) => {
+            assert_eq!((model.is, model.n, model.rs), (1e-14, 1.0, 0.0))
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(net.warnings.len(), 1);
+    assert_eq!((net.warnings[0].line, net.warnings[0].column), (4, 38));
+    // Model parameters without parentheses, with commas and parameter references.
+    let net = parse("d\n.param isat=1f\nD1 a 0 m1\n.model m1 D is={isat*10}, n=2\n");
+    match net.element("d1") {
+        Some(Element::D { model, .. }) => assert_eq!((model.is, model.n), (1e-15 * 10.0, 2.0)),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn initial_conditions_card() {
+    let net = parse(
+        "ic\n.param v0=2\nC1 a 0 1u\nC2 B 0 1u\nR1 a b 1\n.ic V(a)=1 v(b) = {v0*2}\n.IC V(a)=3\n",
+    );
+    assert_eq!(net.ic, vec![("a".to_owned(), 3.0), ("b".to_owned(), 4.0)]);
+    assert_eq!(net.warnings.len(), 1);
+}
+
+#[test]
+fn param_expressions() {
+    let net = parse(
+        "params
+.param a=2 b=3
+.param c = a + b * 2 d={(a + b) * 2} e=-a^2 f=2^3^2 g=a**b
+.param h=sqrt(16)+exp(0)+log(1)+abs(-2)+sin(0)+cos(0)
+.param late=early*2 early=5
+.param i=10/4/5 j=1k*a k='b*2'
+R1 n 0 {c}
+R2 n 0 {d}
+R3 n 0 {e}
+R4 n 0 {f}
+R5 n 0 {g}
+R6 n 0 {h}
+R7 n 0 {late}
+R8 n 0 {i}
+R9 n 0 j
+R10 n 0 '2*k'
+R11 n 0 2*a+1
+R12 n 0 {A*B}
+",
+    );
+    let got: Vec<f64> = (1..=12).map(|i| value_of(&net, &format!("r{i}"))).collect();
+    assert_eq!(
+        got,
+        [
+            8.0, 10.0, -4.0, 512.0, 8.0, 8.0, 10.0, 0.5, 2000.0, 12.0, 5.0, 6.0
+        ]
+    );
+}
+
+#[test]
+fn continuation_and_comments() {
+    let net = parse(
+        "title line
+* a comment line
+  * an indented comment
+R1 a ; inline comment
+* comment between a card and its continuation
+
++ b
++ 1k ; value on a continuation line
+V1 a 0 PULSE(0 1
++ 1m 1m 1m
++ 5m 10m)   ; closing on the third line
+.end
+R2 a b this is after .end and ignored
+",
+    );
+    assert_eq!(net.elements.len(), 2);
+    assert_eq!(value_of(&net, "r1"), 1e3);
+    assert!(matches!(
+        source_of(&net, "v1"),
+        SourceSpec::Pulse { per, .. } if *per == 1e-2
+    ));
+}
+
+#[test]
+fn output_control_is_accepted_with_warnings() {
+    let net = parse(
+        "controls
+R1 a 0 1
+.options method=trap reltol=1e-6
+.option gmin=1e-12
+.print tran v(a)
+.plot tran v(a)
+.probe v(a)
+.save v(a)
+.meas tran vmax MAX v(a)
+.control
+run
+plot v(a)
+.endc
+",
+    );
+    assert_eq!(net.elements.len(), 1);
+    // `.options` are kept as pairs (the circuit builder maps `method` and warns about the rest);
+    // `.print`/`.plot`/`.probe`/`.save` name the recorded signals; `.meas` and `.control` are
+    // ignored with warnings.
+    let options: Vec<(&str, Option<&str>, usize)> = net
+        .options
+        .iter()
+        .map(|o| (o.key.as_str(), o.value.as_deref(), o.pos.line))
+        .collect();
+    assert_eq!(
+        options,
+        [
+            ("method", Some("trap"), 3),
+            ("reltol", Some("1e-6"), 3),
+            ("gmin", Some("1e-12"), 4)
+        ]
+    );
+    let outputs: Vec<(&str, usize)> = net
+        .outputs
+        .iter()
+        .map(|o| (o.signal.as_str(), o.pos.line))
+        .collect();
+    assert_eq!(
+        outputs,
+        [("v(a)", 5), ("v(a)", 6), ("v(a)", 7), ("v(a)", 8)]
+    );
+    let lines: Vec<usize> = net.warnings.iter().map(|w| w.line).collect();
+    assert_eq!(lines, [9, 10]);
+}
+
+/// `.op` anywhere asks for the operating point; `.print` lists with differences and currents
+/// are kept as written (lowercased, blanks dropped).
+#[test]
+fn operating_point_and_print_lists() {
+    let net = parse(
+        "t
+R1 a 0 1
+.op
+.print tran V(a) v(a, 0) I(R1)
+.end
+",
+    );
+    assert!(net.op);
+    let outputs: Vec<&str> = net.outputs.iter().map(|o| o.signal.as_str()).collect();
+    assert_eq!(outputs, ["v(a)", "v(a,0)", "i(r1)"]);
+    assert!(
+        !parse(
+            "t
+R1 a 0 1
+"
+        )
+        .op
+    );
+}
+
+#[test]
+fn case_insensitive_names_and_keywords() {
+    let net = parse(
+        ".TITLE-like title\n.PARAM Rv=5\nr1 N1 Gnd {RV}\nR2 n1 GND rv\n.Tran 1 10 UiC\n.END\n",
+    );
+    assert_eq!(net.nodes(), ["n1"]);
+    assert_eq!(value_of(&net, "R1"), 5.0);
+    assert_eq!(value_of(&net, "r2"), 5.0);
+    assert!(net.tran.is_some_and(|t| t.uic));
+}
+
+#[test]
+fn nested_subcircuits_with_parameters() {
+    let net = parse(
+        "nested subcircuits
+.param rbase=100
+.subckt cell in out params: r=1k c=1n
+R1 in mid {r}
+C1 mid GND {c} IC=0.5
+L1 mid out 1u
+.ends cell
+.subckt pair a b c0=2n
+.param rr=rbase*3
+X1 a m cell r={rr}
+X2 m b cell c={c0}
+.subckt inner p
+R9 p 0 {c0*1e9}
+.ends
+X3 m inner
+.ends pair
+Xtop n1 n2 PAIR c0=5n
+Xsolo n2 0 cell
+",
+    );
+    let names: Vec<&str> = net.elements.iter().map(Element::name).collect();
+    assert_eq!(
+        names,
+        [
+            "xtop.x1.r1",
+            "xtop.x1.c1",
+            "xtop.x1.l1",
+            "xtop.x2.r1",
+            "xtop.x2.c1",
+            "xtop.x2.l1",
+            "xtop.x3.r9",
+            "xsolo.r1",
+            "xsolo.c1",
+            "xsolo.l1",
+        ]
+    );
+    assert_eq!(
+        net.elements[0],
+        Element::R {
+            name: "xtop.x1.r1".into(),
+            n1: "n1".into(),
+            n2: "xtop.x1.mid".into(),
+            value: 300.0
+        }
+    );
+    assert_eq!(
+        net.elements[1],
+        Element::C {
+            name: "xtop.x1.c1".into(),
+            n1: "xtop.x1.mid".into(),
+            n2: "0".into(),
+            value: 1e-9,
+            ic: Some(0.5)
+        }
+    );
+    assert_eq!(
+        net.elements[2],
+        Element::L {
+            name: "xtop.x1.l1".into(),
+            n1: "xtop.x1.mid".into(),
+            n2: "xtop.m".into(),
+            value: 1e-6,
+            ic: None
+        }
+    );
+    assert_eq!(value_of(&net, "xtop.x2.r1"), 1e3);
+    assert_eq!(value_of(&net, "xtop.x2.c1"), 5e-9);
+    assert_eq!(value_of(&net, "xtop.x3.r9"), 5.0);
+    match net.element("xsolo.l1") {
+        Some(Element::L { n1, n2, .. }) => {
+            assert_eq!((n1.as_str(), n2.as_str()), ("xsolo.mid", "0"))
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(
+        net.nodes(),
+        [
+            "n1",
+            "xtop.x1.mid",
+            "xtop.m",
+            "xtop.x2.mid",
+            "n2",
+            "xsolo.mid"
+        ]
+    );
+    assert_eq!(net.origins[0].name, "Xtop.X1.R1");
+    assert_eq!((net.origins[0].line, net.origins[0].column), (4, 1));
+}
+
+#[test]
+fn subcircuit_with_coupling_model_and_ic() {
+    let net = parse(
+        "xfmr
+.subckt xf p s k=0.9
+L1 p 0 1m
+L2 s 0 1m
+K1 L1 L2 {k}
+D1 s out dloc
+R1 out 0 1k
+.model dloc D(IS=1e-12)
+.ic V(out)=0.25
+.ends
+X1 a b xf k=0.5
+V1 a 0 SIN(0 1 1k)
+",
+    );
+    assert_eq!(
+        net.element("x1.k1"),
+        Some(&Element::K {
+            name: "x1.k1".into(),
+            l1: "x1.l1".into(),
+            l2: "x1.l2".into(),
+            k: 0.5
+        })
+    );
+    match net.element("x1.d1") {
+        Some(Element::D {
+            anode,
+            cathode,
+            model,
+            ..
+        }) => {
+            assert_eq!(
+                (anode.as_str(), cathode.as_str(), model.is),
+                ("b", "x1.out", 1e-12)
+            )
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(net.ic, vec![("x1.out".to_owned(), 0.25)]);
+}
+
+// ---------------------------------------------------------------- errors
+
+#[test]
+fn unsupported_cards() {
+    let e = assert_err(
+        "t\nR1 a 0 1\n    M1 d g s 0 nmos\n",
+        ErrorKind::Unsupported,
+        3,
+        5,
+    );
+    assert_eq!(
+        e.to_string(),
+        "t.cir:3:5: card `M1 d g s 0 nmos` not supported"
+    );
+    assert_eq!(e.text, "M1 d g s 0 nmos");
+    for card in [
+        "Q1 c b e npn",
+        "E1 a 0 b 0 2",
+        "F1 a 0 V1 2",
+        "G1 a 0 b 0 1m",
+        "H1 a 0 V1 1k",
+        "B1 a 0 V=1",
+        "T1 a 0 b 0 Z0=50 TD=1n",
+        "J1 d g s jmod",
+        ".ac dec 10 1 1meg",
+        ".dc V1 0 1 0.1",
+        ".include models.lib",
+        ".lib models.lib tt",
+        ".global vdd",
+        ".func f(x) {x*2}",
+        ".nodeset V(a)=1",
+        ".temp 50",
+    ] {
+        let e = assert_err(
+            &format!("t\nR1 a 0 1\n{card}\n"),
+            ErrorKind::Unsupported,
+            3,
+            1,
+        );
+        assert_eq!(
+            e.to_string(),
+            format!("t.cir:3:1: card `{card}` not supported")
+        );
+    }
+}
+
+#[test]
+fn unsupported_features_inside_cards() {
+    let e = assert_err("t\nV1 a 0 EXP(0 1 1n)\n", ErrorKind::Unsupported, 2, 8);
+    assert!(e.message.contains("not supported"), "{e}");
+    assert!(e.message.contains("EXP"), "{e}");
+    assert_err(
+        "t\nV1 a 0 PWL(0 0 1 1) r=0\n",
+        ErrorKind::Unsupported,
+        2,
+        21,
+    );
+    let e = assert_err("t\nR1 a 0 1k tc1=0.01\n", ErrorKind::Unsupported, 2, 11);
+    assert!(e.message.contains("parameter `tc1`") && e.message.contains("not supported"));
+    assert_err("t\n.model q1 NPN(BF=100)\n", ErrorKind::Unsupported, 2, 11);
+    assert_err(
+        "t\nD1 a 0 dm 2\n.model dm D\n",
+        ErrorKind::Unsupported,
+        2,
+        11,
+    );
+    assert_err(
+        "t\n.subckt s a\n.tran 1 2\n.ends\n",
+        ErrorKind::Unsupported,
+        3,
+        1,
+    );
+    let e = assert_err(
+        "t\nR1 a 0 1\n.tran 1 2\n.tran 1 3\n",
+        ErrorKind::Unsupported,
+        4,
+        1,
+    );
+    assert!(e.message.contains("not supported"));
+}
+
+#[test]
+fn syntax_errors() {
+    // Missing value: points just past the end of the card.
+    assert_err("t\nR1 a b\n", ErrorKind::Syntax, 2, 7);
+    assert_err("t\nR1 a\n", ErrorKind::Syntax, 2, 5);
+    // Expression errors point at the offending character, also inside braces.
+    assert_err("t\nR1 a b {1+*2}\n", ErrorKind::Syntax, 2, 11);
+    assert_err("t\n.param x=(1+2\n", ErrorKind::Syntax, 2, 14);
+    assert_err("t\nR1 a b 1k2\n", ErrorKind::Syntax, 2, 10);
+    assert_err("t\nR1 a b {1+2\n", ErrorKind::Syntax, 2, 8);
+    assert_err("t\nV1 a 0 SIN(0 1 1k\n", ErrorKind::Syntax, 2, 11);
+    assert_err("t\nV1 a 0 SIN(0)\n", ErrorKind::Syntax, 2, 8);
+    assert_err(
+        "t\nV1 a 0 PULSE(0 1 2 3 4 5 6 7)\n",
+        ErrorKind::Syntax,
+        2,
+        8,
+    );
+    assert_err("t\nI1 a 0 PWL(0 0 1)\n", ErrorKind::Syntax, 2, 8);
+    assert_err("t\nV1 a 0 1 2\n", ErrorKind::Syntax, 2, 10);
+    assert_err("t\n+ 1k\n", ErrorKind::Syntax, 2, 1);
+    assert_err("t\nR1 a 0 1\n.ends\n", ErrorKind::Syntax, 3, 1);
+    assert_err("t\n.subckt s a\nR1 a 0 1\n", ErrorKind::Syntax, 2, 1);
+    assert_err(
+        "t\n.subckt s a\nR1 a 0 1\n.ends other\n",
+        ErrorKind::Syntax,
+        4,
+        7,
+    );
+    assert_err("t\n.control\nrun\n", ErrorKind::Syntax, 2, 1);
+    assert_err("t\n.param\n", ErrorKind::Syntax, 2, 7);
+    assert_err("t\n.ic a=1\n", ErrorKind::Syntax, 2, 5);
+    assert_err("t\n.tran 1\n", ErrorKind::Syntax, 2, 1);
+    assert_err(
+        "t\nXa n1 n2 sub r=1 3\n.subckt sub a b r=2\n.ends\n",
+        ErrorKind::Syntax,
+        2,
+        18,
+    );
+    assert_err("t\nR1 a 0 {sqrt(1, 2)}\n", ErrorKind::Syntax, 2, 9);
+    // On a continuation line the position is on that line.
+    assert_err("t\nR1 a b\n+ {2**}\n", ErrorKind::Syntax, 3, 7);
+}
+
+#[test]
+fn unknown_and_recursive_params() {
+    assert_err("t\nR1 a b {2*rx}\n", ErrorKind::UnknownParam, 2, 11);
+    assert_err("t\nR1 a b rx\n", ErrorKind::UnknownParam, 2, 8);
+    let e = assert_err(
+        "t\n.subckt s a r=1\nR1 a 0 {r}\n.ends\nX1 n s r=2 q=3\n",
+        ErrorKind::UnknownParam,
+        5,
+        12,
+    );
+    assert!(e.message.contains("no parameter `q`"), "{e}");
+    // Subcircuit parameters are not visible outside.
+    assert_err(
+        "t\n.subckt s a r=1\nR1 a 0 {r}\n.ends\nX1 n s\nR2 n 0 {r}\n",
+        ErrorKind::UnknownParam,
+        6,
+        9,
+    );
+    // An unused top-level parameter is still checked.
+    assert_err(
+        "t\nR1 a 0 1\n.param p=1 q={p+zz}\n",
+        ErrorKind::UnknownParam,
+        3,
+        17,
+    );
+    assert_err(
+        "t\n.param a=b+1 b=2*a\nR1 x 0 {a}\n",
+        ErrorKind::RecursiveParam,
+        2,
+        18,
+    );
+    assert_err(
+        "t\n.param a={a}\nR1 x 0 1\n",
+        ErrorKind::RecursiveParam,
+        2,
+        11,
+    );
+    let e = assert_err("t\nR1 a b {foo(2)}\n", ErrorKind::UnknownFunction, 2, 9);
+    assert!(e.message.contains("`foo`"));
+}
+
+#[test]
+fn bad_values() {
+    assert_err("t\nR1 a b 0\n", ErrorKind::BadValue, 2, 8);
+    assert_err("t\n.param z=0\nR1 a b {1/z}\n", ErrorKind::BadValue, 3, 9);
+    assert_err(
+        "t\nL1 a 0 1\nL2 b 0 1\nK1 L1 L2 1.5\n",
+        ErrorKind::BadValue,
+        4,
+        10,
+    );
+    assert_err("t\nL1 a 0 1\nK1 L1 l1 0.5\n", ErrorKind::BadValue, 3, 7);
+    assert_err("t\nV1 a 0 PWL(0 0 2 1 1 2)\n", ErrorKind::BadValue, 2, 20);
+    assert_err("t\nV1 a 0 PULSE(0 1 0 -1n)\n", ErrorKind::BadValue, 2, 20);
+    assert_err("t\nR1 a 0 1\n.tran 0 1\n", ErrorKind::BadValue, 3, 7);
+    assert_err("t\nR1 a 0 1\n.tran 1m -1\n", ErrorKind::BadValue, 3, 10);
+    assert_err("t\nR1 a 0 1\n.tran 1m 1 2\n", ErrorKind::BadValue, 3, 12);
+    assert_err(
+        "t\nD1 a 0 dm\n.model dm D(IS=-1)\n",
+        ErrorKind::BadValue,
+        3,
+        16,
+    );
+    assert_err("t\n.subckt s gnd\n.ends\n", ErrorKind::BadValue, 2, 11);
+    assert_err("t\nR1 a 0 {sqrt(-1)}\n", ErrorKind::BadValue, 2, 9);
+}
+
+#[test]
+fn model_and_subcircuit_lookup_errors() {
+    assert_err("t\nD1 a 0 nomodel\n", ErrorKind::MissingModel, 2, 8);
+    // A model local to a subcircuit is not visible outside it.
+    assert_err(
+        "t\n.subckt s a\n.model dm D\nD1 a 0 dm\n.ends\nX1 n s\nD2 n 0 dm\n",
+        ErrorKind::MissingModel,
+        7,
+        8,
+    );
+    assert_err("t\nX1 a b nosuch\n", ErrorKind::UnknownSubckt, 2, 8);
+    assert_err(
+        "t\n.subckt loop a\nX1 a loop\n.ends\nX1 n loop\n",
+        ErrorKind::RecursiveSubckt,
+        3,
+        6,
+    );
+    assert_err(
+        "t\n.subckt s1 a\nX1 a s2\n.ends\n.subckt s2 a\nXdeep a s1\n.ends\nX1 n s1\n",
+        ErrorKind::RecursiveSubckt,
+        6,
+        9,
+    );
+    let e = assert_err(
+        "t\n.subckt s a b\nR1 a b 1\n.ends\nX1 n s\n",
+        ErrorKind::PortMismatch,
+        5,
+        6,
+    );
+    assert!(
+        e.message.contains("1 node but subcircuit `s` has 2 ports"),
+        "{e}"
+    );
+}
+
+#[test]
+fn duplicates_and_dangling_references() {
+    assert_err("t\nR1 a 0 1\nr1 b 0 2\n", ErrorKind::DuplicateElement, 3, 1);
+    assert_err(
+        "t\n.subckt s a\nR1 a 0 1\nR1 a 0 2\n.ends\nX1 n s\n",
+        ErrorKind::DuplicateElement,
+        4,
+        1,
+    );
+    assert_err(
+        "t\n.subckt s a\n.ends\n.subckt S b\n.ends\n",
+        ErrorKind::DuplicateDefinition,
+        4,
+        9,
+    );
+    assert_err(
+        "t\n.model d1 D\n.model D1 D\n",
+        ErrorKind::DuplicateDefinition,
+        3,
+        8,
+    );
+    assert_err(
+        "t\nL1 a 0 1\nR2 b 0 1\nK1 L1 R2 0.5\n",
+        ErrorKind::UnknownElement,
+        4,
+        7,
+    );
+    assert_err(
+        "t\nL1 a 0 1\nK1 L1 L9 0.5\n",
+        ErrorKind::UnknownElement,
+        3,
+        7,
+    );
+    assert_err("t\nR1 a 0 1\n.ic V(b)=1\n", ErrorKind::UnknownNode, 3, 7);
+    assert_err(
+        "t\nR1 a 0 1\n.ic V(a)=1 V(gnd)=2\n",
+        ErrorKind::UnknownNode,
+        3,
+        14,
+    );
+}
+
+#[test]
+fn errors_display_file_line_column() {
+    let e = parse_netlist("t\nR1 a b {1/0}\n", "circuits/demo.cir").expect_err("bad");
+    assert_eq!(
+        e.to_string(),
+        "circuits/demo.cir:2:9: `1/0` evaluates to inf"
+    );
+}
+
+#[test]
+fn limits_and_names() {
+    assert_err("t\n.param 2x=1\n", ErrorKind::Syntax, 2, 8);
+    assert_err("t\n.subckt s a r.1=2\n.ends\n", ErrorKind::Syntax, 2, 13);
+    // A long chain of parameters is fine; an absurd one is refused, not a stack overflow.
+    let chain = |n: usize| {
+        let mut src = String::from("chain\n");
+        for i in 0..n {
+            src.push_str(&format!(".param p{i}=p{}+1\n", i + 1));
+        }
+        src.push_str(&format!(".param p{n}=0\nR1 a 0 {{p0}}\n"));
+        src
+    };
+    assert_eq!(value_of(&parse(&chain(90)), "r1"), 90.0);
+    assert_eq!(err(&chain(2000)).kind, ErrorKind::Unsupported);
+    // Deep expressions along a chain count towards the same bound.
+    let deep_chain = |n: usize| {
+        let mut src = String::from("deep\n");
+        for i in 0..n {
+            let negs = "-(".repeat(40);
+            let close = ")".repeat(40);
+            src.push_str(&format!(".param p{i}={negs}p{}{close}\n", i + 1));
+        }
+        src.push_str(&format!(".param p{n}=1\nR1 a 0 {{p0}}\n"));
+        src
+    };
+    assert_eq!(value_of(&parse(&deep_chain(8)), "r1"), 1.0);
+    assert_eq!(err(&deep_chain(30)).kind, ErrorKind::Unsupported);
+    // Deep but finite subcircuit nesting.
+    let nest = |n: usize| {
+        let mut src = String::from("nest\n.subckt s0 a\nR1 a 0 1\n.ends\n");
+        for i in 1..=n {
+            src.push_str(&format!(".subckt s{i} a\nX1 a s{}\n.ends\n", i - 1));
+        }
+        src.push_str(&format!("X1 n s{n}\n"));
+        src
+    };
+    let net = parse(&nest(20));
+    assert_eq!(net.elements.len(), 1);
+    assert_eq!(net.elements[0].name(), format!("{}r1", "x1.".repeat(21)));
+    assert_eq!(err(&nest(150)).kind, ErrorKind::Unsupported);
+}
+
+#[test]
+fn pwl_repeated_time_is_a_warned_jump() {
+    let net = parse("t\nV1 a 0 PWL(0 0 1m 0 1m 5 2m 5)\nR1 a 0 1\n");
+    assert_eq!(net.warnings.len(), 1);
+    assert_eq!((net.warnings[0].line, net.warnings[0].column), (2, 21));
+    assert_eq!(source_of(&net, "v1").value(1.5e-3), 5.0);
+}

@@ -1,0 +1,226 @@
+//! Netlist → scene conversion (`dirac convert`).
+
+use std::collections::HashMap;
+use std::fmt::Write;
+
+use dirac_netlist::{CircuitError, Element, Netlist, SourceSpec};
+
+use crate::{Scene, SceneError};
+
+/// Why a netlist could not be converted.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConvertError {
+    /// The netlist cannot become a circuit (same checks as `dirac run`).
+    #[error(transparent)]
+    Circuit(#[from] CircuitError),
+    /// The netlist has no `.tran` card, so the scene would have no step size.
+    #[error("{0}: no .tran card; a scene needs h and t_end")]
+    NoTran(String),
+    /// The generated scene did not parse back (a bug in the converter).
+    #[error("generated scene is invalid: {0}")]
+    Invalid(#[from] SceneError),
+}
+
+/// A scene part or connection name: netlist names lowercased, hierarchy dots as underscores.
+fn ident(name: &str) -> String {
+    name.replace('.', "_")
+}
+
+fn number(x: f64) -> String {
+    // TOML needs a decimal point or exponent for floats; `{:?}` gives the shortest round-trip form.
+    let s = format!("{x:?}");
+    if s.contains(['.', 'e', 'E', 'i', 'N']) {
+        s
+    } else {
+        format!("{s}.0")
+    }
+}
+
+fn waveform(spec: &SourceSpec) -> String {
+    match spec {
+        SourceSpec::Dc(v) => number(*v),
+        SourceSpec::Sin {
+            vo,
+            va,
+            freq,
+            td,
+            theta,
+            phase,
+        } => format!(
+            "{{ shape = \"sin\", offset = {}, amplitude = {}, frequency = {}, delay = {}, damping = {}, phase = {} }}",
+            number(*vo),
+            number(*va),
+            number(*freq),
+            number(*td),
+            number(*theta),
+            number(*phase)
+        ),
+        SourceSpec::Pulse {
+            v1,
+            v2,
+            td,
+            tr,
+            tf,
+            pw,
+            per,
+        } => {
+            let period = if *per > 0.0 {
+                format!(", period = {}", number(*per))
+            } else {
+                String::new()
+            };
+            format!(
+                "{{ shape = \"pulse\", v1 = {}, v2 = {}, delay = {}, rise = {}, fall = {}, width = {}{period} }}",
+                number(*v1),
+                number(*v2),
+                number(*td),
+                number(*tr),
+                number(*tf),
+                number(*pw)
+            )
+        }
+        SourceSpec::Pwl(points) => {
+            let list: Vec<String> = points
+                .iter()
+                .map(|(t, v)| format!("[{}, {}]", number(*t), number(*v)))
+                .collect();
+            format!("{{ shape = \"pwl\", points = [{}] }}", list.join(", "))
+        }
+    }
+}
+
+/// The scene (TOML text) equivalent to `netlist`: one part per element (a `K` card and its two
+/// inductors become one `coupled_inductors` part), one KCL node per non-ground node, the `.tran`
+/// step and end time, midpoint rule, (+) scheme, monolithic representation. The text is parsed back
+/// before it is returned, so it is always a valid scene.
+pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, ConvertError> {
+    // Reuse the circuit builder's checks (coupling, nodes) so convert fails exactly where run would.
+    dirac_netlist::build_circuit(netlist, file)?;
+    let tran = netlist
+        .tran
+        .as_ref()
+        .ok_or_else(|| ConvertError::NoTran(file.to_string()))?;
+    let mut out = String::new();
+    let _ = writeln!(out, "# Converted from {file} by `dirac convert`.");
+    if !netlist.title.is_empty() {
+        let _ = writeln!(out, "# {}", netlist.title);
+    }
+    let _ = writeln!(
+        out,
+        "\n[simulation]\nrepresentation = \"monolithic\"\nscheme = \"plus\"\ndiscretisation = \"midpoint\""
+    );
+    let _ = writeln!(
+        out,
+        "h = {}\nt_end = {}",
+        number(tran.tstep),
+        number(tran.tstop)
+    );
+    if !tran.uic {
+        // Without UIC a SPICE transient starts from the DC operating point.
+        let _ = writeln!(out, "initial = \"equilibrium\"");
+    }
+
+    // Inductors coupled by a K card: name → (K part, port).
+    let mut coupled: HashMap<&str, (String, &str)> = HashMap::new();
+
+    for element in &netlist.elements {
+        if let Element::K { name, l1, l2, k } = element {
+            let ((v1, i1), (v2, i2)) = (
+                netlist.inductor(l1).unwrap_or((0.0, None)),
+                netlist.inductor(l2).unwrap_or((0.0, None)),
+            );
+            let _ = writeln!(
+                out,
+                "\n[[part]]\nname = \"{}\"\ntype = \"coupled_inductors\"",
+                ident(name)
+            );
+            let _ = writeln!(
+                out,
+                "l1 = {}\nl2 = {}\nk = {}",
+                number(v1),
+                number(v2),
+                number(*k)
+            );
+            if i1.is_some() || i2.is_some() {
+                let _ = writeln!(
+                    out,
+                    "v0 = [{}, {}]",
+                    number(i1.unwrap_or(0.0)),
+                    number(i2.unwrap_or(0.0))
+                );
+            }
+            coupled.insert(l1.as_str(), (ident(name), "i1"));
+            coupled.insert(l2.as_str(), (ident(name), "i2"));
+        }
+    }
+    let mut port_of: HashMap<&str, String> = HashMap::new();
+    for element in &netlist.elements {
+        let name = element.name();
+        let part = ident(name);
+        let body = match element {
+            Element::R { value, .. } => format!("type = \"resistor\"\nr = {}", number(*value)),
+            Element::L {
+                name, value, ic, ..
+            } => {
+                if let Some((k, port)) = coupled.get(name.as_str()) {
+                    port_of.insert(name, format!("{k}.{port}"));
+                    continue;
+                }
+                let mut b = format!("type = \"inductor\"\nl = {}", number(*value));
+                if let Some(i) = ic {
+                    let _ = write!(b, "\nv0 = {}", number(*i));
+                }
+                b
+            }
+            Element::C {
+                n1, n2, value, ic, ..
+            } => {
+                let mut b = format!("type = \"capacitor\"\nc = {}", number(*value));
+                if let Some(v) = netlist.capacitor_voltage(n1, n2, *ic) {
+                    let _ = write!(b, "\nq0 = {}", number(value * v));
+                }
+                b
+            }
+            Element::V { source, .. } => {
+                format!("type = \"voltage_source\"\nwaveform = {}", waveform(source))
+            }
+            Element::I { source, .. } => {
+                format!("type = \"current_source\"\nwaveform = {}", waveform(source))
+            }
+            Element::D { model, .. } => format!(
+                "type = \"diode\"\nis = {}\nn = {}\nrs = {}",
+                number(model.is),
+                number(model.n),
+                number(model.rs)
+            ),
+            Element::K { .. } => continue,
+        };
+        let _ = writeln!(out, "\n[[part]]\nname = \"{part}\"\n{body}");
+        port_of.insert(name, format!("{part}.i"));
+    }
+    // KCL: a branch's flow leaves its first node (−1) and enters its second (+1).
+    let mut terminals: HashMap<&str, Vec<(String, f64)>> = HashMap::new();
+    for element in &netlist.elements {
+        let ends = element.terminals();
+        let (Some((a, b)), Some(port)) = (ends, port_of.get(element.name())) else {
+            continue;
+        };
+        terminals.entry(a).or_default().push((port.clone(), -1.0));
+        terminals.entry(b).or_default().push((port.clone(), 1.0));
+    }
+    for node in netlist.nodes() {
+        let ports = terminals.remove(node.as_str()).unwrap_or_default();
+        let list: Vec<String> = ports
+            .iter()
+            .map(|(p, s)| format!("[\"{p}\", {}]", number(*s)))
+            .collect();
+        let _ = writeln!(
+            out,
+            "\n[[connection]]\ntype = \"node\"\nname = \"{}\"\nports = [{}]",
+            ident(&node),
+            list.join(", ")
+        );
+    }
+    Scene::parse(&out, file)?;
+    Ok(out)
+}

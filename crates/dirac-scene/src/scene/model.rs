@@ -1,0 +1,1015 @@
+//! The scene data model: what a scene file says, as Rust values (serialisable back to TOML).
+
+use std::fmt;
+
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
+use serde::ser::{SerializeMap, SerializeSeq, Serializer};
+use serde::{Deserialize, Serialize};
+
+use super::error::Origin;
+
+/// A whole scene: settings, parts, connections and what to record.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Scene {
+    /// How to integrate.
+    pub simulation: Simulation,
+    /// The parts, in the order of the file (which is the order of the global coordinates).
+    #[serde(rename = "part", skip_serializing_if = "Vec::is_empty")]
+    pub parts: Vec<Part>,
+    /// The connections between ports.
+    #[serde(rename = "connection", skip_serializing_if = "Vec::is_empty")]
+    pub connections: Vec<Connection>,
+    /// What to record.
+    #[serde(skip_serializing_if = "Record::is_empty")]
+    pub record: Record,
+}
+
+/// How couplings and connections become equations (`representation = ...`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum RepresentationSpec {
+    /// One system; coupling potentials in the one Lagrangian (`"monolithic"`, the default).
+    #[default]
+    Monolithic,
+    /// Couplings on massless endpoint coordinates tied by joints (`"constraint"`).
+    Constraint,
+    /// Coupling potentials as equal-and-opposite forces (`"force"`).
+    Force,
+    /// Co-simulation: every part stepped on its own against frozen partners (`"staggered"`);
+    /// needs couplings only (no nodes or joints).
+    Staggered,
+}
+
+/// Order of the staggered co-simulation (`splitting = ...`, only with `"staggered"`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SplittingSpec {
+    /// Part `i` sees the new values of parts before it (`"gauss-seidel"`, the default).
+    #[default]
+    GaussSeidel,
+    /// Every part sees its partners' values from the start of the step (`"jacobi"`).
+    Jacobi,
+}
+
+/// The forced discrete Dirac scheme (`scheme = ...`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SchemeSpec {
+    /// The (+) step, constraint forms at `q_k` (`"plus"`, the default).
+    #[default]
+    Plus,
+    /// The (−) step, constraint forms at `q_{k+1}` (`"minus"`).
+    Minus,
+    /// (−) over `h/2` then (+) over `h/2` (`"symmetric"`).
+    Symmetric,
+}
+
+/// Path and quadrature (`discretisation = ...`, with `order = ...` for Gauss and Lobatto).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DiscretisationSpec {
+    /// Linear path, midpoint rule (order 2, the default).
+    #[default]
+    Midpoint,
+    /// Linear path, trapezoid rule (order 2).
+    Trapezoid,
+    /// Linear path, Simpson's rule (order 2).
+    Simpson,
+    /// Degree-`s` path with `s` Gauss nodes (order `2s`).
+    Gauss,
+    /// Degree-`s` path with `s + 1` Lobatto nodes (order `2s`).
+    Lobatto,
+}
+
+/// Where a run starts (`initial = ...`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InitialSpec {
+    /// From the parts' `q0` and `v0` (`"given"`, the default), made consistent where the model's
+    /// algebraic relations fix values that were not given.
+    #[default]
+    Given,
+    /// From the steady state: static equilibrium of a mechanism, the DC operating point of a
+    /// circuit (`"equilibrium"`).
+    Equilibrium,
+}
+
+impl InitialSpec {
+    fn is_given(&self) -> bool {
+        *self == Self::Given
+    }
+}
+
+/// The `[simulation]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Simulation {
+    /// Representation (default monolithic).
+    #[serde(default)]
+    pub representation: RepresentationSpec,
+    /// Splitting of a staggered run (default Gauss–Seidel; only with `"staggered"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub splitting: Option<SplittingSpec>,
+    /// Scheme (default plus).
+    #[serde(default)]
+    pub scheme: SchemeSpec,
+    /// Discretisation (default midpoint).
+    #[serde(default)]
+    pub discretisation: DiscretisationSpec,
+    /// Where the run starts: the given `q0`/`v0` (default) or the static equilibrium / steady
+    /// state (MATH §7).
+    #[serde(default, skip_serializing_if = "InitialSpec::is_given")]
+    pub initial: InitialSpec,
+    /// Order of the step map: even, 2 for midpoint, trapezoid and Simpson (the default), `2s`
+    /// for Gauss and Lobatto of degree `s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub order: Option<usize>,
+    /// Step size.
+    pub h: f64,
+    /// End time: the run takes `round(t_end / h)` steps.
+    pub t_end: f64,
+    /// Where it was written.
+    #[serde(skip)]
+    pub origin: Origin,
+}
+
+/// A part: a name, a stock part type with its parameters, and initial conditions.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Part {
+    /// Unique name (no `.`): the prefix of its ports and signals.
+    pub name: String,
+    /// The stock part and its parameters (`type = ...` plus the parameter keys).
+    #[serde(flatten)]
+    pub kind: PartKind,
+    /// Initial positions (default 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub q0: Option<Initial>,
+    /// Initial velocities / rates (default 0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub v0: Option<Initial>,
+    /// Where it was written.
+    #[serde(skip)]
+    pub origin: Origin,
+}
+
+/// Initial values of a part's coordinates: one number (a one-coordinate part), a list in
+/// coordinate order, or a table by coordinate name (unnamed coordinates start at 0).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Initial {
+    /// `q0 = 1.0`
+    Value(f64),
+    /// `q0 = [1.0, 0.0]`
+    List(Vec<f64>),
+    /// `q0 = { x = 1.0, y = -2.0 }`
+    Named(Vec<(String, f64)>),
+}
+
+impl Serialize for Initial {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Value(v) => s.serialize_f64(*v),
+            Self::List(values) => values.serialize(s),
+            Self::Named(values) => {
+                let mut map = s.serialize_map(Some(values.len()))?;
+                for (k, v) in values {
+                    map.serialize_entry(k, v)?;
+                }
+                map.end()
+            }
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Initial {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = Initial;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a number, a list of numbers or a table of numbers by coordinate name")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Initial, E> {
+                Ok(Initial::Value(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Initial, E> {
+                Ok(Initial::Value(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Initial, E> {
+                Ok(Initial::Value(v as f64))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Initial, A::Error> {
+                let mut out = Vec::new();
+                while let Some(v) = seq.next_element::<f64>()? {
+                    out.push(v);
+                }
+                Ok(Initial::List(out))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Initial, A::Error> {
+                let mut out = Vec::new();
+                while let Some((k, v)) = map.next_entry::<String, f64>()? {
+                    out.push((k, v));
+                }
+                Ok(Initial::Named(out))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A source's time function (`waveform = ...`): a number for DC, or a table with a `shape`
+/// (`"dc"`, `"sin"`, `"pulse"`, `"pwl"`), with ngspice's semantics (see
+/// [`dirac_components::Waveform`]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum WaveformSpec {
+    /// `waveform = 12.0` or `{ shape = "dc", value = 12.0 }`.
+    Dc(f64),
+    /// `{ shape = "sin", offset = 0, amplitude = 10, frequency = 50, delay = 0, damping = 0,
+    /// phase = 0 }`: `offset`, `delay`, `damping` and `phase` (degrees) default to 0.
+    Sin {
+        /// Offset.
+        offset: f64,
+        /// Amplitude.
+        amplitude: f64,
+        /// Frequency in Hz.
+        frequency: f64,
+        /// Delay.
+        delay: f64,
+        /// Damping factor (1/s).
+        damping: f64,
+        /// Phase in degrees.
+        phase: f64,
+    },
+    /// `{ shape = "pulse", v1 = 0, v2 = 5, delay = 0, rise = 0, fall = 0, width = 1, period = 2 }`:
+    /// `delay`, `rise` and `fall` default to 0; without `period`, a single pulse.
+    Pulse {
+        /// Initial value.
+        v1: f64,
+        /// Pulsed value.
+        v2: f64,
+        /// Delay.
+        delay: f64,
+        /// Rise time.
+        rise: f64,
+        /// Fall time.
+        fall: f64,
+        /// Pulse width.
+        width: f64,
+        /// Period (`None`: a single pulse).
+        period: Option<f64>,
+    },
+    /// `{ shape = "pwl", points = [[0, 0], [1e-3, 5]] }`: `(time, value)` points, times
+    /// non-decreasing.
+    Pwl(Vec<[f64; 2]>),
+}
+
+/// The raw table of a waveform, all keys optional (checked against the shape afterwards).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WaveformTable {
+    shape: String,
+    value: Option<f64>,
+    offset: Option<f64>,
+    amplitude: Option<f64>,
+    frequency: Option<f64>,
+    delay: Option<f64>,
+    damping: Option<f64>,
+    phase: Option<f64>,
+    v1: Option<f64>,
+    v2: Option<f64>,
+    rise: Option<f64>,
+    fall: Option<f64>,
+    width: Option<f64>,
+    period: Option<f64>,
+    points: Option<Vec<[f64; 2]>>,
+}
+
+impl WaveformTable {
+    fn into_spec<E: de::Error>(self) -> Result<WaveformSpec, E> {
+        let given: [(&str, bool); 14] = [
+            ("value", self.value.is_some()),
+            ("offset", self.offset.is_some()),
+            ("amplitude", self.amplitude.is_some()),
+            ("frequency", self.frequency.is_some()),
+            ("delay", self.delay.is_some()),
+            ("damping", self.damping.is_some()),
+            ("phase", self.phase.is_some()),
+            ("v1", self.v1.is_some()),
+            ("v2", self.v2.is_some()),
+            ("rise", self.rise.is_some()),
+            ("fall", self.fall.is_some()),
+            ("width", self.width.is_some()),
+            ("period", self.period.is_some()),
+            ("points", self.points.is_some()),
+        ];
+        let allowed: &[&str] = match self.shape.as_str() {
+            "dc" => &["value"],
+            "sin" => &[
+                "offset",
+                "amplitude",
+                "frequency",
+                "delay",
+                "damping",
+                "phase",
+            ],
+            "pulse" => &["v1", "v2", "delay", "rise", "fall", "width", "period"],
+            "pwl" => &["points"],
+            other => {
+                return Err(E::custom(format!(
+                    "unknown waveform shape `{other}`, expected one of `dc`, `sin`, `pulse`, `pwl`"
+                )));
+            }
+        };
+        if let Some((key, _)) = given
+            .iter()
+            .find(|(key, set)| *set && !allowed.contains(key))
+        {
+            return Err(E::custom(format!(
+                "key `{key}` does not belong to a `{}` waveform (its keys are {})",
+                self.shape,
+                super::error::listed(allowed.iter())
+            )));
+        }
+        let need = |v: Option<f64>, key: &str| {
+            v.ok_or_else(|| E::custom(format!("a `{}` waveform needs the key `{key}`", self.shape)))
+        };
+        Ok(match self.shape.as_str() {
+            "dc" => WaveformSpec::Dc(need(self.value, "value")?),
+            "sin" => WaveformSpec::Sin {
+                offset: self.offset.unwrap_or(0.0),
+                amplitude: need(self.amplitude, "amplitude")?,
+                frequency: need(self.frequency, "frequency")?,
+                delay: self.delay.unwrap_or(0.0),
+                damping: self.damping.unwrap_or(0.0),
+                phase: self.phase.unwrap_or(0.0),
+            },
+            "pulse" => WaveformSpec::Pulse {
+                v1: need(self.v1, "v1")?,
+                v2: need(self.v2, "v2")?,
+                delay: self.delay.unwrap_or(0.0),
+                rise: self.rise.unwrap_or(0.0),
+                fall: self.fall.unwrap_or(0.0),
+                width: need(self.width, "width")?,
+                period: self.period,
+            },
+            _ => {
+                WaveformSpec::Pwl(self.points.ok_or_else(|| {
+                    E::custom("a `pwl` waveform needs the key `points`".to_string())
+                })?)
+            }
+        })
+    }
+}
+
+impl Serialize for WaveformSpec {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Self::Dc(v) => s.serialize_f64(*v),
+            Self::Sin {
+                offset,
+                amplitude,
+                frequency,
+                delay,
+                damping,
+                phase,
+            } => {
+                let mut m = s.serialize_map(Some(7))?;
+                m.serialize_entry("shape", "sin")?;
+                m.serialize_entry("offset", offset)?;
+                m.serialize_entry("amplitude", amplitude)?;
+                m.serialize_entry("frequency", frequency)?;
+                m.serialize_entry("delay", delay)?;
+                m.serialize_entry("damping", damping)?;
+                m.serialize_entry("phase", phase)?;
+                m.end()
+            }
+            Self::Pulse {
+                v1,
+                v2,
+                delay,
+                rise,
+                fall,
+                width,
+                period,
+            } => {
+                let mut m = s.serialize_map(None)?;
+                m.serialize_entry("shape", "pulse")?;
+                m.serialize_entry("v1", v1)?;
+                m.serialize_entry("v2", v2)?;
+                m.serialize_entry("delay", delay)?;
+                m.serialize_entry("rise", rise)?;
+                m.serialize_entry("fall", fall)?;
+                m.serialize_entry("width", width)?;
+                if let Some(p) = period {
+                    m.serialize_entry("period", p)?;
+                }
+                m.end()
+            }
+            Self::Pwl(points) => {
+                let mut m = s.serialize_map(Some(2))?;
+                m.serialize_entry("shape", "pwl")?;
+                m.serialize_entry("points", points)?;
+                m.end()
+            }
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for WaveformSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = WaveformSpec;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a number (DC) or a waveform table with a `shape`")
+            }
+            fn visit_f64<E: de::Error>(self, v: f64) -> Result<WaveformSpec, E> {
+                Ok(WaveformSpec::Dc(v))
+            }
+            fn visit_i64<E: de::Error>(self, v: i64) -> Result<WaveformSpec, E> {
+                Ok(WaveformSpec::Dc(v as f64))
+            }
+            fn visit_u64<E: de::Error>(self, v: u64) -> Result<WaveformSpec, E> {
+                Ok(WaveformSpec::Dc(v as f64))
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<WaveformSpec, A::Error> {
+                let table = WaveformTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
+                table.into_spec()
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Every stock part and its parameters (`type = "..."`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum PartKind {
+    /// `type = "resistor"`: coordinate `q`, port `i`.
+    Resistor(ResistorParams),
+    /// `type = "inductor"`: coordinate `q`, port `i`.
+    Inductor(InductorParams),
+    /// `type = "capacitor"`: coordinate `q`, port `i`.
+    Capacitor(CapacitorParams),
+    /// `type = "voltage_source"`: coordinate `q`, port `i`.
+    VoltageSource(SourceParams),
+    /// `type = "current_source"`: coordinates `q`, `phi`, port `i`.
+    CurrentSource(SourceParams),
+    /// `type = "coupled_inductors"`: coordinates `q1`, `q2`, ports `i1`, `i2`.
+    CoupledInductors(CoupledInductorsParams),
+    /// `type = "diode"`: coordinates `q`, `u`, port `i` (anode to cathode).
+    Diode(DiodeParams),
+    /// `type = "saturating_inductor"`: coordinate `q`, port `i`.
+    SaturatingInductor(SaturatingInductorParams),
+    /// `type = "mass"`: coordinate `x`, port `x`.
+    Mass(MassParams),
+    /// `type = "inertia"`: coordinate `theta`, port `theta`.
+    Inertia(InertiaParams),
+    /// `type = "spring"` (to ground): coordinate and port `x` (`theta` if rotational).
+    Spring(SpringParams),
+    /// `type = "damper"` (to ground): coordinate and port `x` (`theta` if rotational).
+    Damper(DamperParams),
+    /// `type = "force_source"` (to ground): coordinate and port `x` (`theta` if rotational).
+    ForceSource(ForceSourceParams),
+    /// `type = "ground"`: the fixed frame, coordinate and port `x` (`theta` if rotational).
+    Ground(GroundParams),
+    /// `type = "pendulum"`: coordinates and ports `x`, `y`.
+    Pendulum(PendulumParams),
+    /// `type = "planar_linkage"`: per body `{body}.x`, `{body}.y`, `{body}.theta`.
+    PlanarLinkage(PlanarLinkageParams),
+    /// `type = "dc_motor"`: coordinates `q`, `theta`, ports `i`, `theta`.
+    DcMotor(DcMotorParams),
+    /// `type = "ideal_transformer"`: coordinates `q1`, `q2`, ports `i1`, `i2`.
+    IdealTransformer(IdealTransformerParams),
+    /// `type = "ideal_gear"`: coordinates and ports `theta1`, `theta2`.
+    IdealGear(IdealGearParams),
+    /// `type = "rolling_disk"`: coordinates and ports `x`, `y`, `theta`, `phi`; rolls without
+    /// slipping (q-dependent one-forms: use `scheme = "symmetric"` for bounded energy).
+    RollingDisk(RollingDiskParams),
+}
+
+/// The `type` names of [`PartKind`], in declaration order.
+pub const PART_TYPES: [&str; 20] = [
+    "resistor",
+    "inductor",
+    "capacitor",
+    "voltage_source",
+    "current_source",
+    "coupled_inductors",
+    "diode",
+    "saturating_inductor",
+    "mass",
+    "inertia",
+    "spring",
+    "damper",
+    "force_source",
+    "ground",
+    "pendulum",
+    "planar_linkage",
+    "dc_motor",
+    "ideal_transformer",
+    "ideal_gear",
+    "rolling_disk",
+];
+
+impl PartKind {
+    /// The `type` name.
+    #[must_use]
+    pub fn type_name(&self) -> &'static str {
+        let i = match self {
+            Self::Resistor(_) => 0,
+            Self::Inductor(_) => 1,
+            Self::Capacitor(_) => 2,
+            Self::VoltageSource(_) => 3,
+            Self::CurrentSource(_) => 4,
+            Self::CoupledInductors(_) => 5,
+            Self::Diode(_) => 6,
+            Self::SaturatingInductor(_) => 7,
+            Self::Mass(_) => 8,
+            Self::Inertia(_) => 9,
+            Self::Spring(_) => 10,
+            Self::Damper(_) => 11,
+            Self::ForceSource(_) => 12,
+            Self::Ground(_) => 13,
+            Self::Pendulum(_) => 14,
+            Self::PlanarLinkage(_) => 15,
+            Self::DcMotor(_) => 16,
+            Self::IdealTransformer(_) => 17,
+            Self::IdealGear(_) => 18,
+            Self::RollingDisk(_) => 19,
+        };
+        PART_TYPES[i]
+    }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
+}
+
+fn is_false(v: &bool) -> bool {
+    !*v
+}
+
+/// `resistor`: `r` (Ω, ≥ 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ResistorParams {
+    /// Resistance.
+    pub r: f64,
+}
+
+/// `inductor`: `l` (H, > 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InductorParams {
+    /// Inductance.
+    pub l: f64,
+}
+
+/// `capacitor`: `c` (F, > 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CapacitorParams {
+    /// Capacitance.
+    pub c: f64,
+}
+
+/// `voltage_source` / `current_source`: `waveform`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SourceParams {
+    /// The source's time function.
+    pub waveform: WaveformSpec,
+}
+
+/// `coupled_inductors`: `l1`, `l2` (> 0), `k` (`|k| ≤ 1`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CoupledInductorsParams {
+    /// Self-inductance of winding 1.
+    pub l1: f64,
+    /// Self-inductance of winding 2.
+    pub l2: f64,
+    /// Coupling coefficient.
+    pub k: f64,
+}
+
+fn default_emission() -> f64 {
+    1.0
+}
+
+fn default_vt() -> f64 {
+    dirac_components::Diode::VT_300K
+}
+
+/// `diode`: `is` (A, > 0), `n` (default 1), `vt` (V, default kT/q at 300 K), `rs` (Ω, default 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DiodeParams {
+    /// Saturation current.
+    pub is: f64,
+    /// Emission coefficient.
+    #[serde(default = "default_emission")]
+    pub n: f64,
+    /// Thermal voltage.
+    #[serde(default = "default_vt")]
+    pub vt: f64,
+    /// Series resistance.
+    #[serde(default)]
+    pub rs: f64,
+}
+
+/// `saturating_inductor`: `l0` (> 0), `l_inf` (`0 ≤ l_inf ≤ l0`), `i_sat` (> 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SaturatingInductorParams {
+    /// Small-signal inductance.
+    pub l0: f64,
+    /// Saturated inductance.
+    pub l_inf: f64,
+    /// Saturation current.
+    pub i_sat: f64,
+}
+
+/// `mass`: `m` (> 0), wall spring `k` and wall damper `c` (≥ 0, default 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MassParams {
+    /// Mass.
+    pub m: f64,
+    /// Wall spring stiffness.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub k: f64,
+    /// Wall damper coefficient.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub c: f64,
+}
+
+/// `inertia`: `j` (> 0), torsional spring `k` and bearing friction `c` to the frame (≥ 0,
+/// default 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InertiaParams {
+    /// Moment of inertia.
+    pub j: f64,
+    /// Torsional stiffness to the frame.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub k: f64,
+    /// Viscous friction to the frame.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub c: f64,
+}
+
+/// `spring` to ground (free end at its coordinate): `k` (≥ 0), cubic `k3` (default 0), `rest`
+/// (default 0), `rotational` (default false: port `x`; true: port `theta`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringParams {
+    /// Linear stiffness.
+    pub k: f64,
+    /// Cubic stiffness.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub k3: f64,
+    /// Rest offset.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rest: f64,
+    /// Rotational (port `theta`) rather than translational (port `x`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub rotational: bool,
+}
+
+/// `damper` to ground: `c` (≥ 0), `rotational`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DamperParams {
+    /// Damping coefficient.
+    pub c: f64,
+    /// Rotational (port `theta`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub rotational: bool,
+}
+
+/// `force_source` to ground: `waveform`, `rotational` (a torque).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForceSourceParams {
+    /// The force (or torque) as a function of time.
+    pub waveform: WaveformSpec,
+    /// Rotational (port `theta`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub rotational: bool,
+}
+
+/// `ground`: the fixed frame at `position` (default 0), `rotational`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroundParams {
+    /// Where the frame is (its coordinate's initial value must equal it; it is the default).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub position: f64,
+    /// Rotational (port `theta`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub rotational: bool,
+}
+
+fn default_gravity() -> f64 {
+    9.81
+}
+
+/// `pendulum` (Cartesian, holonomic rod): `m` (> 0), `length` (> 0), `g` (default 9.81),
+/// `pivot` (default `[0, 0]`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PendulumParams {
+    /// Bob mass.
+    pub m: f64,
+    /// Rod length.
+    pub length: f64,
+    /// Gravitational acceleration (towards −y).
+    #[serde(default = "default_gravity")]
+    pub g: f64,
+    /// Pivot position.
+    #[serde(default)]
+    pub pivot: [f64; 2],
+}
+
+/// A rigid body of a planar linkage: `{ name = "rod", m = 1, j = 0.1 }`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    /// Body name (prefix of its ports).
+    pub name: String,
+    /// Mass.
+    pub m: f64,
+    /// Moment of inertia about the centre of mass.
+    pub j: f64,
+}
+
+/// A pin joint of a planar linkage: body point `point` (body frame) held either at the fixed
+/// point `ground` or at point `at` of body `to`:
+/// `{ body = "a", point = [-0.5, 0], ground = [0, 0] }`,
+/// `{ body = "b", point = [-0.5, 0], to = "a", at = [0.5, 0] }`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PinSpec {
+    /// The pinned body.
+    pub body: String,
+    /// The pinned point in its frame.
+    pub point: [f64; 2],
+    /// Fixed point of the plane it is pinned to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ground: Option<[f64; 2]>,
+    /// Other body it is pinned to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to: Option<String>,
+    /// Point of the other body (its frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at: Option<[f64; 2]>,
+}
+
+/// `planar_linkage`: `g` (default 9.81), `bodies`, `pins`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlanarLinkageParams {
+    /// Gravitational acceleration (towards −y).
+    #[serde(default = "default_gravity")]
+    pub g: f64,
+    /// The bodies.
+    pub bodies: Vec<BodySpec>,
+    /// The pins.
+    #[serde(default)]
+    pub pins: Vec<PinSpec>,
+}
+
+/// `dc_motor`: motor constant `k`, armature `r` (≥ 0) and `l` (≥ 0), rotor `j` (≥ 0), friction
+/// `b` (≥ 0, default 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DcMotorParams {
+    /// Motor constant (V·s/rad = N·m/A).
+    pub k: f64,
+    /// Armature resistance.
+    pub r: f64,
+    /// Armature inductance.
+    pub l: f64,
+    /// Rotor inertia.
+    pub j: f64,
+    /// Viscous friction.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub b: f64,
+}
+
+/// `ideal_transformer`: turns ratio `n = N₂/N₁` (≠ 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdealTransformerParams {
+    /// Turns ratio.
+    pub n: f64,
+}
+
+/// `rolling_disk`: mass `m`, inertias `i` (rolling axis) and `j` (vertical axis), `radius`, all > 0.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RollingDiskParams {
+    /// Mass.
+    pub m: f64,
+    /// Moment of inertia about the rolling axis.
+    pub i: f64,
+    /// Moment of inertia about the vertical axis.
+    pub j: f64,
+    /// Radius.
+    pub radius: f64,
+}
+
+/// `ideal_gear`: `ratio = θ₂/θ₁` (≠ 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdealGearParams {
+    /// Gear ratio.
+    pub ratio: f64,
+}
+
+/// A connection between ports, with a unique name.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Connection {
+    /// Unique name among connections.
+    pub name: String,
+    /// Node, joint or coupling.
+    #[serde(flatten)]
+    pub kind: ConnectionKind,
+    /// Where it was written.
+    #[serde(skip)]
+    pub origin: Origin,
+}
+
+/// What a connection does (`type = "node" | "joint" | "coupling"`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ConnectionKind {
+    /// KCL: `Σ sᵢ flowᵢ = 0` over `ports = [["L1.i", 1], ["R1.i", -1]]` (`+1`: the flow enters
+    /// the node, i.e. the node is the part's `−` terminal). A port may also be written `"+L1.i"` or
+    /// `"-R1.i"`.
+    Node {
+        /// `(part.port, sign)` pairs.
+        ports: Vec<NodePort>,
+    },
+    /// A rigid joint `flow_a = flow_b` between `a = "A.x"` and `b = "G.x"`.
+    Joint {
+        /// First port.
+        a: String,
+        /// Second port.
+        b: String,
+    },
+    /// A coupling element between `a` and `b`: `element = { type = "spring", k = 1 }`.
+    Coupling {
+        /// First port.
+        a: String,
+        /// Second port.
+        b: String,
+        /// The element.
+        element: ElementSpec,
+    },
+}
+
+/// One signed port of a node.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodePort {
+    /// `part.port`.
+    pub port: String,
+    /// Sign (`+1`: the port's flow enters the node).
+    pub sign: f64,
+}
+
+impl Serialize for NodePort {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut seq = s.serialize_seq(Some(2))?;
+        seq.serialize_element(&self.port)?;
+        seq.serialize_element(&self.sign)?;
+        seq.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for NodePort {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = NodePort;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str(
+                    "a pair [\"part.port\", sign] or a string \"+part.port\" / \"-part.port\"",
+                )
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<NodePort, E> {
+                let (sign, rest) = match v.as_bytes().first() {
+                    Some(b'+') => (1.0, &v[1..]),
+                    Some(b'-') => (-1.0, &v[1..]),
+                    _ => {
+                        return Err(E::custom(format!(
+                            "node port `{v}` needs a sign: write \"+{v}\" or \"-{v}\", or [\"{v}\", 1]"
+                        )));
+                    }
+                };
+                Ok(NodePort {
+                    port: rest.trim().to_string(),
+                    sign,
+                })
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<NodePort, A::Error> {
+                let port: String = seq
+                    .next_element()?
+                    .ok_or_else(|| de::Error::invalid_length(0, &self))?;
+                let sign: f64 = seq
+                    .next_element()?
+                    .ok_or_else(|| de::Error::invalid_length(1, &self))?;
+                if seq.next_element::<de::IgnoredAny>()?.is_some() {
+                    return Err(de::Error::invalid_length(3, &self));
+                }
+                Ok(NodePort { port, sign })
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// A coupling element (`element = { type = ... }`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum ElementSpec {
+    /// `{ type = "spring", k = 1, k3 = 0, rest = 0 }`: `V = ½k d² + ¼k₃ d⁴`, `d = x_a − x_b − rest`
+    /// (`k3 ≠ 0`: a nonlinear, Duffing spring).
+    Spring(SpringElement),
+    /// `{ type = "damper", c = 0.1 }`: `f_a = −c (v_a − v_b) = −f_b`.
+    Damper(DamperElement),
+    /// `{ type = "force_source", waveform = ... }`: an actuator, `+F(t)` on `a`, `−F(t)` on `b`.
+    ForceSource(ActuatorElement),
+}
+
+/// The `type` names of [`ElementSpec`].
+pub const ELEMENT_TYPES: [&str; 3] = ["spring", "damper", "force_source"];
+
+/// A spring element: `k` (≥ 0), `k3` (default 0), `rest` (default 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpringElement {
+    /// Linear stiffness.
+    pub k: f64,
+    /// Cubic stiffness.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub k3: f64,
+    /// Rest offset.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub rest: f64,
+}
+
+/// A damper element: `c` (≥ 0).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DamperElement {
+    /// Damping coefficient.
+    pub c: f64,
+}
+
+/// An actuator element: `waveform`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActuatorElement {
+    /// The force as a function of time.
+    pub waveform: WaveformSpec,
+}
+
+/// The `[record]` table: what the runner records. Only `signals` is evaluated by this crate's
+/// runner; the other requests are carried for runners that compute them.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Record {
+    /// Signals by name: `C1.q` (a coordinate), `L1.q'` (its rate), `L1.i` (the flow of a port that
+    /// is not itself a coordinate). Empty: every coordinate and every such flow.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub signals: Vec<String>,
+    /// Record the total energy.
+    #[serde(skip_serializing_if = "is_false")]
+    pub energy: bool,
+    /// Parts whose power to record.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub power: Vec<String>,
+    /// Record the constraint residuals.
+    #[serde(skip_serializing_if = "is_false")]
+    pub residuals: bool,
+    /// Connections whose interaction forces to record.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub forces: Vec<String>,
+    /// Where it was written.
+    #[serde(skip)]
+    pub origin: Origin,
+}
+
+impl Record {
+    /// True when nothing beyond the defaults is asked for.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.signals.is_empty()
+            && !self.energy
+            && self.power.is_empty()
+            && !self.residuals
+            && self.forces.is_empty()
+    }
+}

@@ -1,0 +1,1348 @@
+//! The run layer: from an interconnection, a representation and integrator options to a
+//! trajectory of named signals. This is the one place where a model is run; the command line, the
+//! scene and netlist readers, the benchmarks and the examples all go through it.
+//!
+//! A [`Simulation`] assembles the graph (or splits it for co-simulation), sets the initial state
+//! (given by part and coordinate, or the steady state), makes it consistent with the model's
+//! algebraic relations, and steps it. Every recorded row `k` is the state at `t_k = t_0 + k·h`,
+//! read by the algebraic relations at `(q_k, p_k, t_k)` ([`crate::Readout`]): row 0 is the initial
+//! state itself.
+
+use std::time::Instant;
+
+use dirac_core::{Constraints, Model, RowSubset};
+use dirac_graph::{
+    AssembledConstraints, AssembledModel, AssembledSystem, Assembler, ConnectionId, GraphError,
+    Interconnection, Representation,
+};
+use thiserror::Error;
+
+use crate::error::SimError;
+use crate::integrator::{Integrator, IntegratorOptions};
+use crate::modes::{ModesError, NaturalModes};
+use crate::readout::{Readout, ReadoutError, ReadoutRow};
+use crate::signal::{Signal, Snapshot};
+use crate::staggered::{Splitting, Staggered};
+use crate::steady::{SteadyState, SteadyStateError};
+use crate::trajectory::{Sink, Trajectory};
+
+/// How the interconnection is turned into equations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Execution {
+    /// One assembled system in the given representation.
+    Assembled(Representation),
+    /// Co-simulation of the parts, each stepped against frozen partners.
+    Staggered(Splitting),
+}
+
+impl std::fmt::Display for Execution {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Assembled(r) => write!(f, "{r}"),
+            Self::Staggered(Splitting::GaussSeidel) => f.write_str("staggered-gs"),
+            Self::Staggered(Splitting::Jacobi) => f.write_str("staggered-jacobi"),
+        }
+    }
+}
+
+/// Where the run starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Start {
+    /// From the positions and velocities given (zero where none is given), made consistent with
+    /// the algebraic relations where they leave room (SPICE's `UIC`).
+    #[default]
+    Given,
+    /// From the steady state with the sources frozen at `t_0` (SPICE's DC operating point; static
+    /// equilibrium of a mechanism), MATH §7. Positions given for cyclic coordinates are kept.
+    SteadyState,
+}
+
+/// A failed run: bad input (a signal, a setting, an inconsistent start) or a numerical failure.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum RunError {
+    /// The integrator failed (a step's Newton iteration, a setting).
+    #[error(transparent)]
+    Sim(#[from] SimError),
+    /// The interconnection could not be assembled.
+    #[error(transparent)]
+    Graph(#[from] GraphError),
+    /// The values at an output time could not be computed.
+    #[error(transparent)]
+    Readout(#[from] ReadoutError),
+    /// The steady state could not be found.
+    #[error(transparent)]
+    SteadyState(#[from] SteadyStateError),
+    /// A signal names something the model does not have.
+    #[error("unknown signal: {0}")]
+    UnknownSignal(String),
+    /// Initial data that contradict an algebraic relation of the model and cannot be repaired
+    /// (every value involved was given).
+    #[error("contradictory initial data: {0}")]
+    ContradictoryStart(String),
+    /// Algebraic relations of the model that contradict each other whatever the state.
+    #[error("inconsistent model: {0}")]
+    InconsistentModel(String),
+    /// Step size, end time or start that cannot be run.
+    #[error("{0}")]
+    Settings(String),
+    /// The sink refused a row.
+    #[error("writing output: {0}")]
+    Output(String),
+    /// The natural modes could not be computed.
+    #[error("natural modes: {0}")]
+    Modes(#[from] ModesError),
+}
+
+impl RunError {
+    /// Whether this is a numerical failure (exit code 1) rather than bad input (exit code 2).
+    #[must_use]
+    pub fn is_numerical(&self) -> bool {
+        match self {
+            Self::Sim(SimError::Newton { .. }) | Self::Readout(_) => true,
+            Self::SteadyState(e) => e.is_numerical(),
+            _ => false,
+        }
+    }
+}
+
+/// What a run cost and what it found.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RunSummary {
+    /// Steps taken.
+    pub steps: usize,
+    /// Newton updates of the steps.
+    pub newton_iterations: usize,
+    /// Numeric factorisations of the steps.
+    pub factorisations: usize,
+    /// Newton updates of the readouts at the output times.
+    pub readout_iterations: usize,
+    /// Substeps that ended on a source breakpoint.
+    pub breakpoint_substeps: usize,
+    /// Substeps retried as two halves after a Newton failure.
+    pub step_cuts: usize,
+    /// Largest discrete constraint residual over the steps (when tracked).
+    pub max_constraint_residual: Option<f64>,
+    /// Wall time of set-up and stepping, in seconds.
+    pub wall_s: f64,
+    /// Warnings of the set-up (redundant constraints the model wrote, repaired initial values).
+    pub warnings: Vec<String>,
+}
+
+impl RunSummary {
+    /// Mean Newton updates per step.
+    #[must_use]
+    pub fn newton_iterations_per_step(&self) -> f64 {
+        self.newton_iterations as f64 / self.steps.max(1) as f64
+    }
+}
+
+/// Initial values of one part: positions and velocities, and which of them were given.
+#[derive(Debug, Clone, PartialEq)]
+struct PartStart {
+    q: Vec<f64>,
+    v: Vec<f64>,
+    given_q: Vec<bool>,
+    given_v: Vec<bool>,
+}
+
+/// A model ready to run: the graph, how to assemble it, how to step it and where to start.
+pub struct Simulation {
+    graph: Interconnection,
+    offsets: Vec<usize>,
+    execution: Execution,
+    options: IntegratorOptions,
+    t0: f64,
+    start: Start,
+    initial: Vec<PartStart>,
+    holds: Vec<(ConnectionId, f64)>,
+    track_residual: bool,
+    engine: Option<Engine>,
+    warnings: Vec<String>,
+    last_residual: f64,
+}
+
+impl std::fmt::Debug for Simulation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Simulation")
+            .field("execution", &self.execution)
+            .field("h", &self.options.h)
+            .field("t0", &self.t0)
+            .field("start", &self.start)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Simulation {
+    /// A simulation of `graph` in `execution` with `options`, starting at `t = 0` from rest (every
+    /// position and velocity zero, none given) unless told otherwise.
+    #[must_use]
+    pub fn new(graph: Interconnection, execution: Execution, options: IntegratorOptions) -> Self {
+        let initial = graph
+            .subsystems()
+            .iter()
+            .map(|s| {
+                let n = s.model().dim();
+                PartStart {
+                    q: vec![0.0; n],
+                    v: vec![0.0; n],
+                    given_q: vec![false; n],
+                    given_v: vec![false; n],
+                }
+            })
+            .collect();
+        Self {
+            offsets: graph.coordinate_offsets(),
+            graph,
+            execution,
+            options,
+            t0: 0.0,
+            start: Start::Given,
+            initial,
+            holds: Vec::new(),
+            track_residual: false,
+            engine: None,
+            warnings: Vec::new(),
+            last_residual: 0.0,
+        }
+    }
+
+    /// The interconnection.
+    #[must_use]
+    pub fn graph(&self) -> &Interconnection {
+        &self.graph
+    }
+
+    /// The integrator options.
+    #[must_use]
+    pub fn options(&self) -> &IntegratorOptions {
+        &self.options
+    }
+
+    /// The execution (representation or staggered splitting).
+    #[must_use]
+    pub fn execution(&self) -> Execution {
+        self.execution
+    }
+
+    /// Starts at `t0` instead of 0.
+    #[must_use]
+    pub fn starting_at(mut self, t0: f64) -> Self {
+        self.t0 = t0;
+        self.engine = None;
+        self
+    }
+
+    /// Chooses the start (given values or the steady state).
+    #[must_use]
+    pub fn start(mut self, start: Start) -> Self {
+        self.start = start;
+        self.engine = None;
+        self
+    }
+
+    /// Tracks the discrete constraint residual of every step (a diagnostic that re-evaluates the
+    /// step equations; on for the [`crate::Probe::ConstraintResidual`] signal).
+    #[must_use]
+    pub fn track_residual(mut self, on: bool) -> Self {
+        self.track_residual = on;
+        self
+    }
+
+    fn part(&mut self, part: &str, coordinate: &str) -> Result<(usize, usize), RunError> {
+        let id = self
+            .graph
+            .subsystem_id(part)
+            .ok_or_else(|| RunError::UnknownSignal(format!("no part `{part}`")))?;
+        let c = self.graph.coordinate_index(id, coordinate).ok_or_else(|| {
+            RunError::UnknownSignal(format!("part `{part}` has no coordinate `{coordinate}`"))
+        })?;
+        self.engine = None;
+        Ok((id.0, c))
+    }
+
+    /// Sets the initial position of coordinate `coordinate` of part `part` (it counts as given).
+    ///
+    /// # Errors
+    /// When the part or coordinate does not exist.
+    pub fn set_position(
+        &mut self,
+        part: &str,
+        coordinate: &str,
+        value: f64,
+    ) -> Result<(), RunError> {
+        let (s, c) = self.part(part, coordinate)?;
+        self.initial[s].q[c] = value;
+        self.initial[s].given_q[c] = true;
+        Ok(())
+    }
+
+    /// Sets the initial velocity (rate) of coordinate `coordinate` of part `part`.
+    ///
+    /// # Errors
+    /// When the part or coordinate does not exist.
+    pub fn set_velocity(
+        &mut self,
+        part: &str,
+        coordinate: &str,
+        value: f64,
+    ) -> Result<(), RunError> {
+        let (s, c) = self.part(part, coordinate)?;
+        self.initial[s].v[c] = value;
+        self.initial[s].given_v[c] = true;
+        Ok(())
+    }
+
+    /// Sets every part's initial positions and velocities at once (per part, in graph order);
+    /// `given` says which values were stated (the others may be moved to make the start
+    /// consistent).
+    ///
+    /// # Errors
+    /// [`GraphError::InitialDimension`] when a part's vectors have the wrong length.
+    pub fn set_initial(
+        &mut self,
+        q: &[Vec<f64>],
+        v: &[Vec<f64>],
+        given_q: &[Vec<bool>],
+        given_v: &[Vec<bool>],
+    ) -> Result<(), RunError> {
+        for (s, part) in self.initial.iter_mut().enumerate() {
+            let n = part.q.len();
+            for (what, got) in [
+                (&q.get(s), q.get(s).map(Vec::len)),
+                (&v.get(s), v.get(s).map(Vec::len)),
+            ] {
+                let _ = what;
+                if got != Some(n) {
+                    return Err(GraphError::InitialDimension {
+                        subsystem: self.graph.subsystems()[s].name().to_string(),
+                        got: got.unwrap_or(0),
+                        expected: n,
+                    }
+                    .into());
+                }
+            }
+            part.q.clone_from(&q[s]);
+            part.v.clone_from(&v[s]);
+            part.given_q = given_q.get(s).cloned().unwrap_or_else(|| vec![true; n]);
+            part.given_v = given_v.get(s).cloned().unwrap_or_else(|| vec![true; n]);
+            part.given_q.resize(n, true);
+            part.given_v.resize(n, true);
+        }
+        self.engine = None;
+        Ok(())
+    }
+
+    /// Holds the potential of node `connection` at `value` while the steady state is solved
+    /// (SPICE's `.ic V(node)=value` without `UIC`); the hold is released for the transient.
+    pub fn hold(&mut self, connection: ConnectionId, value: f64) {
+        self.holds.push((connection, value));
+        self.engine = None;
+    }
+
+    /// Builds the engine and the initial state if not done yet.
+    ///
+    /// # Errors
+    /// Assembly, an inconsistent or contradictory start, a steady state that cannot be found.
+    pub fn prepare(&mut self) -> Result<(), RunError> {
+        if self.engine.is_some() {
+            return Ok(());
+        }
+        if !(self.options.h > 0.0 && self.options.h.is_finite()) {
+            return Err(RunError::Settings(format!(
+                "step size must be positive and finite, got {}",
+                self.options.h
+            )));
+        }
+        self.warnings.clear();
+        let engine = match self.execution {
+            Execution::Assembled(representation) => {
+                Engine::Assembled(Box::new(self.build_assembled(representation)?))
+            }
+            Execution::Staggered(splitting) => {
+                if self.start == Start::SteadyState {
+                    return Err(RunError::Settings(
+                        "a staggered run starts from given values; compute the steady state in an assembled representation".into(),
+                    ));
+                }
+                let mut staggered = Staggered::new(&self.graph, &self.options, splitting)?;
+                let q: Vec<Vec<f64>> = self.initial.iter().map(|p| p.q.clone()).collect();
+                let v: Vec<Vec<f64>> = self.initial.iter().map(|p| p.v.clone()).collect();
+                staggered.initialise(&q, &v, self.t0)?;
+                let readouts = staggered
+                    .parts()
+                    .iter()
+                    .map(|part| {
+                        let rest = vec![0.0; part.q().len()];
+                        Readout::new(
+                            part.model(),
+                            part.active_constraints(),
+                            part.q(),
+                            &rest,
+                            self.t0,
+                        )
+                    })
+                    .collect();
+                Engine::Staggered(Box::new(StaggeredEngine {
+                    staggered,
+                    readouts,
+                }))
+            }
+        };
+        self.engine = Some(engine);
+        self.last_residual = 0.0;
+        Ok(())
+    }
+
+    /// The assembled engine with a consistent initial state.
+    fn build_assembled(
+        &mut self,
+        representation: Representation,
+    ) -> Result<AssembledEngine, RunError> {
+        let system = Assembler::assemble(&self.graph, representation)?;
+        let names: Vec<String> = self
+            .graph
+            .subsystems()
+            .iter()
+            .map(|s| s.name().to_string())
+            .collect();
+        let q_parts: Vec<Vec<f64>> = self.initial.iter().map(|p| p.q.clone()).collect();
+        let v_parts: Vec<Vec<f64>> = self.initial.iter().map(|p| p.v.clone()).collect();
+        let mut q = system.global_vector(&q_parts, &names)?;
+        let mut v = system.global_vector(&v_parts, &names)?;
+        let mut integrator = Integrator::new(
+            system.model.clone(),
+            system.constraints.clone(),
+            self.options.clone(),
+        )?;
+        integrator.initialise(&q, &v, self.t0)?;
+        let connection_rows = connection_active_rows(&system, integrator.active_constraints());
+        if self.start == Start::SteadyState {
+            let holds: Vec<(usize, f64)> = self
+                .holds
+                .iter()
+                .filter_map(|&(c, value)| {
+                    connection_rows
+                        .get(c.0)
+                        .copied()
+                        .flatten()
+                        .map(|r| (r, value))
+                })
+                .collect();
+            let steady = SteadyState::solve(
+                integrator.model(),
+                integrator.active_constraints(),
+                &q,
+                self.t0,
+                &holds,
+            )?;
+            q.clone_from(&steady.q);
+            v.clone_from(&steady.v);
+            integrator.initialise(&q, &v, self.t0)?;
+        }
+        let mut readout = Readout::new(
+            integrator.model(),
+            integrator.active_constraints(),
+            integrator.q(),
+            &v,
+            self.t0,
+        );
+        if self.start == Start::Given {
+            let given = self.given_global(&system);
+            self.make_consistent(&mut integrator, &mut readout, &mut q, &mut v, &given)?;
+        }
+        self.warn_redundant(&system, &integrator);
+        Ok(AssembledEngine {
+            system,
+            integrator,
+            readout,
+            connection_rows,
+        })
+    }
+
+    /// Warns about constraint rows dropped as linearly dependent, except the one row per closed
+    /// group of nodes that is always redundant: KCL written at every node of a circuit (ground
+    /// included) sums to zero, so one of its rows restates the others by construction.
+    fn warn_redundant(
+        &mut self,
+        system: &AssembledSystem,
+        integrator: &Integrator<AssembledModel, AssembledConstraints>,
+    ) {
+        let kept = integrator.active_constraints().kept();
+        let all = integrator.constraints().count();
+        let dropped: Vec<usize> = (0..all).filter(|r| !kept.contains(r)).collect();
+        if dropped.is_empty() {
+            return;
+        }
+        // Groups of node connections that share a coordinate (union–find over their rows).
+        let nodes: Vec<usize> = (0..system.connection_count())
+            .filter(|&c| {
+                matches!(
+                    self.graph.connections()[c],
+                    dirac_graph::Connection::Node { .. }
+                )
+            })
+            .collect();
+        let mut parent: Vec<usize> = (0..nodes.len()).collect();
+        fn find(parent: &mut [usize], mut i: usize) -> usize {
+            while parent[i] != i {
+                parent[i] = parent[parent[i]];
+                i = parent[i];
+            }
+            i
+        }
+        let mut owner: std::collections::HashMap<usize, usize> = std::collections::HashMap::new();
+        for (k, &c) in nodes.iter().enumerate() {
+            for &(i, _) in system.connection_entries(c).unwrap_or(&[]) {
+                if let Some(&other) = owner.get(&i) {
+                    let (a, b) = (find(&mut parent, k), find(&mut parent, other));
+                    parent[a] = b;
+                } else {
+                    owner.insert(i, k);
+                }
+            }
+        }
+        // A group is closed when its rows sum to zero (every branch enters one node and leaves
+        // another).
+        // Rows written twice (up to sign) count once here: the second copy is the user's.
+        let mut sums: std::collections::HashMap<usize, std::collections::HashMap<usize, f64>> =
+            std::collections::HashMap::new();
+        let mut seen: Vec<Vec<(usize, u64)>> = Vec::new();
+        for (k, &c) in nodes.iter().enumerate() {
+            let entries = system.connection_entries(c).unwrap_or(&[]);
+            let mut key: Vec<(usize, u64)> = entries
+                .iter()
+                .map(|&(i, v)| (i, v.abs().to_bits()))
+                .collect();
+            key.sort_unstable();
+            if seen.contains(&key) {
+                continue;
+            }
+            seen.push(key);
+            let g = find(&mut parent, k);
+            let sum = sums.entry(g).or_default();
+            for &(i, coefficient) in entries {
+                *sum.entry(i).or_insert(0.0) += coefficient;
+            }
+        }
+        let mut silent: std::collections::HashSet<usize> = sums
+            .iter()
+            .filter(|(_, sum)| sum.values().all(|v| v.abs() <= 1e-12))
+            .map(|(g, _)| *g)
+            .collect();
+        let constraints = integrator.constraints();
+        for row in dropped {
+            let group = nodes
+                .iter()
+                .position(|&c| system.connection_row(c) == Some(row))
+                .map(|k| find(&mut parent, k));
+            if let Some(g) = group
+                && silent.remove(&g)
+            {
+                continue;
+            }
+            self.warnings.push(format!(
+                "constraint `{}` is linearly dependent on the others at the initial point; dropped",
+                constraints.name(row)
+            ));
+        }
+    }
+
+    /// Which global positions and velocities were given (endpoint coordinates of the constraint
+    /// representation follow their partner ports: not given, never moved on their own).
+    fn given_global(&self, system: &AssembledSystem) -> (Vec<bool>, Vec<bool>) {
+        let n = system.coordinates();
+        let mut gq = vec![true; n];
+        let mut gv = vec![true; n];
+        for (s, part) in self.initial.iter().enumerate() {
+            let o = self.offsets[s];
+            gq[o..o + part.q.len()].copy_from_slice(&part.given_q);
+            gv[o..o + part.v.len()].copy_from_slice(&part.given_v);
+        }
+        (gq, gv)
+    }
+
+    /// Checks the algebraic relations at the start; where they fail, moves the initial values
+    /// that were not given (least change), warning for each, or reports the contradiction.
+    fn make_consistent(
+        &mut self,
+        integrator: &mut Integrator<AssembledModel, AssembledConstraints>,
+        readout: &mut Readout,
+        q: &mut Vec<f64>,
+        v: &mut Vec<f64>,
+        given: &(Vec<bool>, Vec<bool>),
+    ) -> Result<(), RunError> {
+        let t0 = self.t0;
+        let violations = |integrator: &Integrator<AssembledModel, AssembledConstraints>,
+                          readout: &mut Readout|
+         -> Result<Vec<(ReadoutRow, f64)>, RunError> {
+            readout.solve(
+                integrator.model(),
+                integrator.active_constraints(),
+                integrator.q(),
+                integrator.p(),
+                t0,
+            )?;
+            Ok(readout.consistency_residuals(
+                integrator.model(),
+                integrator.active_constraints(),
+                integrator.q(),
+                integrator.p(),
+                t0,
+            ))
+        };
+        let first = violations(integrator, readout)?;
+        let scale = readout.scale().max(f64::MIN_POSITIVE);
+        let tolerance = CONSISTENCY_TOL * scale;
+        let worst = |r: &[(ReadoutRow, f64)]| r.iter().fold(0.0_f64, |m, (_, x)| m.max(x.abs()));
+        if worst(&first) <= tolerance {
+            return Ok(());
+        }
+        let model = integrator.model().clone();
+        let rows: Vec<ReadoutRow> = first
+            .iter()
+            .filter(|(_, x)| x.abs() > tolerance)
+            .map(|(r, _)| *r)
+            .collect();
+        let involved = readout.involved(&rows);
+        let describe = |kind: Unknown, q: &[f64], v: &[f64]| match kind {
+            Unknown::Position(i) => format!("{} = {}", model.coordinate_name(i), q[i]),
+            Unknown::Velocity(i) => format!("{}' = {}", model.coordinate_name(i), v[i]),
+        };
+        let candidates: Vec<Unknown> = involved
+            .iter()
+            .copied()
+            .filter(|u| match *u {
+                Unknown::Position(i) => !given.0[i],
+                Unknown::Velocity(i) => !given.1[i],
+            })
+            .collect();
+        let names: Vec<String> = involved.iter().map(|&u| describe(u, q, v)).collect();
+        let relation = rows
+            .iter()
+            .map(|r| readout.describe_row(&model, integrator.active_constraints(), *r))
+            .collect::<Vec<_>>()
+            .join("; ");
+        if involved.is_empty() {
+            return Err(RunError::InconsistentModel(format!(
+                "{relation} cannot hold together with the model's other relations whatever the initial state (a cut set of current sources, or a loop of voltage sources, fixes one value twice)"
+            )));
+        }
+        if candidates.is_empty() {
+            return Err(RunError::ContradictoryStart(format!(
+                "{} (all given) violate {relation}",
+                names.join(", ")
+            )));
+        }
+        let before: Vec<String> = candidates.iter().map(|&u| describe(u, q, v)).collect();
+        let mut residual = first;
+        for _ in 0..CONSISTENCY_ITERATIONS {
+            let r0: Vec<f64> = residual.iter().map(|(_, x)| *x).collect();
+            if worst(&residual) <= REPAIR_TOL * scale {
+                break;
+            }
+            let mut columns = Vec::with_capacity(candidates.len());
+            for &u in &candidates {
+                let (values, i) = match u {
+                    Unknown::Position(i) => (&mut *q, i),
+                    Unknown::Velocity(i) => (&mut *v, i),
+                };
+                let saved = values[i];
+                // A step that moves the relations by FD_STEP of their own size.
+                let slope = readout.sensitivity(u);
+                let delta = if slope > 0.0 {
+                    FD_STEP * scale / slope
+                } else {
+                    FD_STEP * saved.abs().max(q_scale(values)).max(f64::MIN_POSITIVE)
+                };
+                values[i] += delta;
+                integrator.initialise(q, v, t0)?;
+                let perturbed = violations(integrator, readout)?;
+                match u {
+                    Unknown::Position(i) => q[i] = saved,
+                    Unknown::Velocity(i) => v[i] = saved,
+                }
+                columns.push(
+                    perturbed
+                        .iter()
+                        .zip(&r0)
+                        .map(|((_, a), b)| (a - b) / delta)
+                        .collect::<Vec<f64>>(),
+                );
+            }
+            let step = least_norm(&columns, &r0);
+            if step.iter().any(|d| !d.is_finite()) {
+                break;
+            }
+            for (&u, d) in candidates.iter().zip(&step) {
+                match u {
+                    Unknown::Position(i) => q[i] -= d,
+                    Unknown::Velocity(i) => v[i] -= d,
+                }
+            }
+            integrator.initialise(q, v, t0)?;
+            residual = violations(integrator, readout)?;
+        }
+        if worst(&residual) > tolerance {
+            return Err(RunError::ContradictoryStart(format!(
+                "{} violate {relation}, and moving {} cannot repair it",
+                names.join(", "),
+                before.join(", ")
+            )));
+        }
+        for (b, &u) in before.iter().zip(&candidates) {
+            let after = describe(u, q, v);
+            if *b != after {
+                self.warnings.push(format!(
+                    "initial value {b} is inconsistent with {relation}; set to {}",
+                    after.split(" = ").nth(1).unwrap_or(&after)
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The natural modes of the model linearised at the current state (after
+    /// [`Simulation::prepare`]: the initial or operating point), with the step size as time
+    /// scale; see [`NaturalModes::analyse`].
+    ///
+    /// # Errors
+    /// Set-up failures, a staggered execution (analyse an assembled one), a readout that cannot
+    /// be computed, or [`ModesError`].
+    pub fn natural_modes(&mut self) -> Result<NaturalModes, RunError> {
+        self.prepare()?;
+        let h = self.options.h;
+        match &mut self.engine {
+            Some(Engine::Assembled(e)) => {
+                let integrator = &e.integrator;
+                e.readout.solve(
+                    integrator.model(),
+                    integrator.active_constraints(),
+                    integrator.q(),
+                    integrator.p(),
+                    integrator.t(),
+                )?;
+                Ok(NaturalModes::analyse(
+                    integrator.model(),
+                    integrator.active_constraints(),
+                    (
+                        integrator.q(),
+                        e.readout.velocities(),
+                        e.readout.multipliers(),
+                    ),
+                    integrator.t(),
+                    h,
+                )?)
+            }
+            _ => Err(RunError::Settings(
+                "natural modes need an assembled representation (monolithic, constraint or force)"
+                    .into(),
+            )),
+        }
+    }
+
+    /// The warnings of the set-up (call after [`Simulation::prepare`] or a run).
+    #[must_use]
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// The state at the current time, read by the algebraic relations.
+    ///
+    /// # Errors
+    /// Set-up failures, or a readout that cannot be computed.
+    pub fn snapshot(&mut self) -> Result<Snapshot, RunError> {
+        let mut snapshot = Snapshot::default();
+        self.snapshot_into(&mut snapshot, true)?;
+        Ok(snapshot)
+    }
+
+    /// Fills `snapshot` with the current state (reusing its buffers); without `readout` only
+    /// the positions are current (velocities and multipliers are left as they were).
+    fn snapshot_into(&mut self, snapshot: &mut Snapshot, readout: bool) -> Result<(), RunError> {
+        self.prepare()?;
+        let residual = self.last_residual;
+        let connections = self.graph.connections().len();
+        let engine = self
+            .engine
+            .as_mut()
+            .ok_or_else(|| RunError::Settings("not prepared".into()))?;
+        engine.snapshot(snapshot, connections, residual, readout)
+    }
+
+    /// The time of the current state.
+    #[must_use]
+    pub fn time(&self) -> f64 {
+        self.engine.as_ref().map_or(self.t0, Engine::time)
+    }
+
+    /// Advances one step `h` (landing on source breakpoints, cutting the step when Newton fails).
+    ///
+    /// # Errors
+    /// The step's Newton failure, with the step, time, residual and likely cause.
+    pub fn step(&mut self) -> Result<(), RunError> {
+        self.prepare()?;
+        let track = self.track_residual;
+        let engine = self
+            .engine
+            .as_mut()
+            .ok_or_else(|| RunError::Settings("not prepared".into()))?;
+        self.last_residual = engine.step(track)?;
+        Ok(())
+    }
+
+    /// Checks that this simulation can record `signals` (a staggered run has no multipliers).
+    ///
+    /// # Errors
+    /// [`RunError::UnknownSignal`] naming the first signal it cannot record.
+    pub fn check_signals(&self, signals: &[Signal]) -> Result<(), RunError> {
+        if let (Execution::Staggered(_), Some(signal)) = (
+            self.execution,
+            signals.iter().find(|s| s.probe.needs_multipliers()),
+        ) {
+            return Err(RunError::UnknownSignal(format!(
+                "`{}` is the multiplier of a node or joint, which a staggered run does not have; record it in the monolithic, constraint or force representation",
+                signal.name
+            )));
+        }
+        Ok(())
+    }
+
+    /// Runs to `t_end` and collects `signals` at every output time.
+    ///
+    /// # Errors
+    /// See [`Simulation::run_into`].
+    pub fn run(
+        &mut self,
+        t_end: f64,
+        signals: &[Signal],
+    ) -> Result<(Trajectory, RunSummary), RunError> {
+        let mut trajectory = Trajectory::new();
+        let summary = self.run_into(t_end, signals, &mut trajectory)?;
+        Ok((trajectory, summary))
+    }
+
+    /// Runs from the start to `t_end` (`round((t_end − t_0)/h)` steps) and streams `signals` at
+    /// every output time `t_k = t_0 + k·h` to `sink`.
+    ///
+    /// Values the algebraic relations cannot fix at `t_k` (index-2 quantities: the current of a
+    /// capacitor across a voltage source, the potential between an inductor and a current source)
+    /// are the mean of the two steps around `t_k`; asking for one delays each row by a step.
+    ///
+    /// # Errors
+    /// Bad settings or signals, an inconsistent start, a step or readout that fails, or the sink.
+    pub fn run_into(
+        &mut self,
+        t_end: f64,
+        signals: &[Signal],
+        sink: &mut dyn Sink,
+    ) -> Result<RunSummary, RunError> {
+        let started = Instant::now();
+        if !(t_end.is_finite() && t_end >= self.t0) {
+            return Err(RunError::Settings(format!(
+                "end time {t_end} must be finite and not before the start {}",
+                self.t0
+            )));
+        }
+        if signals
+            .iter()
+            .any(|s| matches!(s.probe, crate::Probe::ConstraintResidual))
+        {
+            self.track_residual = true;
+        }
+        self.check_signals(signals)?;
+        self.engine = None;
+        self.prepare()?;
+        let h = self.options.h;
+        let steps = ((t_end - self.t0) / h).round() as usize;
+        let names: Vec<String> = signals.iter().map(|s| s.name.clone()).collect();
+        sink.begin(&names).map_err(RunError::Output)?;
+        let deferred = self.deferred_entries(signals);
+        let mut values = vec![0.0; signals.len()];
+        let mut max_residual: f64 = 0.0;
+        let mut pending: Option<Snapshot> = None;
+        let mut previous_mean: Option<StepMean> = None;
+        let readout = self.needs_readout(signals);
+        let mut snapshot = Snapshot::default();
+        for k in 0..=steps {
+            self.snapshot_into(&mut snapshot, readout)
+                .map_err(|e| match e {
+                    RunError::Readout(r) => RunError::Readout(r.at_step(k)),
+                    other => other,
+                })?;
+            let t_k = self.t0 + k as f64 * h;
+            if deferred.is_empty() {
+                self.emit(k, t_k, &snapshot, signals, &mut values, sink)?;
+                if k < steps {
+                    self.step()?;
+                    max_residual = max_residual.max(self.last_residual);
+                }
+                continue;
+            }
+            // Row k needs the mean of step k: take it, then complete and emit row k.
+            let before = snapshot.q.clone();
+            self.step()?;
+            max_residual = max_residual.max(self.last_residual);
+            let mean = self.step_mean(&before, h)?;
+            let mut row = snapshot.clone();
+            for &entry in &deferred {
+                let value = match &previous_mean {
+                    Some(previous) => 0.5 * (previous.get(entry) + mean.get(entry)),
+                    None => mean.get(entry),
+                };
+                row.set(entry, value);
+            }
+            if k == 0 {
+                pending = Some(row);
+            } else {
+                if let Some(mut first) = pending.take() {
+                    // Row 0: extrapolate the step means at h/2 and 3h/2 back to t_0.
+                    let first_mean = previous_mean.as_ref().unwrap_or(&mean);
+                    for &entry in &deferred {
+                        first.set(entry, 1.5 * first_mean.get(entry) - 0.5 * mean.get(entry));
+                    }
+                    self.emit(0, self.t0, &first, signals, &mut values, sink)?;
+                }
+                self.emit(k, t_k, &row, signals, &mut values, sink)?;
+            }
+            previous_mean = Some(mean);
+        }
+        if let Some(first) = pending.take() {
+            self.emit(0, self.t0, &first, signals, &mut values, sink)?;
+        }
+        let mut summary = self.summary();
+        summary.max_constraint_residual = self.track_residual.then_some(max_residual);
+        summary.wall_s = started.elapsed().as_secs_f64();
+        Ok(summary)
+    }
+
+    fn emit(
+        &self,
+        k: usize,
+        t: f64,
+        snapshot: &Snapshot,
+        signals: &[Signal],
+        values: &mut [f64],
+        sink: &mut dyn Sink,
+    ) -> Result<(), RunError> {
+        for (value, signal) in values.iter_mut().zip(signals) {
+            *value = snapshot.evaluate(&self.graph, &self.offsets, &signal.probe);
+        }
+        if let Some(bad) = values.iter().position(|v| !v.is_finite()) {
+            return Err(RunError::Sim(SimError::NonFinite {
+                what: signals[bad].name.clone(),
+                t,
+            }));
+        }
+        sink.row(k, t, values).map_err(RunError::Output)
+    }
+
+    /// Whether any of `signals` reads a velocity or a multiplier (else rows need no readout).
+    fn needs_readout(&self, signals: &[Signal]) -> bool {
+        let needs = std::cell::Cell::new(false);
+        for signal in signals {
+            signal.probe.visit(
+                &self.graph,
+                &self.offsets,
+                &mut |_| needs.set(true),
+                &mut |_| needs.set(true),
+            );
+        }
+        needs.get()
+    }
+
+    /// Entries of the snapshot that `signals` read and the algebraic relations do not fix.
+    fn deferred_entries(&mut self, signals: &[Signal]) -> Vec<Entry> {
+        let Some(engine) = &self.engine else {
+            return Vec::new();
+        };
+        let mut velocities = Vec::new();
+        let mut efforts = Vec::new();
+        for signal in signals {
+            signal.probe.visit(
+                &self.graph,
+                &self.offsets,
+                &mut |i| {
+                    if !engine.velocity_determined(i) && !velocities.contains(&Entry::Velocity(i)) {
+                        velocities.push(Entry::Velocity(i));
+                    }
+                },
+                &mut |c| {
+                    if !engine.effort_determined(c) && !efforts.contains(&Entry::Effort(c.0)) {
+                        efforts.push(Entry::Effort(c.0));
+                    }
+                },
+            );
+        }
+        velocities.extend(efforts);
+        velocities
+    }
+
+    /// The mean rates and constraint forces over the step just taken from positions `before`.
+    fn step_mean(&self, before: &[f64], h: f64) -> Result<StepMean, RunError> {
+        let engine = self
+            .engine
+            .as_ref()
+            .ok_or_else(|| RunError::Settings("not prepared".into()))?;
+        let after = engine.positions();
+        let rates = after.iter().zip(before).map(|(a, b)| (a - b) / h).collect();
+        let efforts = engine.mean_efforts(self.graph.connections().len(), h);
+        Ok(StepMean { rates, efforts })
+    }
+
+    /// Counters so far.
+    #[must_use]
+    pub fn summary(&self) -> RunSummary {
+        let mut summary = RunSummary {
+            warnings: self.warnings.clone(),
+            ..RunSummary::default()
+        };
+        if let Some(engine) = &self.engine {
+            engine.add_counters(&mut summary);
+        }
+        summary
+    }
+
+    /// Positions of every part at the current time, concatenated in graph order (the same
+    /// layout in every representation).
+    #[must_use]
+    pub fn positions(&self) -> Vec<f64> {
+        self.engine
+            .as_ref()
+            .map_or_else(Vec::new, Engine::positions)
+    }
+
+    /// Momenta of every part at the current time, concatenated in graph order (endpoint momenta
+    /// of the constraint representation pulled back to their partner ports).
+    #[must_use]
+    pub fn momenta(&self) -> Vec<f64> {
+        self.engine.as_ref().map_or_else(Vec::new, Engine::momenta)
+    }
+
+    /// The assembled system and its integrator (for diagnostics), if the execution is assembled
+    /// and prepared.
+    #[must_use]
+    pub fn assembled(
+        &self,
+    ) -> Option<(
+        &AssembledSystem,
+        &Integrator<AssembledModel, AssembledConstraints>,
+    )> {
+        match &self.engine {
+            Some(Engine::Assembled(e)) => Some((&e.system, &e.integrator)),
+            _ => None,
+        }
+    }
+}
+
+/// Relative size of an algebraic relation's residual at the start above which the start counts
+/// as inconsistent (round-off of the readout is ~1e-15 relative).
+const CONSISTENCY_TOL: f64 = 1e-9;
+
+/// Relative residual the repair of an inconsistent start aims for (round-off of the relations).
+const REPAIR_TOL: f64 = 1e-14;
+
+/// Gauss–Newton iterations of the consistent-start repair (one suffices for linear relations up
+/// to the finite-difference round-off; a second reaches round-off).
+const CONSISTENCY_ITERATIONS: usize = 4;
+
+/// Relative finite-difference step of the repair's sensitivities (exact for linear relations).
+const FD_STEP: f64 = 1e-6;
+
+fn q_scale(x: &[f64]) -> f64 {
+    x.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
+}
+
+/// An initial value that enters an algebraic relation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Unknown {
+    /// Global position `i`.
+    Position(usize),
+    /// Global velocity `i`.
+    Velocity(usize),
+}
+
+/// The minimum-norm `x` with `Σ_j columns[j]·x_j = r` (least squares when inconsistent):
+/// `x = Gᵀ (G Gᵀ)⁻¹ r`, by Gaussian elimination with partial pivoting on the small Gram matrix.
+fn least_norm(columns: &[Vec<f64>], r: &[f64]) -> Vec<f64> {
+    let m = r.len();
+    let mut gram = vec![vec![0.0; m + 1]; m];
+    for (a, row) in gram.iter_mut().enumerate() {
+        for b in 0..m {
+            row[b] = columns.iter().map(|c| c[a] * c[b]).sum();
+        }
+        row[m] = r[a];
+    }
+    let trace: f64 = (0..m)
+        .map(|a| gram[a][a])
+        .sum::<f64>()
+        .max(f64::MIN_POSITIVE);
+    for row in gram.iter_mut().enumerate() {
+        row.1[row.0] += 1e-14 * trace;
+    }
+    for col in 0..m {
+        let pivot = (col..m)
+            .max_by(|&a, &b| gram[a][col].abs().total_cmp(&gram[b][col].abs()))
+            .unwrap_or(col);
+        gram.swap(col, pivot);
+        let p = gram[col][col];
+        if p == 0.0 {
+            continue;
+        }
+        let (top, bottom) = gram.split_at_mut(col + 1);
+        let pivot_row = &top[col];
+        for row in bottom.iter_mut() {
+            let f = row[col] / p;
+            for (x, y) in row[col..].iter_mut().zip(&pivot_row[col..]) {
+                *x -= f * y;
+            }
+        }
+    }
+    let mut y = vec![0.0; m];
+    for row in (0..m).rev() {
+        let s: f64 = (row + 1..m).map(|k| gram[row][k] * y[k]).sum();
+        y[row] = if gram[row][row] == 0.0 {
+            0.0
+        } else {
+            (gram[row][m] - s) / gram[row][row]
+        };
+    }
+    columns
+        .iter()
+        .map(|c| c.iter().zip(&y).map(|(a, b)| a * b).sum())
+        .collect()
+}
+
+/// The active row (in the integrator's pruned set) of each connection, if it has one.
+fn connection_active_rows<C: Constraints>(
+    system: &AssembledSystem,
+    active: &RowSubset<C>,
+) -> Vec<Option<usize>> {
+    let kept = active.kept();
+    (0..system.connection_count())
+        .map(|c| {
+            system
+                .connection_row(c)
+                .and_then(|row| kept.iter().position(|&k| k == row))
+        })
+        .collect()
+}
+
+/// An entry of a snapshot filled from step means.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Entry {
+    Velocity(usize),
+    Effort(usize),
+}
+
+/// Mean rates and constraint forces of one step.
+struct StepMean {
+    rates: Vec<f64>,
+    efforts: Vec<Option<f64>>,
+}
+
+impl StepMean {
+    fn get(&self, entry: Entry) -> f64 {
+        match entry {
+            Entry::Velocity(i) => self.rates[i],
+            Entry::Effort(c) => self.efforts.get(c).copied().flatten().unwrap_or(0.0),
+        }
+    }
+}
+
+impl Snapshot {
+    fn set(&mut self, entry: Entry, value: f64) {
+        match entry {
+            Entry::Velocity(i) => self.v[i] = value,
+            Entry::Effort(c) => {
+                if let Some(e) = self.efforts.get_mut(c) {
+                    *e = Some(value);
+                }
+            }
+        }
+    }
+}
+
+enum Engine {
+    Assembled(Box<AssembledEngine>),
+    Staggered(Box<StaggeredEngine>),
+}
+
+struct AssembledEngine {
+    system: AssembledSystem,
+    integrator: Integrator<AssembledModel, AssembledConstraints>,
+    readout: Readout,
+    connection_rows: Vec<Option<usize>>,
+}
+
+struct StaggeredEngine {
+    staggered: Staggered,
+    readouts: Vec<Readout>,
+}
+
+impl Engine {
+    fn time(&self) -> f64 {
+        match self {
+            Self::Assembled(e) => e.integrator.t(),
+            Self::Staggered(e) => e.staggered.time(),
+        }
+    }
+
+    fn snapshot(
+        &mut self,
+        out: &mut Snapshot,
+        connections: usize,
+        residual: f64,
+        readout: bool,
+    ) -> Result<(), RunError> {
+        out.residual = residual;
+        out.efforts.resize(connections, None);
+        match self {
+            Self::Assembled(e) => {
+                let integrator = &e.integrator;
+                let parts = e.system.subsystem_coordinates();
+                out.t = integrator.t();
+                out.q.clear();
+                out.q.extend_from_slice(&integrator.q()[..parts]);
+                out.v.resize(parts, 0.0);
+                if readout {
+                    e.readout.solve(
+                        integrator.model(),
+                        integrator.active_constraints(),
+                        integrator.q(),
+                        integrator.p(),
+                        integrator.t(),
+                    )?;
+                    out.v.copy_from_slice(&e.readout.velocities()[..parts]);
+                    let lambda = e.readout.multipliers();
+                    for (effort, row) in out.efforts.iter_mut().zip(&e.connection_rows) {
+                        *effort = row.map(|r| lambda[r]);
+                    }
+                }
+                Ok(())
+            }
+            Self::Staggered(e) => {
+                out.t = e.staggered.time();
+                out.q.clear();
+                out.v.clear();
+                for (part, readout_of) in e.staggered.parts().iter().zip(&mut e.readouts) {
+                    out.q.extend_from_slice(part.q());
+                    if readout {
+                        readout_of.solve(
+                            part.model(),
+                            part.active_constraints(),
+                            part.q(),
+                            part.p(),
+                            part.t(),
+                        )?;
+                        out.v.extend_from_slice(readout_of.velocities());
+                    } else {
+                        out.v.extend(std::iter::repeat_n(0.0, part.q().len()));
+                    }
+                }
+                Ok(())
+            }
+        }
+    }
+
+    fn step(&mut self, track_residual: bool) -> Result<f64, RunError> {
+        match self {
+            Self::Assembled(e) => {
+                e.integrator.step()?;
+                Ok(if track_residual {
+                    e.integrator.last_constraint_residual()
+                } else {
+                    0.0
+                })
+            }
+            Self::Staggered(e) => {
+                e.staggered.step()?;
+                Ok(0.0)
+            }
+        }
+    }
+
+    fn positions(&self) -> Vec<f64> {
+        match self {
+            Self::Assembled(e) => e.system.subsystem_positions(e.integrator.q()).to_vec(),
+            Self::Staggered(e) => e.staggered.positions(),
+        }
+    }
+
+    fn momenta(&self) -> Vec<f64> {
+        match self {
+            Self::Assembled(e) => e.system.subsystem_momenta(e.integrator.p()),
+            Self::Staggered(e) => e.staggered.momenta(),
+        }
+    }
+
+    fn mean_efforts(&self, connections: usize, h: f64) -> Vec<Option<f64>> {
+        match self {
+            Self::Assembled(e) => {
+                let impulses = e.integrator.last_step_impulses();
+                e.connection_rows
+                    .iter()
+                    .map(|row| row.and_then(|r| impulses.get(r)).map(|i| i / h))
+                    .chain(std::iter::repeat(None))
+                    .take(connections)
+                    .collect()
+            }
+            Self::Staggered(_) => vec![None; connections],
+        }
+    }
+
+    fn velocity_determined(&self, i: usize) -> bool {
+        match self {
+            Self::Assembled(e) => e.readout.velocity_determined(i),
+            Self::Staggered(e) => {
+                let mut offset = 0;
+                for (part, readout) in e.staggered.parts().iter().zip(&e.readouts) {
+                    let n = part.model().dim();
+                    if i < offset + n {
+                        return readout.velocity_determined(i - offset);
+                    }
+                    offset += n;
+                }
+                true
+            }
+        }
+    }
+
+    fn effort_determined(&self, c: ConnectionId) -> bool {
+        match self {
+            Self::Assembled(e) => e
+                .connection_rows
+                .get(c.0)
+                .copied()
+                .flatten()
+                .is_none_or(|r| e.readout.multiplier_determined(r)),
+            Self::Staggered(_) => true,
+        }
+    }
+
+    fn add_counters(&self, summary: &mut RunSummary) {
+        match self {
+            Self::Assembled(e) => {
+                let stats = e.integrator.stats();
+                let counters = e.integrator.counters();
+                summary.steps = e.integrator.steps_taken();
+                summary.newton_iterations = stats.iterations;
+                summary.factorisations = stats.factorisations;
+                summary.readout_iterations = e.readout.stats().iterations;
+                summary.breakpoint_substeps = counters.breakpoint_substeps;
+                summary.step_cuts = counters.step_cuts;
+            }
+            Self::Staggered(e) => {
+                for part in e.staggered.parts() {
+                    let stats = part.stats();
+                    let counters = part.counters();
+                    summary.newton_iterations += stats.iterations;
+                    summary.factorisations += stats.factorisations;
+                    summary.breakpoint_substeps += counters.breakpoint_substeps;
+                    summary.step_cuts += counters.step_cuts;
+                }
+                summary.steps = e.staggered.steps_taken();
+                summary.readout_iterations = e.readouts.iter().map(|r| r.stats().iterations).sum();
+            }
+        }
+    }
+}

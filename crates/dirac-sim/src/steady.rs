@@ -1,0 +1,599 @@
+//! The steady state of a forced Lagrange–Dirac system (MATH §7): SPICE's DC operating point for a
+//! circuit, static equilibrium for a mechanism.
+//!
+//! Sources are frozen at `t_0`. A coordinate is *cyclic* when nothing `q`-dependent contains it (no
+//! potential, no `q`-dependent force or constraint): inductor, resistor and source charges, a free
+//! shaft angle. At the steady state every momentum is constant, every non-cyclic coordinate is at
+//! rest and cyclic coordinates move at constant rates, so with unknowns
+//! `(q_noncyclic, v_cyclic, λ)` the equations are
+//!
+//! ```text
+//! ∂L/∂qᵢ(q, v) + fᵢ(q, v, t₀) − (Aᵀλ)ᵢ = 0     for every coordinate,
+//! A(q) v = 0 (one-forms),   g(q) = 0 (holonomic rows).
+//! ```
+//!
+//! For a circuit this is modified nodal analysis with capacitors open (`q̇_C = 0`) and inductors
+//! shorted (`ṗ_L = 0`). A node potential held by `.ic` adds the equation `λ_a = value` and an
+//! injection current into that node's KCL row. Singular exactly where SPICE's is: a structural
+//! analysis names the node with no DC path or the equations that cannot hold together before
+//! Newton starts. Newton's method runs with the models' own update limits (SPICE's junction
+//! limiting) and, when it fails, gmin stepping: a conductance `g` from every node to ground (a
+//! compliance in every constraint row), decreased from 1e-2 to 0.
+
+use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
+use dirac_solve::{Newton, NewtonError, NewtonOptions, NonlinearSystem, Structure};
+use thiserror::Error;
+
+use crate::linear::{AutoLu, SolverChoice};
+
+/// A steady state that could not be found.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SteadyStateError {
+    /// Some value is fixed by no equation (a node with no DC path, a floating mass).
+    #[error("no steady state: {unknowns} not fixed by any equation ({hint})")]
+    Undetermined {
+        /// The unknowns no equation fixes, named.
+        unknowns: String,
+        /// What usually causes it and what to do.
+        hint: String,
+    },
+    /// Equations that fix the same values differently (a current source into capacitors only,
+    /// a loop of voltage sources).
+    #[error("no steady state: {equations} cannot hold ({hint})")]
+    Contradictory {
+        /// The equations, named, with their residuals.
+        equations: String,
+        /// What usually causes it.
+        hint: String,
+    },
+    /// Newton's method failed, even with gmin stepping.
+    #[error(
+        "steady state: Newton did not converge ({source}); largest residuals: {residuals}; try UIC (start from given values) or check the nonlinear parts' parameters"
+    )]
+    NotConverged {
+        /// The solver's last report.
+        source: NewtonError,
+        /// The equations with the largest residuals, named, with their values.
+        residuals: String,
+    },
+}
+
+impl SteadyStateError {
+    /// Whether this is a numerical failure (exit code 1) rather than a model without a steady
+    /// state (bad input, exit code 2).
+    #[must_use]
+    pub fn is_numerical(&self) -> bool {
+        matches!(self, Self::NotConverged { .. })
+    }
+}
+
+/// The steady state: positions, velocities and multipliers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SteadyState {
+    /// Positions (cyclic coordinates keep the guess's values).
+    pub q: Vec<f64>,
+    /// Velocities (zero for non-cyclic coordinates).
+    pub v: Vec<f64>,
+    /// One multiplier per constraint row (node potentials, joint forces).
+    pub multipliers: Vec<f64>,
+    /// Whether each coordinate is cyclic.
+    pub cyclic: Vec<bool>,
+    /// Newton updates spent, gmin stepping included.
+    pub iterations: usize,
+    /// Gmin steps taken (0 when plain Newton converged).
+    pub gmin_steps: usize,
+}
+
+/// Conductances of gmin stepping, from large to none.
+const GMIN_SCHEDULE: [f64; 12] = [
+    1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 0.0,
+];
+
+impl SteadyState {
+    /// Solves for the steady state of `model` with `constraints` at `t0`, from the guess `q`
+    /// (cyclic positions are kept), holding constraint rows `holds` (`(row, value)`) at their
+    /// values.
+    ///
+    /// # Errors
+    /// [`SteadyStateError`]: undetermined or contradictory equations (bad input), or Newton's
+    /// failure (numerical).
+    pub fn solve<M: Model + ?Sized, C: Constraints + ?Sized>(
+        model: &M,
+        constraints: &C,
+        q: &[f64],
+        t0: f64,
+        holds: &[(usize, f64)],
+    ) -> Result<Self, SteadyStateError> {
+        let n = model.dim();
+        let m = constraints.count();
+        let cyclic = classify(model, constraints, q, t0);
+        let mut system = SteadySystem::new(model, constraints, q, t0, holds, cyclic.clone());
+        let size = n + m + holds.len();
+        system.analyse()?;
+        let mut x = vec![0.0; size];
+        for ((x, &q), &c) in x.iter_mut().zip(q).zip(&cyclic) {
+            if !c {
+                *x = q;
+            }
+        }
+        let options = NewtonOptions {
+            max_iterations: 50,
+            reuse_jacobian: false,
+            ..NewtonOptions::default()
+        };
+        let mut newton = Newton::new(AutoLu::for_size(SolverChoice::Auto, size), options);
+        let mut r = vec![0.0; size];
+        system.residual(&x, &mut r);
+        system.scale = r
+            .iter()
+            .chain(&system.lq)
+            .chain(&system.f)
+            .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
+        let mut iterations = 0;
+        let start = x.clone();
+        let plain = newton.solve(&mut system, &mut x);
+        let mut gmin_steps = 0;
+        match plain {
+            Ok(stats) => iterations += stats.iterations,
+            Err(first) => {
+                x.clone_from(&start);
+                let mut last = Err(first);
+                for &g in &GMIN_SCHEDULE {
+                    system.gmin = g;
+                    newton.reset();
+                    gmin_steps += 1;
+                    last = newton.solve(&mut system, &mut x);
+                    match &last {
+                        Ok(stats) => iterations += stats.iterations,
+                        Err(_) => break,
+                    }
+                }
+                if let Err(source) = last {
+                    let mut r = vec![0.0; size];
+                    system.residual(&x, &mut r);
+                    return Err(SteadyStateError::NotConverged {
+                        source,
+                        residuals: system.worst_equations(&r, 3),
+                    });
+                }
+            }
+        }
+        system.check_redundant(&x)?;
+        let (qs, vs) = system.state(&x);
+        Ok(Self {
+            q: qs,
+            v: vs,
+            multipliers: x[n..n + m].to_vec(),
+            cyclic,
+            iterations,
+            gmin_steps,
+        })
+    }
+}
+
+/// Which coordinates nothing `q`-dependent contains: evaluated from the derivative values at the
+/// guess and at a perturbed point (an entry that is zero at both is taken as absent).
+fn classify<M: Model + ?Sized, C: Constraints + ?Sized>(
+    model: &M,
+    constraints: &C,
+    q: &[f64],
+    t0: f64,
+) -> Vec<bool> {
+    let n = model.dim();
+    let mut cyclic = vec![true; n];
+    let perturbed: Vec<f64> = q
+        .iter()
+        .enumerate()
+        .map(|(i, x)| x + 0.1 * (1.0 + x.abs()) * (0.37 + 0.11 * i as f64).sin())
+        .collect();
+    let rates: Vec<f64> = (0..n)
+        .map(|i| 0.3 * (0.7 + 0.13 * i as f64).cos())
+        .collect();
+    let zeros = vec![0.0; n];
+    for (qq, vv) in [(q, &zeros[..]), (&perturbed[..], &rates[..])] {
+        let mut hessian = LagrangianHessian::default();
+        hessian.begin();
+        model.lagrangian_hessian(qq, vv, &mut hessian);
+        for (i, j, value) in hessian.qq.iter() {
+            if value != 0.0 {
+                cyclic[i] = false;
+                cyclic[j] = false;
+            }
+        }
+        for (i, _, value) in hessian.qv.iter() {
+            if value != 0.0 {
+                cyclic[i] = false;
+            }
+        }
+        if model.has_force() {
+            let mut jacobian = ForceJacobian::default();
+            jacobian.begin();
+            model.force_jacobian(qq, vv, t0, &mut jacobian);
+            for (_, j, value) in jacobian.q.iter() {
+                if value != 0.0 {
+                    cyclic[j] = false;
+                }
+            }
+        }
+        let mut forms = Triplets::new();
+        forms.begin();
+        constraints.forms(qq, &mut forms);
+        for (a, j, value) in forms.iter() {
+            if value != 0.0 && constraints.kind(a) == ConstraintKind::Holonomic {
+                cyclic[j] = false;
+            }
+        }
+        if !constraints.is_constant() {
+            let mut contracted = Triplets::new();
+            contracted.begin();
+            constraints.contracted_derivative(qq, vv, &mut contracted);
+            for (_, l, value) in contracted.iter() {
+                if value != 0.0 {
+                    cyclic[l] = false;
+                }
+            }
+        }
+    }
+    cyclic
+}
+
+/// The steady-state equations as a [`NonlinearSystem`] (unknowns: for each coordinate its position
+/// or, when cyclic, its rate; then the multipliers; then one injection per held row).
+struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
+    model: &'a M,
+    constraints: &'a C,
+    q0: &'a [f64],
+    t0: f64,
+    holds: &'a [(usize, f64)],
+    cyclic: Vec<bool>,
+    gmin: f64,
+    q: Vec<f64>,
+    v: Vec<f64>,
+    lq: Vec<f64>,
+    lv: Vec<f64>,
+    f: Vec<f64>,
+    hessian: LagrangianHessian,
+    force_jacobian: ForceJacobian,
+    forms: Triplets,
+    curvature: Triplets,
+    contracted: Triplets,
+    g: Vec<f64>,
+    redundant: Vec<usize>,
+    scale: f64,
+}
+
+impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
+    fn new(
+        model: &'a M,
+        constraints: &'a C,
+        q0: &'a [f64],
+        t0: f64,
+        holds: &'a [(usize, f64)],
+        cyclic: Vec<bool>,
+    ) -> Self {
+        let n = model.dim();
+        let m = constraints.count();
+        Self {
+            model,
+            constraints,
+            q0,
+            t0,
+            holds,
+            cyclic,
+            gmin: 0.0,
+            q: q0.to_vec(),
+            v: vec![0.0; n],
+            lq: vec![0.0; n],
+            lv: vec![0.0; n],
+            f: vec![0.0; n],
+            hessian: LagrangianHessian::default(),
+            force_jacobian: ForceJacobian::default(),
+            forms: Triplets::new(),
+            curvature: Triplets::new(),
+            contracted: Triplets::new(),
+            g: vec![0.0; m],
+            redundant: Vec::new(),
+            scale: 1.0,
+        }
+    }
+
+    fn n(&self) -> usize {
+        self.model.dim()
+    }
+
+    fn m(&self) -> usize {
+        self.constraints.count()
+    }
+
+    /// Positions and velocities from the unknowns.
+    fn state(&self, x: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let n = self.n();
+        let mut q = self.q0.to_vec();
+        let mut v = vec![0.0; n];
+        for i in 0..n {
+            if self.cyclic[i] {
+                v[i] = x[i];
+            } else {
+                q[i] = x[i];
+            }
+        }
+        (q, v)
+    }
+
+    fn load(&mut self, x: &[f64]) {
+        for ((((q, v), &x), &q0), &cyclic) in self
+            .q
+            .iter_mut()
+            .zip(self.v.iter_mut())
+            .zip(x)
+            .zip(self.q0)
+            .zip(&self.cyclic)
+        {
+            (*q, *v) = if cyclic { (q0, x) } else { (x, 0.0) };
+        }
+    }
+
+    /// Stamps every derivative at the loaded state.
+    fn stamp(&mut self, lambda: &[f64]) {
+        self.hessian.begin();
+        self.model
+            .lagrangian_hessian(&self.q, &self.v, &mut self.hessian);
+        self.force_jacobian.begin();
+        if self.model.has_force() {
+            self.model
+                .force_jacobian(&self.q, &self.v, self.t0, &mut self.force_jacobian);
+        }
+        self.forms.begin();
+        self.constraints.forms(&self.q, &mut self.forms);
+        self.curvature.begin();
+        self.constraints
+            .multiplier_hessian(&self.q, lambda, &mut self.curvature);
+        self.contracted.begin();
+        self.constraints
+            .contracted_derivative(&self.q, &self.v, &mut self.contracted);
+        for t in [
+            &mut self.hessian.qq,
+            &mut self.hessian.qv,
+            &mut self.hessian.vv,
+            &mut self.force_jacobian.q,
+            &mut self.force_jacobian.v,
+            &mut self.forms,
+            &mut self.curvature,
+            &mut self.contracted,
+        ] {
+            t.freeze();
+        }
+    }
+
+    /// Calls `emit(row, col, value)` for every Jacobian entry; the gmin entries are flagged.
+    fn entries(&self, mut emit: impl FnMut(usize, usize, f64, bool)) {
+        let (n, m) = (self.n(), self.m());
+        for (i, j, value) in self.hessian.qq.iter() {
+            if !self.cyclic[j] {
+                emit(i, j, value, false);
+            }
+        }
+        for (i, j, value) in self.hessian.qv.iter() {
+            if self.cyclic[j] {
+                emit(i, j, value, false);
+            }
+        }
+        for (i, j, value) in self.force_jacobian.q.iter() {
+            if !self.cyclic[j] {
+                emit(i, j, value, false);
+            }
+        }
+        for (i, j, value) in self.force_jacobian.v.iter() {
+            if self.cyclic[j] {
+                emit(i, j, value, false);
+            }
+        }
+        for (j, l, value) in self.curvature.iter() {
+            if !self.cyclic[l] {
+                emit(j, l, -value, false);
+            }
+        }
+        for (a, j, value) in self.forms.iter() {
+            emit(j, n + a, -value, false);
+            // Holonomic rows g(q) = 0 act on positions, one-forms A v = 0 on rates.
+            let holonomic = self.constraints.kind(a) == ConstraintKind::Holonomic;
+            if holonomic != self.cyclic[j] {
+                emit(n + a, j, value, false);
+            }
+        }
+        for (a, l, value) in self.contracted.iter() {
+            if self.constraints.kind(a) == ConstraintKind::OneForm && !self.cyclic[l] {
+                emit(n + a, l, value, false);
+            }
+        }
+        for a in 0..m {
+            if self.constraints.kind(a) == ConstraintKind::OneForm {
+                emit(n + a, n + a, self.gmin, true);
+            }
+        }
+        for (k, &(a, _)) in self.holds.iter().enumerate() {
+            emit(n + a, n + m + k, 1.0, false);
+            emit(n + m + k, n + a, 1.0, false);
+        }
+    }
+
+    /// Structural analysis before Newton: an unknown no equation fixes is an error naming it.
+    fn analyse(&mut self) -> Result<(), SteadyStateError> {
+        let (n, m) = (self.n(), self.m());
+        let size = n + m + self.holds.len();
+        let x: Vec<f64> = (0..size)
+            .map(|i| {
+                if i < n && !self.cyclic[i] {
+                    self.q0[i]
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        self.load(&x);
+        self.stamp(&x[n..n + m]);
+        let mut pattern = Vec::new();
+        self.entries(|r, c, value, gmin| {
+            if !gmin && value != 0.0 {
+                pattern.push((r, c));
+            }
+        });
+        let mut priority = vec![0u8; size];
+        priority[..n].fill(1);
+        let structure = Structure::analyse(size, size, &pattern, &priority);
+        let undetermined: Vec<usize> = (0..size)
+            .filter(|&c| structure.is_underdetermined_col(c))
+            .collect();
+        if !undetermined.is_empty() {
+            let nodes: Vec<String> = undetermined
+                .iter()
+                .filter(|&&c| c >= n && c < n + m)
+                .map(|&c| self.constraints.name(c - n))
+                .collect();
+            let others: Vec<String> = undetermined
+                .iter()
+                .filter(|&&c| c < n)
+                .map(|&c| self.unknown_name(c))
+                .collect();
+            let (unknowns, hint) = if nodes.is_empty() {
+                (
+                    others.join(", ") + if others.len() == 1 { " is" } else { " are" },
+                    "a coordinate with neither a restoring force nor a constraint, or a loop of inductors and voltage sources; give it a spring or a resistor, or start from given values (UIC)".to_string(),
+                )
+            } else {
+                (
+                    format!(
+                        "the potential of {} {}",
+                        nodes.join(", "),
+                        if nodes.len() == 1 { "is" } else { "are" }
+                    ),
+                    "no DC path to ground: the node connects only through capacitors or current sources; add a resistor to ground, or start from given values (UIC)".to_string(),
+                )
+            };
+            return Err(SteadyStateError::Undetermined { unknowns, hint });
+        }
+        self.redundant = structure.unmatched_rows().collect();
+        Ok(())
+    }
+
+    /// After the solve: equations left out as redundant must hold too.
+    fn check_redundant(&mut self, x: &[f64]) -> Result<(), SteadyStateError> {
+        if self.redundant.is_empty() {
+            return Ok(());
+        }
+        let mut r = vec![0.0; x.len()];
+        self.residual(x, &mut r);
+        let scale = self
+            .lq
+            .iter()
+            .chain(&self.f)
+            .chain(x)
+            .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
+        let bad: Vec<String> = self
+            .redundant
+            .iter()
+            .filter(|&&row| r[row].abs() > 1e-9 * scale)
+            .map(|&row| format!("{} (residual {:.3e})", self.equation_name(row), r[row]))
+            .collect();
+        if bad.is_empty() {
+            return Ok(());
+        }
+        Err(SteadyStateError::Contradictory {
+            equations: bad.join(", "),
+            hint: "at steady state these equations fix the same value differently: a current source feeding a cut set of capacitors (or of current sources), or a loop of voltage sources with different values".into(),
+        })
+    }
+
+    fn unknown_name(&self, c: usize) -> String {
+        let n = self.n();
+        if c < n {
+            let name = self.model.coordinate_name(c);
+            if self.cyclic[c] {
+                format!("the rate of `{name}`")
+            } else {
+                format!("`{name}`")
+            }
+        } else if c < n + self.m() {
+            format!("the multiplier of {}", self.constraints.name(c - n))
+        } else {
+            "a held node's injection".to_string()
+        }
+    }
+
+    fn equation_name(&self, r: usize) -> String {
+        let n = self.n();
+        if r < n {
+            format!("the force balance of `{}`", self.model.coordinate_name(r))
+        } else if r < n + self.m() {
+            self.constraints.name(r - n)
+        } else {
+            "a held node's value".to_string()
+        }
+    }
+
+    /// The `count` equations with the largest residuals, named.
+    fn worst_equations(&self, r: &[f64], count: usize) -> String {
+        let mut order: Vec<usize> = (0..r.len()).collect();
+        order.sort_by(|&a, &b| r[b].abs().total_cmp(&r[a].abs()));
+        order
+            .iter()
+            .take(count)
+            .map(|&row| format!("{} = {:.3e}", self.equation_name(row), r[row]))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for SteadySystem<'_, M, C> {
+    fn len(&self) -> usize {
+        self.n() + self.m() + self.holds.len()
+    }
+
+    fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+        let (n, m) = (self.n(), self.m());
+        self.load(x);
+        let lambda = &x[n..n + m];
+        self.model
+            .lagrangian_gradient(&self.q, &self.v, &mut self.lq, &mut self.lv);
+        if self.model.has_force() {
+            self.model.force(&self.q, &self.v, self.t0, &mut self.f);
+        } else {
+            self.f.fill(0.0);
+        }
+        for ((r, lq), f) in r.iter_mut().zip(&self.lq).zip(&self.f) {
+            *r = lq + f;
+        }
+        r[n..].fill(0.0);
+        self.forms.begin();
+        self.constraints.forms(&self.q, &mut self.forms);
+        self.forms.freeze();
+        for (a, j, value) in self.forms.iter() {
+            r[j] -= value * lambda[a];
+            if self.constraints.kind(a) == ConstraintKind::OneForm {
+                r[n + a] += value * self.v[j];
+            }
+        }
+        self.constraints.values(&self.q, &mut self.g);
+        for a in 0..m {
+            match self.constraints.kind(a) {
+                ConstraintKind::Holonomic => r[n + a] = self.g[a],
+                ConstraintKind::OneForm => r[n + a] += self.gmin * lambda[a],
+            }
+        }
+        for (k, &(a, value)) in self.holds.iter().enumerate() {
+            r[n + a] += x[n + m + k];
+            r[n + m + k] = lambda[a] - value;
+        }
+    }
+
+    fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+        let (n, m) = (self.n(), self.m());
+        self.load(x);
+        self.stamp(&x[n..n + m]);
+        self.entries(|r, c, value, _| jac.add(r, c, value));
+    }
+
+    fn residual_scale(&self) -> f64 {
+        self.scale
+    }
+}

@@ -1,0 +1,108 @@
+//! Where recorded rows go: a [`Sink`] streams them (to a file, a socket, a reduction), a
+//! [`Trajectory`] keeps them in memory.
+
+/// Receiver of a run's rows: the column names once, then one row per output time `t_k`.
+pub trait Sink {
+    /// Called once before the first row with the signal names (the time column excluded).
+    ///
+    /// # Errors
+    /// A message when the destination cannot take the rows (the run stops with it).
+    fn begin(&mut self, names: &[String]) -> Result<(), String>;
+
+    /// Row `k` at time `t_k = t_0 + k·h` with one value per signal.
+    ///
+    /// # Errors
+    /// A message when the destination cannot take the row (the run stops with it).
+    fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String>;
+}
+
+/// Every row of a run in memory: times and named columns.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Trajectory {
+    names: Vec<String>,
+    t: Vec<f64>,
+    values: Vec<f64>,
+}
+
+impl Trajectory {
+    /// An empty trajectory (filled by a run).
+    #[must_use]
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// The output times `t_0, t_0 + h, …`.
+    #[must_use]
+    pub fn t(&self) -> &[f64] {
+        &self.t
+    }
+
+    /// The signal names, in column order.
+    #[must_use]
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Number of rows.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Whether there are no rows.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Row `k`: one value per signal.
+    #[must_use]
+    pub fn row(&self, k: usize) -> &[f64] {
+        let w = self.names.len();
+        &self.values[k * w..(k + 1) * w]
+    }
+
+    /// The column of signal `name`, if recorded.
+    #[must_use]
+    pub fn signal(&self, name: &str) -> Option<Vec<f64>> {
+        let c = self.names.iter().position(|n| n == name)?;
+        Some(self.column(c))
+    }
+
+    /// Column `c`.
+    #[must_use]
+    pub fn column(&self, c: usize) -> Vec<f64> {
+        let w = self.names.len();
+        self.values
+            .iter()
+            .skip(c)
+            .step_by(w.max(1))
+            .copied()
+            .collect()
+    }
+}
+
+impl Sink for Trajectory {
+    fn begin(&mut self, names: &[String]) -> Result<(), String> {
+        self.names = names.to_vec();
+        self.t.clear();
+        self.values.clear();
+        Ok(())
+    }
+
+    fn row(&mut self, _k: usize, t: f64, values: &[f64]) -> Result<(), String> {
+        self.t.push(t);
+        self.values.extend_from_slice(values);
+        Ok(())
+    }
+}
+
+impl<F: FnMut(usize, f64, &[f64]) -> Result<(), String>> Sink for F {
+    fn begin(&mut self, _names: &[String]) -> Result<(), String> {
+        Ok(())
+    }
+
+    fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
+        self(k, t, values)
+    }
+}

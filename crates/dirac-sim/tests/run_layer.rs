@@ -1,0 +1,249 @@
+//! The run layer on circuits with exact solutions: values at `t_k` from the algebraic relations.
+
+use dirac_components::{Capacitor, Inductor, Resistor};
+use dirac_graph::{Interconnection, Representation};
+use dirac_problems::{RlcLoop, rlc_exact};
+use dirac_sim::{Discretisation, Execution, IntegratorOptions, Probe, Signal, Simulation};
+
+/// A two-terminal part from `plus` to `minus`: the port signs in each node (the branch flow
+/// leaves its `+` node and enters its `−` node).
+fn wire(g: &mut Interconnection, nodes: &[(&str, &[(&str, f64)])]) {
+    for (name, ports) in nodes {
+        let ports = ports
+            .iter()
+            .map(|(part, sign)| (g.port(part, "i").expect("port"), *sign))
+            .collect();
+        g.node(*name, ports).expect("node");
+    }
+}
+
+/// The seed RLC loop as parts: C1 from 1 to 0, L1 from 1 to 2, R1 from 2 to 0.
+fn seed() -> Interconnection {
+    let rlc = RlcLoop::seed();
+    let mut g = Interconnection::new();
+    g.add_subsystem(Capacitor { c: rlc.c }.subsystem("C1"))
+        .expect("C1");
+    g.add_subsystem(Inductor { l: rlc.l }.subsystem("L1"))
+        .expect("L1");
+    g.add_subsystem(Resistor { r: rlc.r }.subsystem("R1"))
+        .expect("R1");
+    wire(
+        &mut g,
+        &[
+            ("1", &[("C1", -1.0), ("L1", -1.0)]),
+            ("2", &[("L1", 1.0), ("R1", -1.0)]),
+        ],
+    );
+    g
+}
+
+/// `i_L = −q̇_C` of the exact solution.
+fn exact_current(rlc: &RlcLoop, q0: f64, t: f64) -> f64 {
+    let gamma = rlc.r / (2.0 * rlc.l);
+    let w = (1.0 / (rlc.l * rlc.c) - gamma * gamma).sqrt();
+    q0 * (w * w + gamma * gamma) / w * (-gamma * t).exp() * (w * t).sin()
+}
+
+fn signals(g: &Interconnection) -> Vec<Signal> {
+    vec![
+        Signal::new("q(c1)", Probe::position(g, "C1", "q").expect("q")),
+        Signal::new("i(l1)", Probe::flow(g, "L1", "i").expect("i")),
+        Signal::new("v(1)", Probe::effort(g, "1").expect("v1")),
+        Signal::new("v(2)", Probe::effort(g, "2").expect("v2")),
+    ]
+}
+
+/// Row 0 is the initial state exactly (charge 3, no current, v(1) = q/C = 1, v(2) = R·i = 0);
+/// at every t_k the readouts satisfy the circuit's algebraic relations to round-off
+/// (v(1) = q_C/C, v(2) = R·i_L); the inductor current converges to the exact one at order 2
+/// (midpoint) and 4 (Gauss 2), measured at the output times themselves.
+#[test]
+fn seed_loop_readouts_are_the_state_at_each_output_time() {
+    let rlc = RlcLoop::seed();
+    let q0 = 3.0;
+    let mut errors = Vec::new();
+    for (d, hs) in [
+        (Discretisation::midpoint(), [0.05, 0.025]),
+        (Discretisation::gauss(2), [0.2, 0.1]),
+    ] {
+        let mut e = Vec::new();
+        for h in hs {
+            let g = seed();
+            let mut sim = Simulation::new(
+                g.clone(),
+                Execution::Assembled(Representation::Monolithic),
+                IntegratorOptions::new(d.clone(), h),
+            );
+            sim.set_position("C1", "q", q0).expect("C1.q");
+            let (run, summary) = sim.run(10.0, &signals(&g)).expect("runs");
+            assert_eq!(run.row(0), [q0, 0.0, 1.0, 0.0]);
+            let mut worst: f64 = 0.0;
+            for (k, &t) in run.t().iter().enumerate() {
+                let r = run.row(k);
+                assert!(
+                    (r[2] - r[0] / rlc.c).abs() <= 1e-14,
+                    "v(1) = q/C at t = {t}"
+                );
+                assert!(
+                    (r[3] - rlc.r * r[1]).abs() <= 1e-15,
+                    "v(2) = R i at t = {t}"
+                );
+                worst = worst.max((r[1] - exact_current(&rlc, q0, t)).abs());
+                let _ = rlc_exact(&rlc, q0, t);
+            }
+            println!("{d} h = {h}: max |i_L − exact| = {worst:.3e}; {summary:?}");
+            e.push(worst);
+        }
+        errors.push(e[0] / e[1]);
+    }
+    println!("error ratios under halving: {errors:?}");
+    assert!(
+        (errors[0] - 4.0).abs() < 0.2,
+        "midpoint ratio {}",
+        errors[0]
+    );
+    assert!((errors[1] - 16.0).abs() < 1.5, "gauss2 ratio {}", errors[1]);
+}
+
+use dirac_components::{CurrentSource, VoltageSource, Waveform};
+use dirac_sim::{RunError, Start};
+
+/// A 1 V source directly across a 1 µF capacitor, no initial charge given, with a 1 kΩ load:
+/// the start is repaired to q = C·V (with a warning naming the charge), the run does not ring
+/// (q stays at C·V to round-off), the node reads the source's value, and the source current (an
+/// index-2 quantity here: C·dV/dt plus the load) reads −V/R.
+#[test]
+fn source_across_capacitor_starts_consistent_and_does_not_ring() {
+    let mut g = Interconnection::new();
+    g.add_subsystem(VoltageSource::dc(1.0).subsystem("V1"))
+        .expect("V1");
+    g.add_subsystem(Capacitor { c: 1e-6 }.subsystem("C1"))
+        .expect("C1");
+    g.add_subsystem(Resistor { r: 1e3 }.subsystem("R1"))
+        .expect("R1");
+    wire(
+        &mut g,
+        &[("in", &[("V1", -1.0), ("C1", -1.0), ("R1", -1.0)])],
+    );
+    let signals = vec![
+        Signal::new("q(c1)", Probe::position(&g, "C1", "q").expect("q")),
+        Signal::new("v(in)", Probe::effort(&g, "in").expect("v")),
+        Signal::new("i(v1)", Probe::flow(&g, "V1", "i").expect("i")),
+    ];
+    let mut sim = Simulation::new(
+        g,
+        Execution::Assembled(Representation::Monolithic),
+        IntegratorOptions::new(Discretisation::midpoint(), 1e-5),
+    );
+    let (run, _) = sim.run(1e-3, &signals).expect("runs");
+    println!("warnings: {:?}", sim.warnings());
+    assert_eq!(sim.warnings().len(), 1, "{:?}", sim.warnings());
+    assert!(
+        sim.warnings()[0].contains("C1.q = 0"),
+        "{:?}",
+        sim.warnings()
+    );
+    for k in 0..run.len() {
+        let r = run.row(k);
+        assert!((r[0] - 1e-6).abs() <= 1e-20, "row {k}: q = {}", r[0]);
+        assert!((r[1] - 1.0).abs() <= 1e-15, "row {k}: v = {}", r[1]);
+        assert!((r[2] + 1e-3).abs() <= 1e-15, "row {k}: i = {}", r[2]);
+    }
+}
+
+/// Two capacitors in parallel with different initial charges (both given): contradictory, and
+/// the error names both charges.
+#[test]
+fn parallel_capacitors_with_different_charges_are_contradictory() {
+    let mut g = Interconnection::new();
+    g.add_subsystem(Capacitor { c: 1.0 }.subsystem("C1"))
+        .expect("C1");
+    g.add_subsystem(Capacitor { c: 1.0 }.subsystem("C2"))
+        .expect("C2");
+    wire(&mut g, &[("a", &[("C1", -1.0), ("C2", -1.0)])]);
+    let mut sim = Simulation::new(
+        g,
+        Execution::Assembled(Representation::Monolithic),
+        IntegratorOptions::new(Discretisation::midpoint(), 0.1),
+    );
+    sim.set_position("C1", "q", 1.0).expect("q1");
+    sim.set_position("C2", "q", 2.0).expect("q2");
+    let err = sim.prepare().expect_err("contradictory");
+    println!("{err}");
+    assert!(matches!(err, RunError::ContradictoryStart(_)), "{err:?}");
+    let text = err.to_string();
+    assert!(text.contains("C1.q") && text.contains("C2.q"), "{text}");
+}
+
+/// Operating point of a current divider: 1 mA into R1 = 1 kΩ ∥ R2 = 3 kΩ gives 0.75 V, branch
+/// currents 0.75 mA and 0.25 mA; with a capacitor in parallel the capacitor is open and charged
+/// to 0.75 V (q = 0.75 µC) and the transient starts at rest (no drift over the run).
+#[test]
+fn steady_state_of_a_current_divider() {
+    let mut g = Interconnection::new();
+    g.add_subsystem(CurrentSource::dc(1e-3).subsystem("I1"))
+        .expect("I1");
+    g.add_subsystem(Resistor { r: 1e3 }.subsystem("R1"))
+        .expect("R1");
+    g.add_subsystem(Resistor { r: 3e3 }.subsystem("R2"))
+        .expect("R2");
+    g.add_subsystem(Capacitor { c: 1e-6 }.subsystem("C1"))
+        .expect("C1");
+    // I n+ n−: current leaves through its − terminal; here I1 from 0 to a pushes 1 mA into a.
+    wire(
+        &mut g,
+        &[(
+            "a",
+            &[("I1", 1.0), ("R1", -1.0), ("R2", -1.0), ("C1", -1.0)],
+        )],
+    );
+    let signals = vec![
+        Signal::new("v(a)", Probe::effort(&g, "a").expect("v")),
+        Signal::new("i(r1)", Probe::flow(&g, "R1", "i").expect("i")),
+        Signal::new("i(r2)", Probe::flow(&g, "R2", "i").expect("i")),
+        Signal::new("q(c1)", Probe::position(&g, "C1", "q").expect("q")),
+    ];
+    let mut sim = Simulation::new(
+        g,
+        Execution::Assembled(Representation::Monolithic),
+        IntegratorOptions::new(Discretisation::midpoint(), 1e-4),
+    )
+    .start(Start::SteadyState);
+    let (run, _) = sim.run(1e-2, &signals).expect("runs");
+    for k in 0..run.len() {
+        let r = run.row(k);
+        assert!((r[0] - 0.75).abs() <= 1e-12, "row {k}: v = {}", r[0]);
+        assert!((r[1] - 0.75e-3).abs() <= 1e-15, "row {k}: i1 = {}", r[1]);
+        assert!((r[2] - 0.25e-3).abs() <= 1e-15, "row {k}: i2 = {}", r[2]);
+        assert!((r[3] - 0.75e-6).abs() <= 1e-18, "row {k}: q = {}", r[3]);
+    }
+}
+
+/// A node joined only through capacitors has no DC path: the steady state is refused, naming it.
+#[test]
+fn floating_node_has_no_dc_path() {
+    let mut g = Interconnection::new();
+    g.add_subsystem(VoltageSource::new(Waveform::Dc(1.0)).subsystem("V1"))
+        .expect("V1");
+    g.add_subsystem(Capacitor { c: 1e-6 }.subsystem("C1"))
+        .expect("C1");
+    g.add_subsystem(Capacitor { c: 1e-6 }.subsystem("C2"))
+        .expect("C2");
+    wire(
+        &mut g,
+        &[
+            ("in", &[("V1", -1.0), ("C1", -1.0)]),
+            ("mid", &[("C1", 1.0), ("C2", -1.0)]),
+        ],
+    );
+    let mut sim = Simulation::new(
+        g,
+        Execution::Assembled(Representation::Monolithic),
+        IntegratorOptions::new(Discretisation::midpoint(), 1e-4),
+    )
+    .start(Start::SteadyState);
+    let err = sim.prepare().expect_err("no DC path");
+    println!("{err}");
+    assert!(err.to_string().contains("node `mid`"), "{err}");
+    assert!(!err.is_numerical());
+}
