@@ -1,21 +1,40 @@
 //! `dirac bench`: work-precision sweeps of the benchmark scenes defined in `bench/SCENES.md`.
 //!
-//! Each run builds the model, initialises and steps it inside the timed region (best of three
-//! repetitions, one when a run takes more than two seconds); the states it produces are stored and
-//! the error against the scene's reference is evaluated after the clock stops, as the peers in
-//! `bench/peers/` do.
+//! Every run goes through the run layer, [`Simulation`], as `dirac run` and the library's users
+//! do: the scene is an interconnection (scene A is the seed netlist read by `dirac-netlist`; the
+//! reference problems of `dirac-problems` are one-part interconnections), and the timed region
+//! covers the simulation's set-up (assembly, consistent start) and its steps (best of three
+//! repetitions, one when a run takes more than two seconds). The states it produces are stored
+//! and the error against the scene's reference is evaluated after the clock stops, as the peers in
+//! `bench/peers/` and `bench/compiled/` do.
 
+use std::path::Path;
+use std::process::Command;
 use std::time::Instant;
 
 use nalgebra::DVector;
 
-use dirac_core::{Constraints, Discretisation, Model, NoConstraints};
-use dirac_graph::{Assembler, Representation, SubsystemId};
+use dirac_core::{Discretisation, Model};
+use dirac_graph::{GraphError, Interconnection, Representation, Subsystem};
+use dirac_netlist::{Circuit, CircuitError, NetlistError, build_circuit, parse_netlist};
+use dirac_output::CsvSink;
 use dirac_problems::{
     DampedOscillator, DoublePendulum, HenonHeiles, LadderSection, RcLadder, RlcLoop, SpringChain,
     rlc_exact, rlc_ladder,
 };
-use dirac_sim::{Composition, Integrator, IntegratorOptions, SimError};
+use dirac_sim::{
+    Composition, Execution, IntegratorOptions, RunError, Scheme, Signal, Simulation, Sink,
+};
+
+/// How every benchmark run is executed: one assembled monolithic system (`dirac run`'s default).
+const EXECUTION: Execution = Execution::Assembled(Representation::Monolithic);
+
+/// The seed netlist of scene A (`examples/netlists/seed_rlc.cir`: C = 3 F charged to 1 V).
+const SEED_NETLIST: &str = include_str!("../../../examples/netlists/seed_rlc.cir");
+
+/// The seed netlist's initial charge `C·V = 3`; scene A's error is divided by it so that it is the
+/// error of the unit-charge run of `bench/SCENES.md` (the loop is linear).
+const SEED_Q0: f64 = 3.0;
 
 /// The CSV header shared with `bench/peers/peers.py`.
 pub const HEADER: &str =
@@ -41,6 +60,10 @@ pub enum BenchScene {
     E,
     /// SciMLBenchmarks RC ladder, n = 1000, t ∈ [0, 10]: max capacitor-voltage error at t = 10.
     F,
+    /// `dirac run` against the library's run of the same netlist (the seed loop and an RLC
+    /// ladder netlist), and the bare process start-up: µs per step (per section).
+    #[value(name = "CLI")]
+    Cli,
 }
 
 /// One benchmark run: one CSV row.
@@ -161,55 +184,74 @@ fn composed_midpoint(order: usize) -> Method {
 }
 
 /// What a timed run hands back for error evaluation.
-struct Trajectory {
+struct Record {
     /// `(q_k, p_k)` at the recorded steps, flattened as `q ‖ p` per record.
     states: Vec<f64>,
     steps: usize,
     newton_iterations: usize,
 }
 
-/// Runs `steps` steps from `(q0, v0)` and records every state (or only the last with
-/// `every = false`).
-fn integrate<M: Model, C: Constraints>(
-    model: M,
-    constraints: C,
+/// A one-part interconnection of a reference model (no ports: nothing is connected to it).
+fn single<M: Model + Send + Sync + 'static>(model: M) -> Result<Interconnection, GraphError> {
+    let mut graph = Interconnection::new();
+    graph.add_subsystem(Subsystem::new("P", model))?;
+    Ok(graph)
+}
+
+/// Runs the one-part interconnection `graph` through [`Simulation`] for `steps` steps from the
+/// given `(q0, v0)`, recording `(q, p)` after every step (or only the last with `every = false`).
+fn integrate(
+    graph: Interconnection,
     options: IntegratorOptions,
     q0: &[f64],
     v0: &[f64],
     steps: usize,
     every: bool,
-) -> Result<Trajectory, SimError> {
-    let mut sim = Integrator::new(model, constraints, options)?;
-    sim.initialise(q0, v0, 0.0)?;
+) -> Result<Record, RunError> {
+    let mut sim = Simulation::new(graph, EXECUTION, options);
+    sim.set_initial(&[q0.to_vec()], &[v0.to_vec()], &[], &[])?;
+    sim.prepare()?;
     let n = q0.len();
     let mut states = Vec::with_capacity(if every { (steps + 1) * 2 * n } else { 2 * n });
+    let record = |sim: &Simulation, states: &mut Vec<f64>| {
+        states.extend(sim.positions());
+        states.extend(sim.momenta());
+    };
     if every {
-        states.extend_from_slice(sim.q());
-        states.extend_from_slice(sim.p());
+        record(&sim, &mut states);
     }
     for _ in 0..steps {
         sim.step()?;
         if every {
-            states.extend_from_slice(sim.q());
-            states.extend_from_slice(sim.p());
+            record(&sim, &mut states);
         }
     }
     if !every {
-        states.extend_from_slice(sim.q());
-        states.extend_from_slice(sim.p());
+        record(&sim, &mut states);
     }
-    Ok(Trajectory {
+    Ok(Record {
         states,
         steps,
-        newton_iterations: sim.stats().iterations,
+        newton_iterations: sim.summary().newton_iterations,
     })
 }
 
+/// A sink keeping the first signal of every row.
+#[derive(Default)]
+struct FirstColumn(Vec<f64>);
+
+impl Sink for FirstColumn {
+    fn begin(&mut self, _names: &[String]) -> Result<(), String> {
+        Ok(())
+    }
+    fn row(&mut self, _k: usize, _t: f64, values: &[f64]) -> Result<(), String> {
+        self.0.push(values.first().copied().unwrap_or(f64::NAN));
+        Ok(())
+    }
+}
+
 /// Best wall time of up to `repeats` runs (one when a run exceeds two seconds).
-fn timed<T>(
-    repeats: usize,
-    mut run: impl FnMut() -> Result<T, SimError>,
-) -> Result<(T, f64), SimError> {
+fn timed<T, E>(repeats: usize, mut run: impl FnMut() -> Result<T, E>) -> Result<(T, f64), E> {
     let start = Instant::now();
     let mut out = run()?;
     let mut best = start.elapsed().as_secs_f64();
@@ -236,11 +278,11 @@ trait FixedStepScene {
     fn steps_for(&self, _method: &Method, quick: bool) -> Vec<usize> {
         self.steps(quick)
     }
-    fn run(&self, method: &Method, n: usize) -> Result<Trajectory, SimError>;
+    fn run(&self, method: &Method, n: usize) -> Result<Record, RunError>;
     /// `(error, energy_error)`.
-    fn score(&self, trajectory: &Trajectory, h: f64) -> (f64, f64);
+    fn score(&self, trajectory: &Record, h: f64) -> (f64, f64);
     /// Running maximum of the energy error per tenth of the interval (long runs only).
-    fn tenths(&self, _trajectory: &Trajectory) -> Vec<f64> {
+    fn tenths(&self, _trajectory: &Record) -> Vec<f64> {
         Vec::new()
     }
 }
@@ -273,7 +315,26 @@ fn options(method: &Method, h: f64) -> IntegratorOptions {
         .composition(method.composition.clone())
 }
 
-struct SceneA;
+/// Scene A: the seed netlist, read once; each run is `Circuit::simulation` and `run_into` with
+/// the capacitor charge recorded at every step, as `dirac run --signals 'q(c1)'` does.
+struct SceneA {
+    circuit: Circuit,
+    q_c: Signal,
+}
+
+impl SceneA {
+    fn new() -> Result<Self, BenchError> {
+        let circuit = seed_circuit()?;
+        let q_c = circuit.signal("q(c1)")?;
+        Ok(Self { circuit, q_c })
+    }
+}
+
+/// The seed netlist as a circuit.
+fn seed_circuit() -> Result<Circuit, BenchError> {
+    let netlist = parse_netlist(SEED_NETLIST, "seed_rlc.cir")?;
+    Ok(build_circuit(&netlist, "seed_rlc.cir")?)
+}
 
 impl FixedStepScene for SceneA {
     fn label(&self) -> &'static str {
@@ -283,38 +344,49 @@ impl FixedStepScene for SceneA {
         50.0
     }
     fn methods(&self) -> Vec<Method> {
-        let mut m: Vec<Method> = (1..=4).map(|s| gauss(s, false)).collect();
-        m.extend((1..=4).map(|s| gauss(s, true)));
-        m
+        gauss_family()
     }
     fn steps(&self, quick: bool) -> Vec<usize> {
-        if quick {
-            doubling(25, 12).into_iter().step_by(3).collect()
-        } else {
-            doubling(25, 17)
-        }
+        short_steps(quick)
     }
-    fn run(&self, method: &Method, n: usize) -> Result<Trajectory, SimError> {
+    fn run(&self, method: &Method, n: usize) -> Result<Record, RunError> {
         let h = self.t_end() / n as f64;
-        integrate(
-            RlcLoop::seed(),
-            RlcLoop::kcl(),
-            options(method, h),
-            &[1.0, 0.0, 0.0],
-            &[0.0; 3],
-            n,
-            true,
-        )
+        let mut sim =
+            self.circuit
+                .simulation(EXECUTION, options(method, h), self.circuit.start())?;
+        let mut charge = FirstColumn::default();
+        let summary = sim.run_into(self.t_end(), std::slice::from_ref(&self.q_c), &mut charge)?;
+        Ok(Record {
+            states: charge.0,
+            steps: summary.steps,
+            newton_iterations: summary.newton_iterations,
+        })
     }
-    fn score(&self, trajectory: &Trajectory, h: f64) -> (f64, f64) {
+    fn score(&self, trajectory: &Record, h: f64) -> (f64, f64) {
         let rlc = RlcLoop::seed();
         let error = trajectory
             .states
-            .chunks_exact(6)
+            .iter()
             .enumerate()
-            .map(|(k, x)| (x[0] - rlc_exact(&rlc, 1.0, k as f64 * h)).abs())
+            .map(|(k, q)| (q - rlc_exact(&rlc, SEED_Q0, k as f64 * h)).abs() / SEED_Q0)
             .fold(0.0, f64::max);
         (error, f64::NAN)
+    }
+}
+
+/// Midpoint and Gauss 2–4, each with and without the affine map (scenes A and B).
+fn gauss_family() -> Vec<Method> {
+    let mut m: Vec<Method> = (1..=4).map(|s| gauss(s, false)).collect();
+    m.extend((1..=4).map(|s| gauss(s, true)));
+    m
+}
+
+/// Step counts of scenes A and B: 25 … 25·2¹⁶ (quick: every third of the first twelve).
+fn short_steps(quick: bool) -> Vec<usize> {
+    if quick {
+        doubling(25, 12).into_iter().step_by(3).collect()
+    } else {
+        doubling(25, 17)
     }
 }
 
@@ -334,16 +406,15 @@ impl FixedStepScene for SceneB {
         5.0 * OSCILLATOR.period()
     }
     fn methods(&self) -> Vec<Method> {
-        SceneA.methods()
+        gauss_family()
     }
     fn steps(&self, quick: bool) -> Vec<usize> {
-        SceneA.steps(quick)
+        short_steps(quick)
     }
-    fn run(&self, method: &Method, n: usize) -> Result<Trajectory, SimError> {
+    fn run(&self, method: &Method, n: usize) -> Result<Record, RunError> {
         let h = self.t_end() / n as f64;
         integrate(
-            OSCILLATOR,
-            NoConstraints,
+            single(OSCILLATOR)?,
             options(method, h),
             &[1.0],
             &[0.0],
@@ -351,7 +422,7 @@ impl FixedStepScene for SceneB {
             false,
         )
     }
-    fn score(&self, trajectory: &Trajectory, _h: f64) -> (f64, f64) {
+    fn score(&self, trajectory: &Record, _h: f64) -> (f64, f64) {
         let (q, p) = OSCILLATOR.exact(1.0, 0.0, self.t_end());
         let x = &trajectory.states;
         ((x[0] - q).abs().max((x[1] - p).abs()), f64::NAN)
@@ -393,11 +464,10 @@ impl FixedStepScene for SceneD1 {
             doubling(50, 15)
         }
     }
-    fn run(&self, method: &Method, n: usize) -> Result<Trajectory, SimError> {
+    fn run(&self, method: &Method, n: usize) -> Result<Record, RunError> {
         let h = self.t_end() / n as f64;
         integrate(
-            self.chain.clone(),
-            NoConstraints,
+            single(self.chain.clone())?,
             options(method, h),
             &self.x0,
             &[0.0; 10],
@@ -405,7 +475,7 @@ impl FixedStepScene for SceneD1 {
             true,
         )
     }
-    fn score(&self, trajectory: &Trajectory, _h: f64) -> (f64, f64) {
+    fn score(&self, trajectory: &Record, _h: f64) -> (f64, f64) {
         let e0 = self.chain.energy(&self.x0, &[0.0; 10]);
         let energy = trajectory
             .states
@@ -445,10 +515,10 @@ impl FixedStepScene for SceneD2 {
             doubling(1000, 10)
         }
     }
-    fn run(&self, method: &Method, n: usize) -> Result<Trajectory, SimError> {
+    fn run(&self, method: &Method, n: usize) -> Result<Record, RunError> {
         self.run_to(method, n, self.t_end())
     }
-    fn score(&self, trajectory: &Trajectory, _h: f64) -> (f64, f64) {
+    fn score(&self, trajectory: &Record, _h: f64) -> (f64, f64) {
         let energy = SceneD2Long::energy_errors(trajectory)
             .into_iter()
             .fold(0.0, f64::max);
@@ -458,11 +528,10 @@ impl FixedStepScene for SceneD2 {
 
 impl SceneD2 {
     /// `n` steps over `[0, t_end]` from θ = (1, 0.5), θ̇ = 0, every state recorded.
-    fn run_to(&self, method: &Method, n: usize, t_end: f64) -> Result<Trajectory, SimError> {
+    fn run_to(&self, method: &Method, n: usize, t_end: f64) -> Result<Record, RunError> {
         let h = t_end / n as f64;
         integrate(
-            DoublePendulum::unit(),
-            NoConstraints,
+            single(DoublePendulum::unit())?,
             options(method, h),
             &[1.0, 0.5],
             &[0.0, 0.0],
@@ -481,7 +550,7 @@ pub const D2_LONG_THETA1: f64 = -0.147_651_889_63;
 struct SceneD2Long;
 
 impl SceneD2Long {
-    fn energy_errors(trajectory: &Trajectory) -> Vec<f64> {
+    fn energy_errors(trajectory: &Record) -> Vec<f64> {
         let pendulum = DoublePendulum::unit();
         let e0 = pendulum.energy(&[1.0, 0.5], &[0.0, 0.0]);
         trajectory
@@ -527,17 +596,17 @@ impl FixedStepScene for SceneD2Long {
             .filter(|&n| n <= 800_000)
             .collect()
     }
-    fn run(&self, method: &Method, n: usize) -> Result<Trajectory, SimError> {
+    fn run(&self, method: &Method, n: usize) -> Result<Record, RunError> {
         SceneD2.run_to(method, n, self.t_end())
     }
-    fn score(&self, trajectory: &Trajectory, _h: f64) -> (f64, f64) {
+    fn score(&self, trajectory: &Record, _h: f64) -> (f64, f64) {
         let energy = Self::energy_errors(trajectory)
             .into_iter()
             .fold(0.0, f64::max);
         let last = &trajectory.states[trajectory.states.len() - 4..];
         ((last[0] - D2_LONG_THETA1).abs(), energy)
     }
-    fn tenths(&self, trajectory: &Trajectory) -> Vec<f64> {
+    fn tenths(&self, trajectory: &Record) -> Vec<f64> {
         running_max_tenths(&Self::energy_errors(trajectory))
     }
 }
@@ -546,7 +615,7 @@ impl FixedStepScene for SceneD2Long {
 struct SceneE;
 
 impl SceneE {
-    fn energy_errors(trajectory: &Trajectory) -> Vec<f64> {
+    fn energy_errors(trajectory: &Record) -> Vec<f64> {
         let e0 = HenonHeiles::hamiltonian(&HenonHeiles::Q0, &HenonHeiles::P0);
         trajectory
             .states
@@ -576,11 +645,10 @@ impl FixedStepScene for SceneE {
             doubling(25_000, 8)
         }
     }
-    fn run(&self, method: &Method, n: usize) -> Result<Trajectory, SimError> {
+    fn run(&self, method: &Method, n: usize) -> Result<Record, RunError> {
         let h = self.t_end() / n as f64;
         integrate(
-            HenonHeiles,
-            NoConstraints,
+            single(HenonHeiles)?,
             options(method, h),
             &HenonHeiles::Q0,
             &HenonHeiles::P0,
@@ -588,13 +656,13 @@ impl FixedStepScene for SceneE {
             true,
         )
     }
-    fn score(&self, trajectory: &Trajectory, _h: f64) -> (f64, f64) {
+    fn score(&self, trajectory: &Record, _h: f64) -> (f64, f64) {
         let energy = Self::energy_errors(trajectory)
             .into_iter()
             .fold(0.0, f64::max);
         (energy, energy)
     }
-    fn tenths(&self, trajectory: &Trajectory) -> Vec<f64> {
+    fn tenths(&self, trajectory: &Record) -> Vec<f64> {
         running_max_tenths(&Self::energy_errors(trajectory))
     }
 }
@@ -656,38 +724,44 @@ fn sweep(
     Ok(())
 }
 
-/// Scene C: the ladder's stepping time per step and section (assembly and initialisation are
-/// not timed; ngspice's `trantime` likewise excludes parsing).
+/// A sink that drops every row (runs whose score needs only the final state).
+struct Discard;
+
+impl Sink for Discard {
+    fn begin(&mut self, _names: &[String]) -> Result<(), String> {
+        Ok(())
+    }
+    fn row(&mut self, _k: usize, _t: f64, _values: &[f64]) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+/// Scene C: the ladder's stepping time per step and section, through [`Simulation::step`]
+/// (assembly and the consistent start are not timed; ngspice's `trantime` likewise excludes
+/// parsing and the operating point).
 fn ladder(
     options: &BenchOptions,
     emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,
 ) -> Result<(), BenchError> {
     const STEPS: usize = 1000;
-    let section = LadderSection {
-        r: 0.1,
-        l: 1.0,
-        c: 1.0,
-    };
     for &n in &options.sections {
-        let graph = rlc_ladder(n, section)?;
-        let system = Assembler::assemble(&graph, Representation::Monolithic)?;
-        let dim = system.coordinates();
+        let graph = rlc_ladder(n, LADDER_SECTION)?;
         let repeats = if options.quick || n >= 10_000 { 1 } else { 3 };
         let mut best = f64::INFINITY;
         let mut iterations = 0;
         for _ in 0..repeats {
-            let mut sim = Integrator::new(
-                system.model.clone(),
-                system.constraints.clone(),
+            let mut sim = Simulation::new(
+                graph.clone(),
+                EXECUTION,
                 IntegratorOptions::new(Discretisation::midpoint(), 0.01),
-            )?;
-            sim.initialise(&vec![0.0; dim], &vec![0.0; dim], 0.0)?;
+            );
+            sim.prepare()?;
             let start = Instant::now();
             for _ in 0..STEPS {
                 sim.step()?;
             }
             best = best.min(start.elapsed().as_secs_f64());
-            iterations = sim.stats().iterations;
+            iterations = sim.summary().newton_iterations;
         }
         emit(BenchRow {
             scene: format!("C-{n}"),
@@ -701,59 +775,61 @@ fn ladder(
             tenths: Vec::new(),
         })?;
         if n <= LADDER_ACCURACY_MAX {
-            ladder_accuracy(&graph, &system, n, repeats, emit)?;
+            ladder_accuracy(&graph, n, repeats, emit)?;
         }
     }
     Ok(())
 }
 
+/// The section of scene C's ladders: R = 0.1, L = C = 1.
+const LADDER_SECTION: LadderSection = LadderSection {
+    r: 0.1,
+    l: 1.0,
+    c: 1.0,
+};
+
 /// Largest ladder whose accuracy row (`Cacc-N`) is measured: the Gauss-4 reference run costs
 /// several times the midpoint run.
 const LADDER_ACCURACY_MAX: usize = 10_000;
 
-/// Runs the ladder `system` for 1000 steps of 0.01 with `discretisation`; returns the capacitor
-/// voltages at t = 10 and the wall time of the whole solve (integrator set-up, initialisation,
-/// stepping), and the Newton iterations.
+/// Runs the ladder `graph` through [`Simulation::run_into`] for 1000 steps of 0.01 with
+/// `discretisation`; returns the capacitor voltages at t = 10, the wall time of the whole solve
+/// (assembly, consistent start, stepping) and the Newton iterations.
 fn ladder_voltages(
-    graph: &dirac_graph::Interconnection,
-    system: &dirac_graph::AssembledSystem,
+    graph: &Interconnection,
     discretisation: Discretisation,
-) -> Result<(Vec<f64>, f64, usize), SimError> {
-    let dim = system.coordinates();
+) -> Result<(Vec<f64>, f64, usize), RunError> {
+    let graph = graph.clone();
+    let offsets = graph.coordinate_offsets();
+    let parts = graph.subsystems().len();
     let start = Instant::now();
-    let mut sim = Integrator::new(
-        system.model.clone(),
-        system.constraints.clone(),
+    let mut sim = Simulation::new(
+        graph,
+        EXECUTION,
         IntegratorOptions::new(discretisation, 0.01),
-    )?;
-    sim.initialise(&vec![0.0; dim], &vec![0.0; dim], 0.0)?;
-    for _ in 0..1000 {
-        sim.step()?;
-    }
+    );
+    let summary = sim.run_into(10.0, &[], &mut Discard)?;
     let wall = start.elapsed().as_secs_f64();
-    // Section k (subsystem k, after the source) holds (q_s, q_c); C = 1, so v = q_c.
-    let q = sim.q();
-    let voltages = (1..graph.subsystems().len())
-        .map(|k| q[system.global_index(SubsystemId(k), 1)])
-        .collect();
-    Ok((voltages, wall, sim.stats().iterations))
+    // Section k (part k, after the source) holds (q_s, q_c); C = 1, so v = q_c.
+    let q = sim.positions();
+    let voltages = (1..parts).map(|k| q[offsets[k] + 1]).collect();
+    Ok((voltages, wall, summary.newton_iterations))
 }
 
 /// Scene C's accuracy row `Cacc-N`: the midpoint run's max capacitor-voltage error at t = 10
 /// against Gauss 4 (order 8) at the same step (its error ~(ωh)⁸ ≈ 1e-14 here), timed as a whole
 /// solve so the compiled peers' rows compare.
 fn ladder_accuracy(
-    graph: &dirac_graph::Interconnection,
-    system: &dirac_graph::AssembledSystem,
+    graph: &Interconnection,
     n: usize,
     repeats: usize,
     emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,
 ) -> Result<(), BenchError> {
-    let (reference, _, _) = ladder_voltages(graph, system, Discretisation::gauss(4))?;
+    let (reference, _, _) = ladder_voltages(graph, Discretisation::gauss(4))?;
     let mut best = f64::INFINITY;
     let mut result = (Vec::new(), 0);
     for _ in 0..repeats {
-        let (v, wall, iterations) = ladder_voltages(graph, system, Discretisation::midpoint())?;
+        let (v, wall, iterations) = ladder_voltages(graph, Discretisation::midpoint())?;
         best = best.min(wall);
         result = (v, iterations);
     }
@@ -777,23 +853,9 @@ fn ladder_accuracy(
     Ok(())
 }
 
-/// The RC ladder's initial state in the assembled coordinates: `q_c,i = C_i v_i(0)`.
-fn rc_initial_state(
-    ladder: &RcLadder,
-    system: &dirac_graph::AssembledSystem,
-) -> Result<Vec<f64>, dirac_graph::GraphError> {
-    let flat = ladder.initial_coordinates();
-    let mut per = vec![vec![flat[0]]];
-    per.extend(flat[1..].chunks_exact(2).map(<[f64]>::to_vec));
-    let names: Vec<String> = std::iter::once("V1".to_string())
-        .chain((1..=ladder.n).map(|k| format!("S{k}")))
-        .collect();
-    system.global_vector(&per, &names)
-}
-
 /// Scene F: the SciMLBenchmarks RC ladder (n = 1000) to t = 10 with midpoint and Gauss 2–4 at
-/// h = 1e-2 … 1e-4. Two rows per run: `F` timed from integrator set-up to the last step (the
-/// "solve"), `F-whole` from building the graph (graph, assembly, solve).
+/// h = 1e-2 … 1e-4. Two rows per run: `F` timed from the simulation's creation to the last step
+/// (the "solve": assembly, consistent start, stepping), `F-whole` from building the graph.
 fn rc_ladder_scene(
     settings: &BenchOptions,
     emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,
@@ -802,6 +864,14 @@ fn rc_ladder_scene(
     const T_END: f64 = 10.0;
     let ladder = RcLadder { n: N };
     let exact = ladder.exact().voltages(T_END);
+    // Per part: the source's coordinate, then (q_s, q_c) of each section. The charges are given;
+    // the currents are left to the consistent start (the Lagrangian is degenerate).
+    let flat = ladder.initial_coordinates();
+    let mut q0 = vec![vec![flat[0]]];
+    q0.extend(flat[1..].chunks_exact(2).map(<[f64]>::to_vec));
+    let v0: Vec<Vec<f64>> = q0.iter().map(|q| vec![0.0; q.len()]).collect();
+    let given_q: Vec<Vec<bool>> = q0.iter().map(|q| vec![true; q.len()]).collect();
+    let given_v: Vec<Vec<bool>> = q0.iter().map(|q| vec![false; q.len()]).collect();
     let hs: &[f64] = if settings.quick {
         &[1e-2]
     } else {
@@ -816,32 +886,22 @@ fn rc_ladder_scene(
             for _ in 0..repeats {
                 let start = Instant::now();
                 let graph = ladder.graph()?;
-                let system = Assembler::assemble(&graph, Representation::Monolithic)?;
                 let built = start.elapsed().as_secs_f64();
-                let q0 = rc_initial_state(&ladder, &system)?;
-                let p0 = vec![0.0; q0.len()];
+                let offsets = graph.coordinate_offsets();
                 let solve_start = Instant::now();
-                let mut sim = Integrator::new(
-                    system.model.clone(),
-                    system.constraints.clone(),
-                    options(&method, h),
-                )?;
-                sim.set_state(&q0, &p0, 0.0)?;
-                for _ in 0..steps {
-                    sim.step()?;
-                }
+                let mut sim = Simulation::new(graph, EXECUTION, options(&method, h));
+                sim.set_initial(&q0, &v0, &given_q, &given_v)?;
+                let summary = sim.run_into(T_END, &[], &mut Discard)?;
                 let solve = solve_start.elapsed().as_secs_f64();
                 if solve < best.0 {
                     best = (solve, built + solve);
                 }
-                let q = sim.q();
+                let q = sim.positions();
                 last = (
                     (1..=N)
-                        .map(|k| {
-                            q[system.global_index(SubsystemId(k), 1)] / RcLadder::capacitance(k)
-                        })
+                        .map(|k| q[offsets[k] + 1] / RcLadder::capacitance(k))
                         .collect(),
-                    sim.stats().iterations,
+                    summary.newton_iterations,
                 );
                 if built + solve > 2.0 {
                     break;
@@ -871,16 +931,173 @@ fn rc_ladder_scene(
     Ok(())
 }
 
+/// An RLC ladder netlist equal to scene C's: a 1 V DC source, `n` sections of a series 0.1 Ω
+/// resistor and 1 H inductor and a shunt 1 F capacitor, h = 0.01 to t = 10 from rest.
+fn ladder_netlist(n: usize) -> String {
+    let mut text = format!("RLC ladder, {n} sections\nV1 n0 0 DC 1\n");
+    for k in 1..=n {
+        text.push_str(&format!(
+            "R{k} n{} m{k} 0.1\nL{k} m{k} n{k} 1\nC{k} n{k} 0 1\n",
+            k - 1
+        ));
+    }
+    text.push_str(".tran 0.01 10 uic\n.end\n");
+    text
+}
+
+/// What `dirac run` does inside its process, through the library: read the netlist, build the
+/// circuit, run it with its `.tran` settings and write `signals` (all defaults when `None`) as CSV
+/// to `out`. Returns the steps.
+fn library_run(text: &str, signals: Option<&str>, out: &Path) -> Result<usize, BenchError> {
+    let netlist = parse_netlist(text, "bench.cir")?;
+    let circuit = build_circuit(&netlist, "bench.cir")?;
+    let (h, t_end) = circuit
+        .tran_settings()
+        .ok_or_else(|| BenchError::Cli("the netlist has no .tran card".into()))?;
+    let method = circuit
+        .method
+        .clone()
+        .unwrap_or_else(Discretisation::midpoint);
+    let signals = match signals {
+        Some(name) => vec![circuit.signal(name)?],
+        None => circuit.default_signals().to_vec(),
+    };
+    let mut sim = circuit.simulation(
+        EXECUTION,
+        IntegratorOptions::new(method, h).scheme(Scheme::Plus),
+        circuit.start(),
+    )?;
+    let file = std::io::BufWriter::new(std::fs::File::create(out)?);
+    let mut csv = CsvSink::new(file);
+    let summary = sim.run_into(t_end, &signals, &mut csv)?;
+    csv.finish()?;
+    Ok(summary.steps)
+}
+
+/// Runs this executable with `args`; an unsuccessful exit is an error.
+fn process(args: &[&str]) -> Result<(), BenchError> {
+    let exe = std::env::current_exe()?;
+    let output = Command::new(exe).args(args).output()?;
+    if output.status.success() {
+        Ok(())
+    } else {
+        Err(BenchError::Cli(format!(
+            "dirac {}: {}",
+            args.join(" "),
+            String::from_utf8_lossy(&output.stderr).trim()
+        )))
+    }
+}
+
+/// Scene CLI: `dirac run` (a child process, whole wall time) against the library doing the same
+/// in-process ([`library_run`]), and `dirac --version` (process start-up and exit alone), on the
+/// seed netlist and on RLC ladder netlists. Repetitions are interleaved (start-up, library, CLI,
+/// start-up, …) and the best of each is kept, so load changes hit all three alike. The error
+/// column holds µs per step (seed) or per step and section (ladders) of the row's wall time.
+fn cli(
+    options: &BenchOptions,
+    emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,
+) -> Result<(), BenchError> {
+    let dir = std::env::temp_dir().join(format!("dirac-bench-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let result = cli_in(&dir, options, emit);
+    // Best effort: a leftover temporary directory is not worth failing the benchmark for.
+    let _ = std::fs::remove_dir_all(&dir);
+    result
+}
+
+fn cli_in(
+    dir: &Path,
+    options: &BenchOptions,
+    emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,
+) -> Result<(), BenchError> {
+    let sizes: &[usize] = if options.quick {
+        &[1000]
+    } else {
+        &[1000, 100_000]
+    };
+    let mut cases: Vec<(String, String, Option<String>, f64)> =
+        vec![("CLI-seed".to_string(), SEED_NETLIST.to_string(), None, 1.0)];
+    for &n in sizes {
+        cases.push((
+            format!("CLI-ladder-{n}"),
+            ladder_netlist(n),
+            Some(format!("v(n{n})")),
+            n as f64,
+        ));
+    }
+    let out = dir.join("out.csv");
+    let out_arg = out.to_string_lossy().to_string();
+    for (scene, text, signal, sections) in cases {
+        let file = dir.join(format!("{scene}.cir"));
+        std::fs::write(&file, &text)?;
+        let file_arg = file.to_string_lossy().to_string();
+        let mut cli_args = vec![
+            "run",
+            file_arg.as_str(),
+            "--quiet",
+            "--out",
+            out_arg.as_str(),
+        ];
+        if let Some(signal) = &signal {
+            cli_args.extend(["--signals", signal.as_str()]);
+        }
+        let repeats = match (sections > 1.0, options.quick) {
+            (false, true) => 5,
+            (false, false) => 20,
+            (true, _) if sections >= 10_000.0 => 1,
+            (true, true) => 1,
+            (true, false) => 3,
+        };
+        let mut best = [f64::INFINITY; 3];
+        let mut steps = 0;
+        for _ in 0..repeats {
+            let start = Instant::now();
+            process(&["--version"])?;
+            best[0] = best[0].min(start.elapsed().as_secs_f64());
+            let start = Instant::now();
+            steps = library_run(&text, signal.as_deref(), &out)?;
+            best[1] = best[1].min(start.elapsed().as_secs_f64());
+            let start = Instant::now();
+            process(&cli_args)?;
+            best[2] = best[2].min(start.elapsed().as_secs_f64());
+        }
+        for (method, wall) in ["process-start", "library", "dirac-run"].iter().zip(best) {
+            emit(BenchRow {
+                scene: scene.clone(),
+                method: (*method).to_string(),
+                setting: sections,
+                wall_s: wall,
+                steps,
+                newton_iterations: 0,
+                error: wall / steps.max(1) as f64 / sections * 1e6,
+                energy_error: f64::NAN,
+                tenths: Vec::new(),
+            })?;
+        }
+    }
+    Ok(())
+}
+
 /// Why a benchmark stopped.
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
-    /// The ladder graph or its assembly failed.
+    /// A graph could not be built.
     #[error(transparent)]
-    Graph(#[from] dirac_graph::GraphError),
-    /// A ladder run failed (fixed-step sweeps skip failed step sizes instead).
+    Graph(#[from] GraphError),
+    /// A run failed (fixed-step sweeps skip failed step sizes instead).
     #[error(transparent)]
-    Sim(#[from] SimError),
-    /// Writing the CSV failed.
+    Run(#[from] RunError),
+    /// A benchmark netlist could not be read.
+    #[error(transparent)]
+    Netlist(#[from] NetlistError),
+    /// A benchmark netlist could not be turned into a circuit.
+    #[error(transparent)]
+    Circuit(#[from] CircuitError),
+    /// `dirac run` (as a child process) failed.
+    #[error("{0}")]
+    Cli(String),
+    /// Writing the CSV or a temporary file failed.
     #[error("writing the CSV: {0}")]
     Io(#[from] std::io::Error),
 }
@@ -895,7 +1112,7 @@ pub fn run(
     emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,
 ) -> Result<(), BenchError> {
     match scene {
-        BenchScene::A => sweep(&SceneA, options, emit),
+        BenchScene::A => sweep(&SceneA::new()?, options, emit),
         BenchScene::B => sweep(&SceneB, options, emit),
         BenchScene::C => ladder(options, emit),
         BenchScene::D1 => sweep(&SceneD1::new(), options, emit),
@@ -903,5 +1120,6 @@ pub fn run(
         BenchScene::D2Long => sweep(&SceneD2Long, options, emit),
         BenchScene::E => sweep(&SceneE, options, emit),
         BenchScene::F => rc_ladder_scene(options, emit),
+        BenchScene::Cli => cli(options, emit),
     }
 }

@@ -39,6 +39,8 @@ fn scene_family(scene: &str) -> &str {
         "C"
     } else if scene == "F-whole" {
         "F"
+    } else if scene.starts_with("CLI-") {
+        "CLI"
     } else {
         scene
     }
