@@ -632,11 +632,14 @@ def targets_f(rows: list[dict], summary: list[str]) -> list[str]:
     return out
 
 
-def targets_cli(rows: list[dict], summary: list[str]) -> list[str]:
+def targets_cli(rows: list[dict], rows_c: list[dict], summary: list[str]) -> list[str]:
     """Issue 15, CLI: `dirac run` as a child process against the library doing the same in-process,
-    with the bare process start-up (`dirac --version`) beside it."""
+    with the bare process start-up (`dirac --version`) beside it; for the ladders also scene C's
+    step loop on the section-model graph at the same N (the issue's "through the library")."""
     head = ["netlist", "steps", "library [s]", "dirac run [s]", "process start-up [s]",
-            "dirac run / library", "(dirac run − start-up) / library", "µs per step (per section): library, dirac run"]
+            "dirac run / library", "(dirac run − start-up) / library",
+            "µs per step (per section): library, dirac run",
+            "scene C step loop µs/step/section (dirac run / it)"]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for sc in sorted({r["scene"] for r in rows}, key=lambda x: (len(x), x)):
         by = {r["method"]: r for r in rows if r["scene"] == sc and r["tool"] == OURS}
@@ -645,10 +648,13 @@ def targets_cli(rows: list[dict], summary: list[str]) -> list[str]:
             continue
         f = run["wall_s"] / lib["wall_s"]
         net = (run["wall_s"] - start["wall_s"]) / lib["wall_s"] if start else math.nan
+        c = next((r for r in rows_c if r["tool"] == OURS and sc.startswith("CLI-ladder-")
+                  and c_sections(r) == num(sc[len("CLI-ladder-"):])), None)
+        loop = f"{c['error']:.3g} ({run['error'] / c['error']:.3g}×)" if c else "–"
         out.append("| " + " | ".join([
             sc[4:], f"{int(run['steps'])}", f"{lib['wall_s']:.3g}", f"{run['wall_s']:.3g}",
             f"{start['wall_s']:.3g}" if start else "–", fmt_factor(f), fmt_factor(net),
-            f"{lib['error']:.3g}, {run['error']:.3g}"]) + " |")
+            f"{lib['error']:.3g}, {run['error']:.3g}", loop]) + " |")
         summary.append(f"| CLI {sc[4:]} | `dirac run` within {CLI_FACTOR}× of the library path | "
                        f"{fmt_factor(f)}× (without process start-up {fmt_factor(net)}×) | "
                        f"{verdict(f <= CLI_FACTOR)} |")
@@ -670,7 +676,7 @@ def issue15_md(by_scene: dict[str, list[dict]], drift: dict) -> list[str]:
     body += ["### F: the SciMLBenchmarks RC ladder, n = 1000", ""]
     body += targets_f(by_scene.get("F", []), summary) + [""]
     body += ["### CLI: `dirac run` against the library path (same netlist, same signals)", ""]
-    body += targets_cli(by_scene.get("CLI", []), summary) + [""]
+    body += targets_cli(by_scene.get("CLI", []), by_scene.get("C", []), summary) + [""]
     return ["## Issue 15 targets (one run)", ""] + summary + [""] + body
 
 

@@ -6,7 +6,8 @@
 //!
 //! Mutations (run): appending `,1` to the first data row of `bench/results/compiled_A.csv` fails
 //! `committed_results_parse` ("compiled_A.csv:2: 9 fields expected"); moving `compiled_E.csv` away
-//! fails it ("no compiled peer rows for scene E"). Not run: renaming a column of `bench::HEADER`
+//! fails it ("no compiled peer rows for scene E"); moving `dirac_CLI.csv` away fails it ("no dirac
+//! rows for scene CLI"). Not run: renaming a column of `bench::HEADER`
 //! would fail `fresh_dirac_bench_output_parses` at its header comparison.
 
 use std::collections::BTreeSet;
@@ -25,8 +26,9 @@ const TOOLS: &[&str] = &[
     "ngspice",
 ];
 const COMPILED: &[&str] = &["sundials", "diffsol", "differential-equations", "c"];
-/// Every scene of SCENES.md (C appears as `C-N` and `Cacc-N`).
-const SCENES: &[&str] = &["A", "B", "D1", "D2", "D2-long", "E", "F", "C"];
+/// Every scene of SCENES.md (C appears as `C-N` and `Cacc-N`, CLI as `CLI-seed` and
+/// `CLI-ladder-N`).
+const SCENES: &[&str] = &["A", "B", "D1", "D2", "D2-long", "E", "F", "C", "CLI"];
 /// The scenes of the issue-15 targets, which must have compiled-peer rows.
 const COMPILED_SCENES: &[&str] = &["A", "B", "D2-long", "E", "F", "C"];
 
