@@ -154,8 +154,11 @@ for S in $SCENES; do
     fi
   done
   for tool in dirac compiled; do
-    files=("$ROUND_DIR/${tool}_$S".r*.csv)
-    [ -f "${files[0]}" ] || continue
+    files=()
+    for r in $(seq 1 "$ROUNDS"); do
+      [ -f "$ROUND_DIR/${tool}_$S.r$r.csv" ] && files+=("$ROUND_DIR/${tool}_$S.r$r.csv")
+    done
+    [ ${#files[@]} -gt 0 ] || continue
     "$PY" bench/peers/best_of.py "$RESULTS/${tool}_$S.csv" "${files[@]}" \
       || { echo "run.sh: best_of.py failed" >&2; exit 1; }
   done
