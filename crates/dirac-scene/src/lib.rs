@@ -158,10 +158,11 @@ pub use scene::model::{
     ActuatorElement, BodySpec, CapacitorParams, Connection, ConnectionKind, CoupledInductorsParams,
     DamperElement, DamperParams, DcMotorParams, DiodeParams, DiscretisationSpec, ELEMENT_TYPES,
     ElementSpec, ForceSourceParams, GroundParams, IdealGearParams, IdealTransformerParams,
-    InductorParams, InertiaParams, Initial, InitialSpec, MassParams, NodePort, PART_TYPES, Part,
-    PartKind, PendulumParams, PinSpec, PlanarLinkageParams, Record, RepresentationSpec,
-    ResistorParams, SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams,
-    SplittingSpec, SpringElement, SpringParams, WaveformSpec,
+    InductorParams, InertiaParams, InertiaSpec, Initial, InitialSpec, MassParams, NodePort,
+    PART_TYPES, Part, PartKind, PendulumParams, PinSpec, PlanarLinkageParams, RIGID_JOINT_TYPES,
+    Record, RepresentationSpec, ResistorParams, RigidBodyParams, RigidJointSpec, RotationSpec,
+    SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec,
+    SpringElement, SpringParams, WaveformSpec,
 };
 
 impl Scene {
