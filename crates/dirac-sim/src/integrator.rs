@@ -10,6 +10,7 @@ use dirac_solve::{
 
 use crate::composition::Composition;
 use crate::error::SimError;
+use crate::explicit::ExplicitStep;
 use crate::linear::{AutoLu, SolverChoice};
 
 /// Relative size below which a reduced constraint row counts as linearly dependent.
@@ -71,6 +72,11 @@ pub struct IntegratorOptions {
     /// default. With the symmetric scheme (or no constraints) the compositions of
     /// [`Composition`] raise the order of a second-order discretisation to 4, 6 or 8.
     pub composition: Composition,
+    /// Step a separable model ([`Model::separable`]) without constraints explicitly when the
+    /// discretisation is the trapezoid rule: Störmer–Verlet, the same map as the Newton path to
+    /// round-off at one force evaluation per substep (see [`Integrator::uses_explicit`]). On by
+    /// default; off forces the Newton path (for comparisons).
+    pub explicit: bool,
 }
 
 impl IntegratorOptions {
@@ -86,7 +92,15 @@ impl IntegratorOptions {
             affine_map: false,
             breakpoints: true,
             composition: Composition::single(),
+            explicit: true,
         }
+    }
+
+    /// Allows or forbids the explicit path (see [`IntegratorOptions::explicit`]).
+    #[must_use]
+    pub fn explicit(mut self, on: bool) -> Self {
+        self.explicit = on;
+        self
     }
 
     /// Lands substeps on source breakpoints (see [`IntegratorOptions::breakpoints`]).
@@ -163,6 +177,8 @@ pub struct Integrator<M, C> {
     p_next: Vec<f64>,
     stats: NewtonStats,
     affine: Affine,
+    /// The explicit Störmer–Verlet step, when the model qualifies.
+    explicit: Option<ExplicitStep>,
     /// Constraint impulses of the last step (all substeps and multiplier blocks), per active row.
     impulse: Vec<f64>,
     /// The state at the start of the step (restored when a substep fails and is cut).
@@ -362,8 +378,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
         let constraints = RowSubset::new(constraints, &[]);
         let stages = Stage::for_scheme(&model, &constraints, &options);
+        let explicit = explicit_step(&model, &constraints, &options);
         let n = model.dim();
         Ok(Self {
+            explicit,
             control_nodes: options.discretisation.path().control_nodes().to_vec(),
             model,
             constraints,
@@ -455,6 +473,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
         self.constraints.set_dropped(&analysis.dependent);
         self.stages = Stage::for_scheme(&self.model, &self.constraints, &self.options);
+        self.explicit = explicit_step(&self.model, &self.constraints, &self.options);
         self.affine = Affine::Unknown;
         Ok(())
     }
@@ -661,6 +680,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// Substep `i` at a size other than its regular one, solved with the stage's auxiliary Newton
     /// (the regular factorisation is kept).
     fn substep_sized(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
+        if self.explicit.is_some() {
+            return self.explicit_substep(i, size);
+        }
         let stage = &mut self.stages[i];
         let nominal = stage.step.step_size();
         stage.step.set_step_size(size);
@@ -759,7 +781,42 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
     }
 
+    /// Substep `i` of size `size` by the explicit Störmer–Verlet step (no Newton iteration).
+    fn explicit_substep(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
+        let t = self.t;
+        let stage = &mut self.stages[i];
+        let n = self.q.len();
+        if let Some(explicit) = &mut self.explicit
+            && let Err(equation) = explicit.step(
+                &self.model,
+                &mut self.q,
+                &mut self.p,
+                t,
+                size,
+                &mut stage.x[..n],
+            )
+        {
+            let source = NewtonError::NonFiniteResidual {
+                equation,
+                iterations: 0,
+            };
+            let likely_cause = self.likely_cause(&source);
+            return Err(SimError::Newton {
+                step: self.k,
+                t,
+                source,
+                likely_cause,
+            });
+        }
+        self.t += size;
+        Ok(NewtonStats::default())
+    }
+
     fn substep(&mut self, i: usize) -> Result<NewtonStats, SimError> {
+        if self.explicit.is_some() {
+            let size = self.stages[i].step.step_size();
+            return self.explicit_substep(i, size);
+        }
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
         // After the first step the guess extrapolates the previous solutions, still in
@@ -820,6 +877,15 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         Ok(stats)
     }
 
+    /// Whether steps are explicit Störmer–Verlet steps: the model is separable
+    /// ([`Model::separable`], nonsingular mass matrix), no constraint row is active, the
+    /// discretisation is the trapezoid rule and [`IntegratorOptions::explicit`] is on. Such steps
+    /// do no Newton iterations (every substep of a composition is explicit too).
+    #[must_use]
+    pub fn uses_explicit(&self) -> bool {
+        self.explicit.is_some()
+    }
+
     /// Whether steps are applied as a precomputed linear map (linear autonomous model, constant
     /// constraint forms, one substep, `2n` and the unknown count at most 32). Such steps do no
     /// Newton iterations; [`Integrator::stats`] counts only the set-up.
@@ -832,7 +898,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// an affine map) is applied to each basis state `e_i` of `(q, p)`.
     fn build_affine(&mut self) -> Result<Affine, SimError> {
         let n = self.q.len();
+        // The explicit path is exact and as cheap; the rounded affine map drifts (see
+        // [`IntegratorOptions::affine_map`]).
         let qualifies = self.options.affine_map
+            && self.explicit.is_none()
             && self.stages.len() == 1
             && self.model.is_autonomous()
             && self.stages[0]
@@ -1116,6 +1185,17 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     pub fn step_equations(&self) -> impl Iterator<Item = &ForcedDiracStep> {
         self.stages.iter().map(|s| &s.step)
     }
+}
+
+/// The explicit step if `options` allow it and the model and constraints qualify.
+fn explicit_step<M: Model, C: Constraints>(
+    model: &M,
+    constraints: &RowSubset<C>,
+    options: &IntegratorOptions,
+) -> Option<ExplicitStep> {
+    (options.explicit && constraints.count() == 0 && options.discretisation.is_trapezoid())
+        .then(|| ExplicitStep::new(model, options.solver))
+        .flatten()
 }
 
 /// Euclidean projection of `v` onto `ker A(q)`: solves `[I Aᵀ; A 0][w; μ] = [v; 0]`.

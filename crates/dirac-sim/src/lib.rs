@@ -7,6 +7,7 @@
 
 mod composition;
 mod error;
+mod explicit;
 mod integrator;
 mod linear;
 mod modes;
