@@ -44,6 +44,18 @@ impl From<Flavour> for Scheme {
     }
 }
 
+/// How a nonlinear step's Newton iteration is started from the previous steps' solutions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Predictor {
+    /// `2x_k − x_{k−1}`: the unknowns extrapolated linearly in `k` (error `O(h³)` in the
+    /// increments).
+    Linear,
+    /// The previous step's path polynomial `q(t_k + σh) = q_k + Σ ℓ_l(σ) Z^l` evaluated at the next
+    /// step's control points `σ = 1 + d_l` (error `O(h^{s+1})`); multipliers extrapolate linearly.
+    #[default]
+    Polynomial,
+}
+
 /// How to integrate: discretisation, flavour, step size and solver settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IntegratorOptions {
@@ -77,6 +89,9 @@ pub struct IntegratorOptions {
     /// round-off at one force evaluation per substep (see [`Integrator::uses_explicit`]). On by
     /// default; off forces the Newton path (for comparisons).
     pub explicit: bool,
+    /// The Newton start of nonlinear steps (the solution is the same to the Newton tolerance;
+    /// the iteration count differs).
+    pub predictor: Predictor,
 }
 
 impl IntegratorOptions {
@@ -93,7 +108,15 @@ impl IntegratorOptions {
             breakpoints: true,
             composition: Composition::single(),
             explicit: true,
+            predictor: Predictor::Polynomial,
         }
+    }
+
+    /// Chooses the Newton start of nonlinear steps (see [`IntegratorOptions::predictor`]).
+    #[must_use]
+    pub fn predictor(mut self, predictor: Predictor) -> Self {
+        self.predictor = predictor;
+        self
     }
 
     /// Allows or forbids the explicit path (see [`IntegratorOptions::explicit`]).
@@ -268,6 +291,9 @@ struct Stage {
     aux: Option<(Newton<AutoLu>, f64)>,
     /// The size of the last solve (the guess of the next one is scaled from it).
     last_size: f64,
+    /// Row-major `s × s` map from the last increments `Z^{l'}` to the predicted next ones:
+    /// `ℓ_{l'}(1 + d_l) − δ_{l' s}` (empty for the linear predictor).
+    extrapolation: Vec<f64>,
 }
 
 impl Stage {
@@ -280,7 +306,23 @@ impl Stage {
     ) -> Self {
         let step = ForcedDiracStep::new(model, constraints, &options.discretisation, flavour, h);
         let unknowns = step.unknowns();
+        let path = options.discretisation.path();
+        let s = path.degree();
+        let mut extrapolation = Vec::new();
+        // The previous path is extrapolated over the next step only when the steps of this
+        // stage follow each other (one substep per step).
+        let contiguous =
+            options.composition.gammas().len() == 1 && options.scheme != Scheme::Symmetric;
+        if options.predictor == Predictor::Polynomial && contiguous {
+            for &d in &path.control_nodes()[1..] {
+                for j in 1..=s {
+                    let end = if j == s { 1.0 } else { 0.0 };
+                    extrapolation.push(path.basis(1.0 + d, j) - end);
+                }
+            }
+        }
         Self {
+            extrapolation,
             fraction: h / options.h,
             aux: None,
             last_size: h,
@@ -840,12 +882,30 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .step
                 .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
         } else if !constant {
-            for (x, old) in stage.x.iter_mut().zip(stage.older.iter_mut()) {
+            // Increments from the previous path polynomial (when chosen), multipliers (and,
+            // for the linear predictor, increments) extrapolated linearly in k.
+            let n = self.q.len();
+            let s = stage.step.degree();
+            let polynomial = if stage.extrapolation.is_empty() {
+                0
+            } else {
+                s * n
+            };
+            for (idx, (x, old)) in stage.x.iter_mut().zip(stage.older.iter_mut()).enumerate() {
                 let last = *x;
-                if self.k >= 2 {
+                if idx >= polynomial && self.k >= 2 {
                     *x = 2.0 * last - *old;
                 }
                 *old = last;
+            }
+            for (l, row) in stage.extrapolation.chunks_exact(s).enumerate() {
+                for i in 0..n {
+                    stage.x[l * n + i] = row
+                        .iter()
+                        .enumerate()
+                        .map(|(j, e)| e * stage.older[j * n + i])
+                        .sum();
+                }
             }
         }
         if constant {
