@@ -313,7 +313,7 @@ impl Stage {
         // stage follow each other (one substep per step).
         let contiguous =
             options.composition.gammas().len() == 1 && options.scheme != Scheme::Symmetric;
-        if options.predictor == Predictor::Polynomial && contiguous {
+        if options.predictor == Predictor::Polynomial && contiguous && constraints.count() == 0 {
             for &d in &path.control_nodes()[1..] {
                 for j in 1..=s {
                     let end = if j == s { 1.0 } else { 0.0 };
