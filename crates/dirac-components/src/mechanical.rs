@@ -96,13 +96,11 @@ macro_rules! inertial_model {
             fn coordinate_name(&self, _i: usize) -> String {
                 $name.into()
             }
-            /// Separable without a wall damper: `M = [m]`, `V = ½kx²`.
+            /// Separable: `M = [m]`, no potential, no force.
             fn separable(&self) -> Option<Triplets> {
-                (self.c == 0.0).then(|| {
-                    let mut mass = Triplets::new();
-                    mass.add(0, 0, self.$m);
-                    mass
-                })
+                let mut mass = Triplets::new();
+                mass.add(0, 0, self.$m);
+                Some(mass)
             }
         }
     };

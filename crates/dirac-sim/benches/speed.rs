@@ -27,7 +27,8 @@ fn main() {
 fn chain(n: usize) -> Interconnection {
     let mut g = Interconnection::new();
     for i in 0..n {
-        g.add_subsystem(Mass::free(1.0 + 0.1 * i as f64).subsystem(format!("m{i}")))
+        let mass = Mass::new(1.0 + 0.1 * i as f64).expect("mass");
+        g.add_subsystem(mass.subsystem(format!("m{i}")))
             .expect("mass");
     }
     for i in 1..n {
@@ -37,11 +38,7 @@ fn chain(n: usize) -> Interconnection {
             format!("k{i}"),
             a,
             b,
-            Spring {
-                k: 1.0,
-                k3: 0.5,
-                rest: 0.0,
-            },
+            Spring::new(1.0, 0.5, 0.0).expect("spring"),
         );
     }
     g

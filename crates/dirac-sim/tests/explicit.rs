@@ -9,9 +9,12 @@
 //! coupling potential between `L` and the forces (monolithic vs interaction-force) leaves the
 //! explicit trajectory unchanged.
 
+#![allow(clippy::needless_range_loop)] // 2×2 matrix formulas read best with indices.
+
 use dirac_components::{ForceSource, Mass, Spring, Waveform};
 use dirac_core::{ForceJacobian, LagrangianHessian, Model, NoConstraints, Triplets};
 use dirac_graph::{Interconnection, Representation};
+use dirac_problems::DampedOscillator;
 use dirac_sim::{
     Composition, Discretisation, Execution, Integrator, IntegratorOptions, Simulation,
 };
@@ -230,43 +233,27 @@ fn discrete_power_balance_holds() {
 /// the assembled model is separable and steps explicitly.
 fn split_chain() -> Interconnection {
     let mut g = Interconnection::new();
-    g.add_subsystem(Mass::free(1.5).subsystem("m1"))
-        .expect("m1");
-    g.add_subsystem(Mass::free(0.5).subsystem("m2"))
-        .expect("m2");
-    g.add_subsystem(Mass::free(2.0).subsystem("m3"))
-        .expect("m3");
+    for (name, m) in [("m1", 1.5), ("m2", 0.5), ("m3", 2.0)] {
+        g.add_subsystem(Mass::new(m).expect("mass").subsystem(name))
+            .expect("subsystem");
+    }
     let (a, b, c) = (
         g.port("m1", "x").expect("x"),
         g.port("m2", "x").expect("x"),
         g.port("m3", "x").expect("x"),
     );
-    g.coupling(
-        "k12",
-        a,
-        b,
-        Spring {
-            k: 3.0,
-            k3: 2.0,
-            rest: 0.0,
-        },
-    );
-    g.coupling("k23", b, c, Spring::linear(1.0));
-    g.coupling(
-        "push",
-        a,
-        c,
-        ForceSource {
-            waveform: Waveform::Sin {
-                offset: 0.0,
-                amplitude: 0.5,
-                frequency: 0.7,
-                delay: 0.0,
-                damping: 0.0,
-                phase_deg: 0.0,
-            },
-        },
-    );
+    g.coupling("k12", a, b, Spring::new(3.0, 2.0, 0.0).expect("spring"));
+    g.coupling("k23", b, c, Spring::linear(1.0).expect("spring"));
+    let push = ForceSource::new(Waveform::Sin {
+        offset: 0.0,
+        amplitude: 0.5,
+        frequency: 0.7,
+        delay: 0.0,
+        damping: 0.0,
+        phase_deg: 0.0,
+    })
+    .expect("source");
+    g.coupling("push", a, c, push);
     g
 }
 
@@ -311,26 +298,35 @@ fn split_separable_model_is_equivalent_across_representations() {
     assert!(worst <= SAME_MAP_TOL, "deviation {worst:e}");
 }
 
-/// The explicit path is not taken where it does not apply: a wall damper (velocity-dependent
-/// force), the midpoint rule, or the option switched off.
+/// The explicit path is not taken where it does not apply: a velocity-dependent force (the
+/// damped oscillator, which does not claim separability), the midpoint or Gauss rules, or the
+/// option switched off.
 #[test]
 fn explicit_path_only_where_it_applies() {
-    let h = 0.05;
-    let damped = Mass {
+    fn uses<M: Model>(model: M, d: Discretisation, on: bool) -> bool {
+        Integrator::new(
+            model,
+            NoConstraints,
+            IntegratorOptions::new(d, 0.05).explicit(on),
+        )
+        .expect("options")
+        .uses_explicit()
+    }
+    let mass = || Mass::new(1.0).expect("mass");
+    let damped = DampedOscillator {
         m: 1.0,
         k: 1.0,
         c: 0.1,
     };
-    let undamped = Mass { c: 0.0, ..damped };
-    let uses = |m: Mass, d: Discretisation, on: bool| {
-        Integrator::new(m, NoConstraints, IntegratorOptions::new(d, h).explicit(on))
-            .expect("options")
-            .uses_explicit()
-    };
-    assert!(uses(undamped, Discretisation::trapezoid(), true));
-    assert!(uses(undamped, Discretisation::lobatto(1), true));
+    assert!(uses(mass(), Discretisation::trapezoid(), true));
+    assert!(uses(mass(), Discretisation::lobatto(1), true));
+    assert!(uses(
+        HenonHeiles { a: 0.1 },
+        Discretisation::trapezoid(),
+        true
+    ));
     assert!(!uses(damped, Discretisation::trapezoid(), true));
-    assert!(!uses(undamped, Discretisation::midpoint(), true));
-    assert!(!uses(undamped, Discretisation::gauss(2), true));
-    assert!(!uses(undamped, Discretisation::trapezoid(), false));
+    assert!(!uses(mass(), Discretisation::midpoint(), true));
+    assert!(!uses(mass(), Discretisation::gauss(2), true));
+    assert!(!uses(mass(), Discretisation::trapezoid(), false));
 }
