@@ -349,11 +349,11 @@ mod tests {
     /// boundaries of positional notation (1e-5, 1e16 and their neighbours), signed zeros,
     /// integers, non-finite values, and the times `t₀ + k·h` of runs with h = 0.05, 1e-3, 0.0125,
     /// 1/3, 7e-9, 1e-8 and 5e-6 (where the product's last-bit noise must be rounded away, and
-    /// times below 1e-5 stay positional). Mutation: keeping
-    /// Ryū's `.0` on integers fails at the first integer (`1` printed `1.0`); skipping the
-    /// 15-digit rounding for every time fails at `3 × 0.05` (`0.15000000000000002`); Ryū's text for
-    /// times below 1e-5 fails at `5e-6` (`0.000005` expected, as the first version of this change
-    /// printed on `examples/netlists/coupled_lc.cir`).
+    /// times below 1e-5 stay positional). Mutations, each observed failing: keeping Ryū's `.0` on
+    /// integers (`4277834443099750.0` against `4277834443099750`); skipping the 15-digit rounding
+    /// of times (`0.15000000000000002` against `0.15`); without the tie check
+    /// (`1658206780088562.2` against `1658206780088562.3`); Ryū's text for times below 1e-5
+    /// (`5e-6` against `0.000005`, seen on `examples/netlists/coupled_lc.cir`).
     #[test]
     fn fast_formatting_matches_the_reference() {
         let mut state: u64 = 0x9E37_79B9_7F4A_7C15;
