@@ -96,6 +96,12 @@ macro_rules! inertial_model {
             fn coordinate_name(&self, _i: usize) -> String {
                 $name.into()
             }
+            /// Separable: `M = [m]`, no potential, no force.
+            fn separable(&self) -> Option<Triplets> {
+                let mut mass = Triplets::new();
+                mass.add(0, 0, self.$m);
+                Some(mass)
+            }
         }
     };
 }
@@ -379,6 +385,9 @@ impl CouplingElement for ForceSource {
     fn force(&self, _x: [f64; 2], _v: [f64; 2], t: f64) -> [f64; 2] {
         let f = self.waveform.value(t);
         [f, -f]
+    }
+    fn force_depends_on_velocity(&self) -> bool {
+        false
     }
     fn is_linear(&self) -> bool {
         true

@@ -30,6 +30,12 @@ pub trait CouplingElement: Send + Sync {
     fn force(&self, _x: [f64; 2], _v: [f64; 2], _t: f64) -> [f64; 2] {
         [0.0; 2]
     }
+    /// Whether the force depends on the flows `v_a`, `v_b` (a damper). Conservative default: any
+    /// force does. An element whose force depends on `(x, t)` only keeps a model separable
+    /// ([`dirac_core::Model::separable`]).
+    fn force_depends_on_velocity(&self) -> bool {
+        self.has_force()
+    }
     /// `(∂f/∂x, ∂f/∂v)`, each 2×2 with rows `(f_a, f_b)`.
     fn force_jacobian(&self, _x: [f64; 2], _v: [f64; 2], _t: f64) -> [[[f64; 2]; 2]; 2] {
         [[[0.0; 2]; 2]; 2]
