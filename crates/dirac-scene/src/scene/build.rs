@@ -1,7 +1,7 @@
 //! Building a scene: parts → subsystems, connections → graph edges, settings → integrator options,
 //! signal names → indices into the global state.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use dirac_components::{
     Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource, Ground,
@@ -821,6 +821,7 @@ impl Scene {
                         });
                     }
                     let mut resolved = Vec::with_capacity(ports.len());
+                    let mut distinct = HashSet::with_capacity(ports.len());
                     for (i, p) in ports.iter().enumerate() {
                         let at = field_of(
                             &c.origin,
@@ -840,7 +841,7 @@ impl Scene {
                                 ),
                             });
                         }
-                        if resolved.iter().any(|(q, _)| *q == r) {
+                        if !distinct.insert(r) {
                             return Err(SceneError::BadConnection {
                                 at,
                                 connection: c.name.clone(),
@@ -994,7 +995,7 @@ fn resolve_port(
             reference: reference.to_string(),
         });
     };
-    let Some(sub) = graph.subsystems().iter().find(|s| s.name() == part) else {
+    let Some(sub) = graph.subsystem_id(part).map(|id| &graph.subsystems()[id.0]) else {
         return Err(SceneError::UnknownPart {
             at,
             reference: reference.to_string(),
