@@ -5,9 +5,11 @@
 //! (with the file, line and column, or the part, port or signal at fault). A failed run never
 //! leaves a partial output file.
 
+mod animate;
 mod bench;
 mod guard;
 mod guidance;
+mod sweep;
 
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -70,10 +72,14 @@ enum Command {
     Check(CheckArgs),
     /// Plot a CSV written by `dirac run` to SVG or PNG (by the output's extension).
     Plot(PlotArgs),
+    /// Draw a scene's rigid bodies moving, as a sequence of projected SVG frames.
+    Animate(animate::AnimateArgs),
     /// Convert a netlist into an equivalent scene file.
     Convert(ConvertArgs),
     /// Work-precision sweep of a benchmark scene (bench/SCENES.md): one CSV row per run.
     Bench(BenchArgs),
+    /// Sweep parameters of a netlist or scene (whole, or one shard of a batch job) or merge shards.
+    Sweep(sweep::SweepArgs),
 }
 
 /// How the coupled system is assembled.
@@ -281,8 +287,10 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare(&args),
         Command::Check(args) => check(&args),
         Command::Plot(args) => plot(&args),
+        Command::Animate(args) => animate::animate(&args),
         Command::Convert(args) => convert(&args),
         Command::Bench(args) => bench_command(&args),
+        Command::Sweep(args) => sweep::sweep(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

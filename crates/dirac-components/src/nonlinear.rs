@@ -82,6 +82,7 @@ fn ln_softplus_slope(x: f64) -> f64 {
 /// Ports: `i` (coordinate 0: the current from anode `+` to cathode `−`). Coordinate 1 is `u`
 /// (only its rate means anything; start it at 0).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Diode {
     /// Saturation current `I_s` (A), e.g. `1e-14`.
     pub is: f64,
@@ -178,6 +179,7 @@ fn ln_cosh(x: f64) -> f64 {
 ///
 /// Port `i` (coordinate 0).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct SaturatingInductor {
     /// Small-signal inductance `L₀` at zero current.
     pub l0: f64,
@@ -321,7 +323,7 @@ mod tests {
 
     fn diode_loop(d: Diode, v: f64, r: f64, inductor: Option<f64>) -> Interconnection {
         let mut g = Interconnection::new();
-        g.add_subsystem(VoltageSource::dc(v).subsystem("V"))
+        g.add_subsystem(VoltageSource::dc(v).unwrap().subsystem("V"))
             .unwrap();
         g.add_subsystem(Resistor { r }.subsystem("R")).unwrap();
         g.add_subsystem(d.subsystem("D")).unwrap();
@@ -407,7 +409,7 @@ mod tests {
         };
         let (v, h) = (1.0, 0.001);
         let mut g = Interconnection::new();
-        g.add_subsystem(VoltageSource::dc(v).subsystem("V"))
+        g.add_subsystem(VoltageSource::dc(v).unwrap().subsystem("V"))
             .unwrap();
         g.add_subsystem(s.subsystem("L")).unwrap();
         node(&mut g, "a", &[("V", "i", -1.0), ("L", "i", -1.0)]);

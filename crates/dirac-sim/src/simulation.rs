@@ -35,6 +35,18 @@ pub enum Execution {
     Staggered(Splitting),
 }
 
+impl From<Representation> for Execution {
+    fn from(representation: Representation) -> Self {
+        Self::Assembled(representation)
+    }
+}
+
+impl From<Splitting> for Execution {
+    fn from(splitting: Splitting) -> Self {
+        Self::Staggered(splitting)
+    }
+}
+
 impl std::fmt::Display for Execution {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -173,10 +185,16 @@ impl std::fmt::Debug for Simulation {
 }
 
 impl Simulation {
-    /// A simulation of `graph` in `execution` with `options`, starting at `t = 0` from rest (every
-    /// position and velocity zero, none given) unless told otherwise.
+    /// A simulation of `graph` in `execution` (a [`Representation`], a [`Splitting`] or an
+    /// [`Execution`]) with `options`, starting at `t = 0` from rest (every position and velocity
+    /// zero, none given) unless told otherwise.
     #[must_use]
-    pub fn new(graph: Interconnection, execution: Execution, options: IntegratorOptions) -> Self {
+    pub fn new(
+        graph: Interconnection,
+        execution: impl Into<Execution>,
+        options: IntegratorOptions,
+    ) -> Self {
+        let execution = execution.into();
         let initial = graph
             .subsystems()
             .iter()

@@ -17,8 +17,8 @@ use toml::de::{DeTable, DeValue, ValueDeserializer};
 
 use super::error::{Location, Origin, SceneError, listed};
 use super::model::{
-    Connection, ConnectionKind, ELEMENT_TYPES, ElementSpec, PART_TYPES, Part, PartKind, Record,
-    Scene, Simulation,
+    Connection, ConnectionKind, ELEMENT_TYPES, ElementSpec, PART_TYPES, Part, PartKind,
+    RIGID_JOINT_TYPES, Record, RigidJointSpec, Scene, Simulation,
 };
 
 /// Positions of values and keys inside an item, by path.
@@ -339,6 +339,7 @@ fn parse_part(
         "ideal_transformer" => PartKind::IdealTransformer(params(src, &span, t, common)?),
         "ideal_gear" => PartKind::IdealGear(params(src, &span, t, common)?),
         "rolling_disk" => PartKind::RollingDisk(params(src, &span, t, common)?),
+        "rigid_body" => PartKind::RigidBody(params(src, &span, t, common)?),
         other => {
             return Err(SceneError::UnknownPartType {
                 at: Some(src.location(&type_span)),
@@ -405,12 +406,39 @@ fn parse_connection(
                 element,
             }
         }
+        "joint_coordinate" => {
+            #[derive(Deserialize)]
+            #[serde(deny_unknown_fields)]
+            struct CoordinateKeys {
+                joint: String,
+                port: String,
+            }
+            let keys: CoordinateKeys = params(src, &span, t, common)?;
+            ConnectionKind::JointCoordinate {
+                joint: keys.joint,
+                port: keys.port,
+            }
+        }
+        rigid if RIGID_JOINT_TYPES.contains(&rigid) => {
+            let spec: RigidJointSpec = params(src, &span, t, common)?;
+            match rigid {
+                "spherical" => ConnectionKind::Spherical(spec),
+                "revolute" => ConnectionKind::Revolute(spec),
+                "universal" => ConnectionKind::Universal(spec),
+                "cylindrical" => ConnectionKind::Cylindrical(spec),
+                "prismatic" => ConnectionKind::Prismatic(spec),
+                "planar" => ConnectionKind::Planar(spec),
+                _ => ConnectionKind::Fixed(spec),
+            }
+        }
         other => {
+            let mut expected = vec!["node", "joint", "coupling", "joint_coordinate"];
+            expected.extend(RIGID_JOINT_TYPES);
             return Err(SceneError::UnknownKind {
                 at: Some(src.location(&type_span)),
                 what: "connection type",
                 name: other.to_string(),
-                expected: listed(["node", "joint", "coupling"]),
+                expected: listed(expected),
             });
         }
     };
