@@ -1,7 +1,7 @@
 //! Building a scene: parts → subsystems, connections → graph edges, settings → integrator options,
 //! signal names → indices into the global state.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use dirac_components::{
     Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource, Ground,
@@ -237,6 +237,41 @@ fn rigid_joint_signal(
                 j.kind,
                 listed(offered)
             ))
+        }
+    }
+}
+
+/// Parameter checks of one rigid-body item (the stock parts check themselves through their
+/// constructors), errors placed at the parameter's value.
+struct Check<'a> {
+    item: String,
+    origin: &'a Origin,
+}
+
+impl Check<'_> {
+    fn fail(&self, key: &str, value: f64, requirement: &'static str) -> SceneError {
+        SceneError::BadParameter {
+            at: self.origin.field(key),
+            item: self.item.clone(),
+            parameter: key.to_string(),
+            value,
+            requirement,
+        }
+    }
+
+    fn finite(&self, key: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.fail(key, v, "must be finite"))
+        }
+    }
+
+    fn positive(&self, key: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.fail(key, v, "must be positive and finite"))
         }
     }
 }
@@ -1094,6 +1129,7 @@ impl Scene {
                         });
                     }
                     let mut resolved = Vec::with_capacity(ports.len());
+                    let mut distinct = HashSet::with_capacity(ports.len());
                     for (i, p) in ports.iter().enumerate() {
                         let at = field_of(
                             &c.origin,
@@ -1113,7 +1149,7 @@ impl Scene {
                                 ),
                             });
                         }
-                        if resolved.iter().any(|(q, _)| *q == r) {
+                        if !distinct.insert(r) {
                             return Err(SceneError::BadConnection {
                                 at,
                                 connection: c.name.clone(),
@@ -1326,7 +1362,7 @@ fn resolve_port(
             reference: reference.to_string(),
         });
     };
-    let Some(sub) = graph.subsystems().iter().find(|s| s.name() == part) else {
+    let Some(sub) = graph.subsystem_id(part).map(|id| &graph.subsystems()[id.0]) else {
         return Err(SceneError::UnknownPart {
             at,
             reference: reference.to_string(),
