@@ -26,14 +26,9 @@ fn main() -> Result<(), Box<dyn Error>> {
         ("minus", Scheme::Minus),
         ("symmetric", Scheme::Symmetric),
     ] {
-        let model = RollingDisk {
-            m: 1.0,
-            i: 1.0,
-            j: 1.0,
-            radius: 1.0,
-        };
+        let model = RollingDisk::new(1.0, 1.0, 1.0, 1.0)?;
         let options = IntegratorOptions::new(Discretisation::midpoint(), h).scheme(scheme);
-        let mut sim = Integrator::new(model, RollingConstraint { radius: 1.0 }, options)?;
+        let mut sim = Integrator::new(model, RollingConstraint::new(1.0)?, options)?;
         sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0)?;
         let mut energy = vec![(0.0, model.energy(sim.p()))];
         let mut worst_residual: f64 = 0.0;

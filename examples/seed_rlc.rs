@@ -4,14 +4,13 @@
 //!
 //! L = 0.75, C = 3, R = 0.1, h = 0.05, 1000 steps, q_C(0) = 1, zero current; coordinates
 //! (q_C, q_L, q_R) with ω¹ = dq_L − dq_R, ω² = dq_R − dq_C and force −R v_R. Prints `t,qC,exact`
-//! CSV (exact: L q̈ + R q̇ + q/C = 0) and `max_err=<value>` as the last line on stderr; writes
+//! CSV (exact: L q̈ + R q̇ + q/C = 0; t = k·h, run through `Simulation`) and `max_err=<value>` as the last line on stderr; writes
 //! docs/figures/seed_rlc_<flavour>.{svg,png}.
 
 use std::error::Error;
 use std::io::Write;
 
-use dirac::core::{Discretisation, Flavour};
-use dirac::sim::{Integrator, IntegratorOptions};
+use dirac::prelude::*;
 use dirac_problems::{RlcLoop, rlc_exact};
 
 fn parse_flavour() -> Result<Flavour, String> {
@@ -31,18 +30,20 @@ fn parse_flavour() -> Result<Flavour, String> {
 fn main() -> Result<(), Box<dyn Error>> {
     let flavour = parse_flavour()?;
     let rlc = RlcLoop::seed();
-    let (h, steps) = (0.05, 1000);
-    let mut sim = Integrator::new(
-        rlc,
-        RlcLoop::kcl(),
-        IntegratorOptions::new(Discretisation::midpoint(), h).flavour(flavour),
-    )?;
-    sim.initialise(&[1.0, 0.0, 0.0], &[0.0; 3], 0.0)?;
-    let mut rows = vec![(0.0, 1.0, 1.0)];
-    for _ in 0..steps {
-        sim.step()?;
-        rows.push((sim.t(), sim.q()[0], rlc_exact(&rlc, 1.0, sim.t())));
+    let (h, t_end) = (0.05, 50.0);
+    let mut g = Interconnection::new();
+    g.add_subsystem(Subsystem::new("rlc", rlc).with_constraints(RlcLoop::kcl()))?;
+    let q_c = [Signal::new("qC", Probe::position(&g, "rlc", "qC")?)];
+    let options = IntegratorOptions::new(Discretisation::midpoint(), h).flavour(flavour);
+    let mut sim = Simulation::new(g, Representation::Monolithic, options);
+    sim.set_position("rlc", "qC", 1.0)?;
+    for coordinate in ["qC", "qL", "qR"] {
+        sim.set_velocity("rlc", coordinate, 0.0)?;
     }
+    let (run, _) = sim.run(t_end, &q_c)?;
+    let rows: Vec<(f64, f64, f64)> = (0..run.len())
+        .map(|k| (run.t()[k], run.row(k)[0], rlc_exact(&rlc, 1.0, run.t()[k])))
+        .collect();
     let mut out = std::io::stdout().lock();
     writeln!(out, "t,qC,exact")?;
     let mut max_err: f64 = 0.0;

@@ -4,7 +4,8 @@
 //! `cargo run --release --example two_mass_split`
 //!
 //! m₁ = m₂ = 1, wall springs k₁ = k₂ = 1, coupling spring k = 1, x(0) = (1, 0), v(0) = 0, h = 0.1,
-//! 1000 steps, midpoint, (+) flavour. Prints `representation,max_dev` (max over steps of the
+//! 1000 steps, midpoint, (+) flavour; each wall spring is a spring coupled to a ground, and every
+//! run goes through `Simulation`. Prints `representation,max_dev` (max over steps of the
 //! position deviation from the monolithic model) for `constraint` (massless endpoint of A joined
 //! to B), `force` (coupling as interaction forces), `staggered-gs` and `staggered-jacobi`
 //! (co-simulation), and writes docs/figures/two_mass_split.svg. The size of each assembled
@@ -12,102 +13,61 @@
 
 use std::error::Error;
 
-use dirac::core::{Discretisation, Flavour};
-use dirac::graph::{Assembler, Interconnection, LinearSpring, Representation};
-use dirac::sim::{Integrator, IntegratorOptions, Splitting, Staggered};
-use dirac_components::Mass;
+use dirac::prelude::*;
 
+/// The two masses, a wall (one ground at 0) with a spring from each mass, and the coupling spring.
 fn graph() -> Result<Interconnection, Box<dyn Error>> {
     let mut g = Interconnection::new();
-    g.add_subsystem(
-        Mass {
-            m: 1.0,
-            k: 1.0,
-            c: 0.0,
-        }
-        .subsystem("A"),
-    )?;
-    g.add_subsystem(
-        Mass {
-            m: 1.0,
-            k: 1.0,
-            c: 0.0,
-        }
-        .subsystem("B"),
-    )?;
-    let (a, b) = (g.port("A", "x")?, g.port("B", "x")?);
-    g.coupling("spring", a, b, LinearSpring { k: 1.0, rest: 0.0 });
+    g.add_subsystem(Mass::new(1.0)?.subsystem("A"))?;
+    g.add_subsystem(Mass::new(1.0)?.subsystem("B"))?;
+    g.add_subsystem(Ground::origin().subsystem("wall"))?;
+    let (a, b, wall) = (g.port("A", "x")?, g.port("B", "x")?, g.port("wall", "x")?);
+    g.coupling("spring", a, b, Spring::linear(1.0)?);
+    g.coupling("wall-A", a, wall, Spring::linear(1.0)?);
+    g.coupling("wall-B", b, wall, Spring::linear(1.0)?);
     Ok(g)
 }
 
-fn assembled(
+/// Positions `(x_A, x_B)` at every t_k, run through the run layer in `execution`.
+fn run(
     g: &Interconnection,
-    rep: Representation,
+    execution: Execution,
     options: &IntegratorOptions,
-    steps: usize,
+    t_end: f64,
 ) -> Result<Vec<Vec<f64>>, Box<dyn Error>> {
-    let system = Assembler::assemble(g, rep)?;
-    let names = vec!["A".to_string(), "B".to_string()];
-    let q = system.global_vector(&[vec![1.0], vec![0.0]], &names)?;
-    let mut sim = Integrator::new(
-        system.model.clone(),
-        system.constraints.clone(),
-        options.clone(),
-    )?;
-    sim.initialise(&q, &vec![0.0; q.len()], 0.0)?;
-    let mut out = vec![system.subsystem_positions(sim.q()).to_vec()];
-    for _ in 0..steps {
-        sim.step()?;
-        out.push(system.subsystem_positions(sim.q()).to_vec());
+    let signals = [
+        Signal::new("A.x", Probe::position(g, "A", "x")?),
+        Signal::new("B.x", Probe::position(g, "B", "x")?),
+    ];
+    let mut sim = Simulation::new(g.clone(), execution, options.clone());
+    sim.set_position("A", "x", 1.0)?;
+    let (trajectory, _) = sim.run(t_end, &signals)?;
+    if let Some((system, integrator)) = sim.assembled() {
+        eprintln!(
+            "{execution}: {} coordinates, {} constraint rows, {} unknowns per step, {} Jacobian entries",
+            system.coordinates(),
+            system.constraint_rows(),
+            integrator.unknowns(),
+            integrator.jacobian_entries()
+        );
     }
-    eprintln!(
-        "{rep}: {} coordinates, {} constraint rows, {} unknowns per step, {} Jacobian entries",
-        system.coordinates(),
-        system.constraint_rows(),
-        sim.unknowns(),
-        sim.jacobian_entries()
-    );
-    Ok(out)
-}
-
-fn staggered(
-    g: &Interconnection,
-    splitting: Splitting,
-    options: &IntegratorOptions,
-    steps: usize,
-) -> Result<Vec<Vec<f64>>, Box<dyn Error>> {
-    let mut sim = Staggered::new(g, options, splitting)?;
-    sim.initialise(&[vec![1.0], vec![0.0]], &[vec![0.0], vec![0.0]], 0.0)?;
-    let mut out = vec![sim.positions()];
-    for _ in 0..steps {
-        sim.step()?;
-        out.push(sim.positions());
-    }
-    Ok(out)
+    Ok((0..trajectory.len())
+        .map(|k| trajectory.row(k).to_vec())
+        .collect())
 }
 
 fn main() -> Result<(), Box<dyn Error>> {
     let g = graph()?;
-    let (h, steps) = (0.1, 1000);
+    let (h, t_end) = (0.1, 100.0);
     let options = IntegratorOptions::new(Discretisation::midpoint(), h).flavour(Flavour::Plus);
-    let mono = assembled(&g, Representation::Monolithic, &options, steps)?;
+    let assembled = |r| run(&g, Execution::Assembled(r), &options, t_end);
+    let staggered = |s| run(&g, Execution::Staggered(s), &options, t_end);
+    let mono = assembled(Representation::Monolithic)?;
     let runs = [
-        (
-            "constraint",
-            assembled(&g, Representation::Constraint, &options, steps)?,
-        ),
-        (
-            "force",
-            assembled(&g, Representation::InteractionForce, &options, steps)?,
-        ),
-        (
-            "staggered-gs",
-            staggered(&g, Splitting::GaussSeidel, &options, steps)?,
-        ),
-        (
-            "staggered-jacobi",
-            staggered(&g, Splitting::Jacobi, &options, steps)?,
-        ),
+        ("constraint", assembled(Representation::Constraint)?),
+        ("force", assembled(Representation::InteractionForce)?),
+        ("staggered-gs", staggered(Splitting::GaussSeidel)?),
+        ("staggered-jacobi", staggered(Splitting::Jacobi)?),
     ];
     println!("representation,max_dev");
     let mut chart =

@@ -1,29 +1,86 @@
 //! `dirac`: forced discrete Dirac variational integrators for interconnected mechanical and
 //! electrical systems.
 //!
-//! This facade re-exports the workspace crates:
+//! Start from the [`prelude`]: it brings the parts, the interconnection graph and the run layer.
+//! A model is parts joined at their ports ([`graph::Interconnection`], or
+//! [`parts::CircuitBuilder`] for a circuit written as a netlist reads); a [`sim::Simulation`]
+//! runs it in any representation and returns a trajectory of named signals.
+//!
+//! ```
+//! use dirac::prelude::*;
+//!
+//! // A 1 µF capacitor charged to 1 V discharging through 1 kΩ: v(t) = e^{−t/RC}.
+//! let mut c = CircuitBuilder::new();
+//! c.resistor("R1", "1", "0", 1e3)?;
+//! c.capacitor("C1", "1", "0", 1e-6)?;
+//! let graph = c.build()?;
+//! let v = Signal::new("v(1)", Probe::effort(&graph, "1")?);
+//! let mut sim = Simulation::new(graph, Representation::Monolithic, IntegratorOptions::new(Discretisation::midpoint(), 1e-5));
+//! sim.set_position("C1", "q", 1e-6)?;
+//! let (trajectory, _) = sim.run(1e-3, &[v])?;
+//! let end = trajectory.signal("v(1)").and_then(|v| v.last().copied()).unwrap_or(f64::NAN);
+//! assert!((end - (-1.0_f64).exp()).abs() < 1e-4);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! The crates behind it, one idea each:
 //! - [`core`] (`dirac-core`): models, constraints, discretisations, step equations;
 //! - [`graph`] (`dirac-graph`): subsystems, the interconnection graph, the assembler;
 //! - [`solve`] (`dirac-solve`): Newton with dense and sparse LU;
-//! - [`sim`] (`dirac-sim`): the integrator.
+//! - [`sim`] (`dirac-sim`): the integrator and the run layer ([`sim::Simulation`]);
+//! - [`parts`] (`dirac-components`): stock parts with checked parameters;
+//! - [`netlist`] (`dirac-netlist`): SPICE-subset netlists → circuits;
+//! - [`scene`] (`dirac-scene`): TOML scene files → interconnections;
+//! - [`output`] (`dirac-output`): CSV and charts of trajectories.
 
+pub use dirac_components as parts;
 pub use dirac_core as core;
 pub use dirac_graph as graph;
+pub use dirac_netlist as netlist;
+pub use dirac_output as output;
+pub use dirac_scene as scene;
 pub use dirac_sim as sim;
 pub use dirac_solve as solve;
+
+/// What a program that builds and runs a model needs, in one `use dirac::prelude::*`.
+pub mod prelude {
+    pub use dirac_components::{
+        Capacitor, CircuitBuilder, CoupledInductors, CurrentSource, Damper, DcMotor, Diode,
+        ForceSource, Ground, IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError,
+        Pendulum, Resistor, Spring, VoltageSource, Waveform,
+    };
+    pub use dirac_core::{Discretisation, Flavour};
+    pub use dirac_graph::{GraphError, Interconnection, Representation, Subsystem};
+    pub use dirac_scene::Scene;
+    pub use dirac_sim::{
+        Execution, IntegratorOptions, Probe, RunError, RunSummary, Scheme, Signal, Simulation,
+        Splitting, Start, Trajectory,
+    };
+}
+
+/// The README's programs, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
+/// The user guide's Rust examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../docs/guide.md")]
+pub struct GuideDoctests;
 
 #[cfg(test)]
 mod tests {
     //! The facade's paths end to end (graph → assembler → integrator), against the exact discrete
-    //! solution. Two unit masses on unit wall springs joined by a spring κ have normal modes
+    //! solution. Two unit masses tied to a wall (a ground at 0) by unit springs and joined by a
+    //! spring κ have normal modes
     //! `x₁ + x₂` (ω² = 1) and `x₁ − x₂` (ω² = 1 + 2κ). The midpoint rule maps each mode, started
     //! at rest, to `cos(kθ)` with `tan(θ/2) = ωh/2` exactly (a Cayley rotation), so from
     //! `x = (1, 0)`: `x₁,k = ½(cos kθ₁ + cos kθ₂)`, `x₂,k = ½(cos kθ₁ − cos kθ₂)`.
 
     use crate::core::Discretisation;
-    use crate::graph::{Assembler, Interconnection, LinearSpring, Representation};
+    use crate::graph::{Assembler, Interconnection, Representation};
+    use crate::parts::{Ground, Mass, Spring};
     use crate::sim::{Integrator, IntegratorOptions};
-    use dirac_components::Mass;
 
     /// Round-off over 1000 steps of order-one positions (measured 1.1e-14).
     const ROUND_OFF: f64 = 1e-12;
@@ -33,29 +90,18 @@ mod tests {
         let (kappa, h, steps) = (0.6, 0.1, 1000);
         let mut g = Interconnection::new();
         for name in ["A", "B"] {
-            g.add_subsystem(
-                Mass {
-                    m: 1.0,
-                    k: 1.0,
-                    c: 0.0,
-                }
-                .subsystem(name),
-            )
-            .unwrap();
+            g.add_subsystem(Mass::new(1.0).unwrap().subsystem(name))
+                .unwrap();
         }
+        g.add_subsystem(Ground::origin().subsystem("W")).unwrap();
         let (a, b) = (g.port("A", "x").unwrap(), g.port("B", "x").unwrap());
-        g.coupling(
-            "k",
-            a,
-            b,
-            LinearSpring {
-                k: kappa,
-                rest: 0.0,
-            },
-        );
+        let wall = g.port("W", "x").unwrap();
+        g.coupling("k", a, b, Spring::linear(kappa).unwrap());
+        g.coupling("A-W", a, wall, Spring::linear(1.0).unwrap());
+        g.coupling("B-W", b, wall, Spring::linear(1.0).unwrap());
         let theta = |w: f64| 2.0 * (0.5 * w * h).atan();
         let (t1, t2) = (theta(1.0), theta((1.0 + 2.0 * kappa).sqrt()));
-        let names = ["A".to_string(), "B".to_string()];
+        let names = ["A".to_string(), "B".to_string(), "W".to_string()];
         for rep in [
             Representation::Monolithic,
             Representation::Constraint,
@@ -63,7 +109,7 @@ mod tests {
         ] {
             let system = Assembler::assemble(&g, rep).unwrap();
             let q = system
-                .global_vector(&[vec![1.0], vec![0.0]], &names)
+                .global_vector(&[vec![1.0], vec![0.0], vec![0.0]], &names)
                 .unwrap();
             let mut sim = Integrator::new(
                 system.model.clone(),

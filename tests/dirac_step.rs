@@ -147,7 +147,7 @@ impl DiskReference {
 fn without_forces_both_flavours_are_leok_ohsawa() {
     let disk = DiskReference {
         mass: [1.0, 1.0, 1.0, 1.0],
-        forms: RollingConstraint { radius: 1.0 },
+        forms: RollingConstraint::new(1.0).unwrap(),
         h: 0.05,
     };
     let q0 = vec![0.0, 0.0, 0.0, 0.0];
@@ -198,13 +198,8 @@ fn without_forces_both_flavours_are_leok_ohsawa() {
 
     for (flavour, reference) in [(Flavour::Plus, &plus), (Flavour::Minus, &minus)] {
         let run = trajectory(
-            RollingDisk {
-                m: 1.0,
-                i: 1.0,
-                j: 1.0,
-                radius: 1.0,
-            },
-            RollingConstraint { radius: 1.0 },
+            RollingDisk::new(1.0, 1.0, 1.0, 1.0).unwrap(),
+            RollingConstraint::new(1.0).unwrap(),
             options(Discretisation::midpoint(), flavour, 0.05),
             &q0,
             &p0,
@@ -345,14 +340,9 @@ fn constraint_residuals_are_round_off() {
         worst[0] = worst[0].max(r[0].abs()).max(r[1].abs());
     }
 
-    let disk = RollingConstraint { radius: 1.0 };
+    let disk = RollingConstraint::new(1.0).unwrap();
     let mut sim = Integrator::new(
-        RollingDisk {
-            m: 1.0,
-            i: 1.0,
-            j: 1.0,
-            radius: 1.0,
-        },
+        RollingDisk::new(1.0, 1.0, 1.0, 1.0).unwrap(),
         disk,
         IntegratorOptions::new(Discretisation::midpoint(), 0.05),
     )
@@ -396,14 +386,9 @@ fn constraint_residuals_are_round_off() {
 /// energy change since step 1 over the first and the last tenth of the run, and the final energy
 /// relative to the energy after step 1.
 fn rolling_disk(scheme: Scheme, steps: usize) -> (f64, f64, f64) {
-    let model = RollingDisk {
-        m: 1.0,
-        i: 1.0,
-        j: 1.0,
-        radius: 1.0,
-    };
+    let model = RollingDisk::new(1.0, 1.0, 1.0, 1.0).unwrap();
     let options = IntegratorOptions::new(Discretisation::midpoint(), 0.05).scheme(scheme);
-    let mut sim = Integrator::new(model, RollingConstraint { radius: 1.0 }, options).unwrap();
+    let mut sim = Integrator::new(model, RollingConstraint::new(1.0).unwrap(), options).unwrap();
     sim.initialise(&[0.0; 4], &[1.0, 0.0, 1.0, 0.5], 0.0)
         .unwrap();
     // Energy after the first step: the first constraint impulse projects the initial momentum

@@ -5,9 +5,9 @@ mod common;
 
 use common::max_diff;
 use dirac::core::{Discretisation, Flavour, Model, QuadratureRule};
-use dirac::graph::{Assembler, Interconnection, LinearDamper, LinearSpring, Representation};
+use dirac::graph::{Assembler, Interconnection, Representation};
 use dirac::sim::{Integrator, IntegratorOptions, Splitting, Staggered};
-use dirac_components::{Capacitor, Inductor, Mass, Resistor};
+use dirac_components::{Capacitor, Damper, Ground, Inductor, Mass, Resistor, Spring};
 use dirac_problems::RlcLoop;
 use proptest::prelude::*;
 use proptest::test_runner::FileFailurePersistence;
@@ -77,33 +77,33 @@ fn deviation(a: &Run, b: &Run) -> (f64, f64) {
     })
 }
 
-/// Masses m₁ = m₂ = 1 on walls through k₁ = k₂ = 1, joined by a spring k = 1.
+/// Masses m₁ = m₂ = 1 on walls through k₁ = k₂ = 1, joined by a spring k = 1. The walls are
+/// one [`Ground`] at 0 (the last subsystem) with a spring coupling from each mass.
 fn two_masses() -> Interconnection {
     let mut g = Interconnection::new();
-    g.add_subsystem(
-        Mass {
-            m: 1.0,
-            k: 1.0,
-            c: 0.0,
-        }
-        .subsystem("A"),
-    )
-    .unwrap();
-    g.add_subsystem(
-        Mass {
-            m: 1.0,
-            k: 1.0,
-            c: 0.0,
-        }
-        .subsystem("B"),
-    )
-    .unwrap();
+    g.add_subsystem(Mass::new(1.0).unwrap().subsystem("A"))
+        .unwrap();
+    g.add_subsystem(Mass::new(1.0).unwrap().subsystem("B"))
+        .unwrap();
     let (a, b) = (g.port("A", "x").unwrap(), g.port("B", "x").unwrap());
-    g.coupling("spring", a, b, LinearSpring { k: 1.0, rest: 0.0 });
+    g.coupling("spring", a, b, Spring::linear(1.0).unwrap());
+    walls(&mut g, &[("A", 1.0), ("B", 1.0)]);
     g
 }
 
-/// Round-off allowance for order-one states over 1000 steps: measured 6.1e-15 (two masses) and
+/// Adds one wall (a [`Ground`] at 0 named `wall`, after every other subsystem) and a spring of
+/// stiffness `k` from each named mass to it.
+fn walls(g: &mut Interconnection, springs: &[(&str, f64)]) {
+    g.add_subsystem(Ground::origin().subsystem("wall")).unwrap();
+    let wall = g.port("wall", "x").unwrap();
+    for &(mass, k) in springs {
+        let p = g.port(mass, "x").unwrap();
+        g.coupling(format!("{mass}-wall"), p, wall, Spring::linear(k).unwrap());
+    }
+}
+
+/// Round-off allowance for order-one states over 1000 steps: measured 7.8e-15 (two masses, walls as
+/// a ground with spring couplings; 6.1e-15 with the former wall springs inside the masses) and
 /// exactly 0 (the seed loop from three subsystems).
 const EQUIVALENT: f64 = 1e-13;
 
@@ -114,7 +114,10 @@ const EQUIVALENT: f64 = 1e-13;
 fn two_mass_split_representations_agree() {
     let g = two_masses();
     let options = IntegratorOptions::new(Discretisation::midpoint(), 0.1).flavour(Flavour::Plus);
-    let (q0, v0) = (vec![vec![1.0], vec![0.0]], vec![vec![0.0], vec![0.0]]);
+    let (q0, v0) = (
+        vec![vec![1.0], vec![0.0], vec![0.0]],
+        vec![vec![0.0], vec![0.0], vec![0.0]],
+    );
     let mono = run(&g, Representation::Monolithic, &options, &q0, &v0, 1000);
     for rep in [Representation::Constraint, Representation::InteractionForce] {
         let (dq, dp) = deviation(&mono, &run(&g, rep, &options, &q0, &v0, 1000));
@@ -144,7 +147,13 @@ fn two_mass_split_representations_agree() {
 /// sum equals raw p₂ — check the endpoint coordinate exists and is the partner's position.
 #[test]
 fn endpoint_tracks_partner_port() {
-    let g = two_masses();
+    let mut g = Interconnection::new();
+    g.add_subsystem(Mass::new(1.0).unwrap().subsystem("A"))
+        .unwrap();
+    g.add_subsystem(Mass::new(1.0).unwrap().subsystem("B"))
+        .unwrap();
+    let (a, b) = (g.port("A", "x").unwrap(), g.port("B", "x").unwrap());
+    g.coupling("spring", a, b, Spring::linear(1.0).unwrap());
     let system = Assembler::assemble(&g, Representation::Constraint).unwrap();
     assert_eq!(system.coordinates(), 3);
     let names = vec!["A".to_string(), "B".to_string()];
@@ -169,11 +178,12 @@ fn endpoint_tracks_partner_port() {
 #[test]
 fn seed_rlc_from_three_subsystems() {
     let mut g = Interconnection::new();
-    g.add_subsystem(Capacitor { c: 3.0 }.subsystem("C"))
+    g.add_subsystem(Capacitor::new(3.0).unwrap().subsystem("C"))
         .unwrap();
-    g.add_subsystem(Inductor { l: 0.75 }.subsystem("L"))
+    g.add_subsystem(Inductor::new(0.75).unwrap().subsystem("L"))
         .unwrap();
-    g.add_subsystem(Resistor { r: 0.1 }.subsystem("R")).unwrap();
+    g.add_subsystem(Resistor::new(0.1).unwrap().subsystem("R"))
+        .unwrap();
     let (c, l, r) = (
         g.port("C", "i").unwrap(),
         g.port("L", "i").unwrap(),
@@ -219,7 +229,10 @@ fn non_preserving_discretisation_breaks_force_representation() {
         QuadratureRule::midpoint(),
     );
     let options = IntegratorOptions::new(mix, 0.1);
-    let (q0, v0) = (vec![vec![1.0], vec![0.0]], vec![vec![0.0], vec![0.0]]);
+    let (q0, v0) = (
+        vec![vec![1.0], vec![0.0], vec![0.0]],
+        vec![vec![0.0], vec![0.0], vec![0.0]],
+    );
     let mono = run(&g, Representation::Monolithic, &options, &q0, &v0, 1000);
     let force = run(
         &g,
@@ -244,21 +257,14 @@ const MOMENTUM: f64 = 1e-13;
 fn interaction_forces_cancel() {
     let mut g = Interconnection::new();
     for (i, m) in [1.0, 2.0, 0.5, 1.5].iter().enumerate() {
-        g.add_subsystem(
-            Mass {
-                m: *m,
-                k: 0.0,
-                c: 0.0,
-            }
-            .subsystem(format!("m{i}")),
-        )
-        .unwrap();
+        g.add_subsystem(Mass::new(*m).unwrap().subsystem(format!("m{i}")))
+            .unwrap();
     }
     let p = |g: &Interconnection, i: usize| g.port(&format!("m{i}"), "x").unwrap();
     let (p0, p1, p2, p3) = (p(&g, 0), p(&g, 1), p(&g, 2), p(&g, 3));
-    g.coupling("s01", p0, p1, LinearSpring { k: 3.0, rest: 0.5 });
-    g.coupling("d12", p1, p2, LinearDamper { c: 0.4 });
-    g.coupling("s12", p1, p2, LinearSpring { k: 1.0, rest: 0.0 });
+    g.coupling("s01", p0, p1, Spring::new(3.0, 0.0, 0.5).unwrap());
+    g.coupling("d12", p1, p2, Damper::new(0.4).unwrap());
+    g.coupling("s12", p1, p2, Spring::linear(1.0).unwrap());
     g.joint("j23", p2, p3);
     let q0 = vec![vec![0.0], vec![1.0], vec![2.2], vec![3.0]];
     let v0 = vec![vec![1.0], vec![-0.5], vec![0.3], vec![0.3]];
@@ -300,18 +306,18 @@ fn interaction_forces_cancel() {
 }
 
 /// Largest difference, relative to the largest force, between a reported interaction impulse and
-/// the same impulse computed from the monolithic run: round-off, measured 8.9e-17 (see the test's
+/// the same impulse computed from the monolithic run: round-off, measured 8.4e-17 (see the test's
 /// output; allowance about 100×).
 const IMPULSE: f64 = 1e-14;
 
 /// The reported interaction forces are the forces of the monolithic model, computed here
 /// independently from the monolithic trajectory with the elements' laws written out. Masses m0, m1,
-/// m2 on walls (k = 0.5), a spring s01 (k = 3, ℓ = 0.5) from m0 to m1, a damper d12 (c = 0.4) from
+/// m2, each tied by a spring coupling (k = 0.5) to a wall (a [`Ground`] at 0), a spring s01 (k = 3, ℓ = 0.5) from m0 to m1, a damper d12 (c = 0.4) from
 /// m1 to m2, a joint j02; midpoint rule, h = 0.05. Per step, at x̄ = (q_k + q_{k+1})/2 and
 /// v̄ = (q_{k+1} − q_k)/h of the monolithic run:
 ///
 /// * the joint's impulse on m2 closes m2's momentum balance,
-///   `p₂,k+1 − p₂,k + h·0.5·x̄₂ − h·c(v̄₁ − v̄₂)`, and every representation must report it
+///   `p₂,k+1 − p₂,k + h·0.5·(x̄₂ − x̄_wall) − h·c(v̄₁ − v̄₂)`, and every representation must report it
 ///   (and −1 times it on m0) through `interaction_impulses`;
 /// * the spring's force on m1 is `k(x̄₀ − x̄₁ − ℓ)` and the damper's on m2 is `c(v̄₁ − v̄₂)`. The
 ///   force form reports them through `coupling_forces` (−1 times them on the first port). The
@@ -322,24 +328,23 @@ const IMPULSE: f64 = 1e-14;
 fn reported_interaction_forces_match_the_monolithic_model() {
     let mut g = Interconnection::new();
     for (i, m) in [1.0, 2.0, 0.5].iter().enumerate() {
-        g.add_subsystem(
-            Mass {
-                m: *m,
-                k: 0.5,
-                c: 0.0,
-            }
-            .subsystem(format!("m{i}")),
-        )
-        .unwrap();
+        g.add_subsystem(Mass::new(*m).unwrap().subsystem(format!("m{i}")))
+            .unwrap();
     }
     let p = |g: &Interconnection, i: usize| g.port(&format!("m{i}"), "x").unwrap();
     let (p0, p1, p2) = (p(&g, 0), p(&g, 1), p(&g, 2));
     let (k, rest, c) = (3.0, 0.5, 0.4);
-    g.coupling("s01", p0, p1, LinearSpring { k, rest });
-    g.coupling("d12", p1, p2, LinearDamper { c });
+    g.coupling("s01", p0, p1, Spring::new(k, 0.0, rest).unwrap());
+    g.coupling("d12", p1, p2, Damper::new(c).unwrap());
     g.joint("j02", p0, p2);
-    let q0 = vec![vec![0.0], vec![1.0], vec![2.2]];
-    let v0 = vec![vec![0.3], vec![-0.5], vec![0.3]];
+    walls(&mut g, &[("m0", 0.5), ("m1", 0.5), ("m2", 0.5)]);
+    let names: Vec<String> = g
+        .subsystems()
+        .iter()
+        .map(|s| s.name().to_string())
+        .collect();
+    let q0 = vec![vec![0.0], vec![1.0], vec![2.2], vec![0.0]];
+    let v0 = vec![vec![0.3], vec![-0.5], vec![0.3], vec![0.0]];
     let (h, steps) = (0.05, 200);
     let options = IntegratorOptions::new(Discretisation::midpoint(), h);
     let mono = run(&g, Representation::Monolithic, &options, &q0, &v0, steps);
@@ -349,11 +354,12 @@ fn reported_interaction_forces_match_the_monolithic_model() {
         .windows(2)
         .map(|w| {
             let ((qa, pa), (qb, pb)) = (&w[0], &w[1]);
-            let x: Vec<f64> = (0..3).map(|i| 0.5 * (qa[i] + qb[i])).collect();
-            let v: Vec<f64> = (0..3).map(|i| (qb[i] - qa[i]) / h).collect();
+            let x: Vec<f64> = (0..4).map(|i| 0.5 * (qa[i] + qb[i])).collect();
+            let v: Vec<f64> = (0..4).map(|i| (qb[i] - qa[i]) / h).collect();
             let spring = k * (x[0] - x[1] - rest);
             let damper = c * (v[1] - v[2]);
-            let joint = pb[2] - pa[2] + h * 0.5 * x[2] - h * damper;
+            // m2's wall spring pulls with −0.5(x̄₂ − x̄_wall), the wall being subsystem 3.
+            let joint = pb[2] - pa[2] + h * 0.5 * (x[2] - x[3]) - h * damper;
             [spring, damper, joint]
         })
         .collect();
@@ -368,7 +374,6 @@ fn reported_interaction_forces_match_the_monolithic_model() {
         Representation::InteractionForce,
     ] {
         let system = Assembler::assemble(&g, rep).unwrap();
-        let names: Vec<String> = (0..3).map(|i| format!("m{i}")).collect();
         let q = system.global_vector(&q0, &names).unwrap();
         let v = system.global_vector(&v0, &names).unwrap();
         let mut sim = Integrator::new(
@@ -502,8 +507,8 @@ fn random_chain() -> impl Strategy<Value = RandomChain> {
 impl RandomChain {
     fn graph(&self) -> Interconnection {
         let mut g = Interconnection::new();
-        for (i, &(m, k)) in self.masses.iter().enumerate() {
-            g.add_subsystem(Mass { m, k, c: 0.0 }.subsystem(format!("m{i}")))
+        for (i, &(m, _)) in self.masses.iter().enumerate() {
+            g.add_subsystem(Mass::new(m).unwrap().subsystem(format!("m{i}")))
                 .unwrap();
         }
         for (e, &(a, b, kind, p)) in self.edges.iter().enumerate() {
@@ -513,16 +518,23 @@ impl RandomChain {
             );
             match kind {
                 0 | 3 => {
-                    g.coupling(format!("s{e}"), pa, pb, LinearSpring { k: p, rest: 0.1 });
+                    g.coupling(format!("s{e}"), pa, pb, Spring::new(p, 0.0, 0.1).unwrap());
                 }
                 1 => {
-                    g.coupling(format!("d{e}"), pa, pb, LinearDamper { c: p });
+                    g.coupling(format!("d{e}"), pa, pb, Damper::new(p).unwrap());
                 }
                 _ => {
                     g.joint(format!("j{e}"), pa, pb);
                 }
             }
         }
+        let names: Vec<String> = (0..self.masses.len()).map(|i| format!("m{i}")).collect();
+        let springs: Vec<(&str, f64)> = names
+            .iter()
+            .zip(&self.masses)
+            .map(|(n, &(_, k))| (n.as_str(), k))
+            .collect();
+        walls(&mut g, &springs);
         g
     }
 
@@ -568,8 +580,10 @@ proptest! {
     #[test]
     fn random_graphs_agree_across_representations(chain in random_chain()) {
         let g = chain.graph();
-        let q0: Vec<Vec<f64>> = chain.q0.iter().map(|x| vec![*x]).collect();
-        let v0 = chain.velocities();
+        let mut q0: Vec<Vec<f64>> = chain.q0.iter().map(|x| vec![*x]).collect();
+        let mut v0 = chain.velocities();
+        q0.push(vec![0.0]);
+        v0.push(vec![0.0]);
         for d in [Discretisation::midpoint(), Discretisation::gauss(2)] {
             let options = IntegratorOptions::new(d.clone(), 0.05);
             let mono = run(&g, Representation::Monolithic, &options, &q0, &v0, 200);

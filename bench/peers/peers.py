@@ -2,13 +2,15 @@
 """Peer solvers for the speed-vs-error benchmark (bench/SCENES.md).
 
 Runs scipy `solve_ivp` (RK45, DOP853, Radau, BDF, LSODA) and SUNDIALS through scikit-sundae
-(CVODE-BDF, IDA) on scenes A, B, D1, D2 over a tolerance sweep, and ngspice on the ladder of
-scene C, and writes one CSV row per run with the header of SCENES.md:
+(CVODE-BDF, IDA) on scenes A, B, D1, D2, D2-long, E, F over a tolerance sweep, and ngspice on the
+ladder of scene C, and writes one CSV row per run with the header of SCENES.md. scipy and
+scikit-sundae call a Python right-hand side: they are labelled `scipy-py` and `sksundae-py`,
+Python-callback baselines (the compiled peers are in bench/compiled/).
 
     scene,tool,method,setting,wall_s,steps,newton_iterations,error,energy_error
 
 Usage:
-    python3 bench/peers/peers.py --scene A|B|D1|D2 [--out F] [--quick]
+    python3 bench/peers/peers.py --scene A|B|D1|D2|D2-long|E|F [--out F] [--quick]
     python3 bench/peers/peers.py --scene C --sections 10,100,1000,10000,100000 [--out F]
 
 Notes about what was skipped (failed or too slow tolerances, ladder sizes) go to stderr and, with
@@ -34,7 +36,7 @@ from scipy.integrate import solve_ivp
 HEADER = "scene,tool,method,setting,wall_s,steps,newton_iterations,error,energy_error"
 
 FULL_RTOLS = [10.0 ** (-k) for k in range(3, 13)]  # 1e-3 … 1e-12
-QUICK_RTOLS = FULL_RTOLS[::2]  # 1e-3, 1e-5, 1e-7, 1e-9, 1e-11
+QUICK_RTOLS = FULL_RTOLS[:4:3]  # 1e-3, 1e-6
 SCIPY_METHODS = ["RK45", "DOP853", "Radau", "BDF", "LSODA"]
 SCIPY_IMPLICIT = {"Radau", "BDF", "LSODA"}
 SUNDIALS_METHODS = ["CVODE-BDF", "IDA"]
@@ -46,11 +48,12 @@ SLOW_RUN_S = 60.0
 # A run longer than this is predicted to push the next (tighter) tolerance past SLOW_RUN_S, so
 # the sweep of that method stops too (in quick mode the limits are much lower).
 PREDICT_SLOW_S = 30.0
-QUICK_SLOW_RUN_S = 5.0
+QUICK_SLOW_RUN_S = 2.0
 # Timing: best of 3, best of 1 when one run takes longer than this.
 BEST_OF_ONE_S = 2.0
 
 NOTES: list[str] = []
+DRIFT = None  # the .drift.csv side file of long runs (D2-long, E) when --out is given
 
 
 def note(msg: str) -> None:
@@ -70,6 +73,8 @@ class Scene:
     t_end: float
     y0: np.ndarray
     constant_jac: np.ndarray | None = None
+    explicit_ok = True  # False: stiff (explicit methods skipped)
+    sundials_options: dict = {}
 
     # solve_ivp right-hand side (returns a new array)
     def f(self, t, y):  # pragma: no cover - overridden
@@ -110,6 +115,10 @@ class Scene:
 
     def energy_error(self, t: np.ndarray, Y: np.ndarray) -> float:
         return math.nan
+
+    def tenths(self, t: np.ndarray, Y: np.ndarray) -> list[float] | None:
+        """Running max of the energy error per tenth of the interval (long runs only)."""
+        return None
 
 
 class SceneA(Scene):
@@ -436,7 +445,157 @@ class SceneD2(Scene):
         return float(np.max(np.abs(self.energy(Y) - self.E0)))
 
 
-SCENES = {"A": SceneA, "B": SceneB, "D1": SceneD1, "D2": SceneD2}
+# θ₁(10⁴) of the double pendulum (scene D2-long): bench/SCENES.md says how it was obtained.
+D2_LONG_THETA1 = -0.14765188963
+
+
+class SceneD2Long(SceneD2):
+    """The double pendulum to t = 10⁴: phase error of θ₁ at 10⁴, max energy error."""
+
+    name = "D2-long"
+    t_end = 1e4
+
+    def error(self, t, Y):
+        return float(abs(Y[-1, 0] - D2_LONG_THETA1))
+
+    def tenths(self, t, Y):
+        return running_max_tenths(t, np.abs(self.energy(Y) - self.E0), self.t_end)
+
+
+class SceneE(Scene):
+    """Hénon–Heiles from the SciMLBenchmarks state q = (0.1, 0), p = (0, 0.5); y = (q, p)."""
+
+    name = "E"
+    t_end = 1e4
+
+    def __init__(self):
+        self.y0 = np.array([0.1, 0.0, 0.0, 0.5])
+        self.H0 = float(self.energy(self.y0[None, :])[0])
+
+    @staticmethod
+    def energy(Y):
+        q1, q2, p1, p2 = Y[:, 0], Y[:, 1], Y[:, 2], Y[:, 3]
+        return 0.5 * (p1 * p1 + p2 * p2) + 0.5 * (q1 * q1 + q2 * q2) + q1 * q1 * q2 - q2**3 / 3.0
+
+    def f(self, t, y):
+        q1, q2, p1, p2 = y
+        return np.array([p1, p2, -q1 * (1.0 + 2.0 * q2), -q2 - (q1 * q1 - q2 * q2)])
+
+    def cv_rhs(self, t, y, yp):
+        q1, q2 = y[0], y[1]
+        yp[0] = y[2]
+        yp[1] = y[3]
+        yp[2] = -q1 * (1.0 + 2.0 * q2)
+        yp[3] = -q2 - (q1 * q1 - q2 * q2)
+
+    def jac_fn(self, t, y):
+        q1, q2 = y[0], y[1]
+        return np.array(
+            [
+                [0.0, 0.0, 1.0, 0.0],
+                [0.0, 0.0, 0.0, 1.0],
+                [-(1.0 + 2.0 * q2), -2.0 * q1, 0.0, 0.0],
+                [-2.0 * q1, -(1.0 - 2.0 * q2), 0.0, 0.0],
+            ]
+        )
+
+    def ida_res(self, t, y, yp, res):
+        self.cv_rhs(t, y, res)
+        res[:] = yp - res
+
+    def ida_jac(self, t, y, yp, res, cj, JJ):
+        JJ[:, :] = cj * np.eye(4) - self.jac_fn(t, y)
+
+    def error(self, t, Y):
+        return self.energy_error(t, Y)
+
+    def energy_error(self, t, Y):
+        return float(np.max(np.abs(self.energy(Y) - self.H0)))
+
+    def tenths(self, t, Y):
+        return running_max_tenths(t, np.abs(self.energy(Y) - self.H0), self.t_end)
+
+
+class SceneF(Scene):
+    """SciMLBenchmarks RC ladder, n = 1000: C_i v_i' = (v_{i-1} - v_i)/R_i - (v_i - v_{i+1})/R_{i+1},
+    R_i = 1/i, C_i = 1/i², v_0 = sin(2π·10·t), v_i(0) = i; error = max |v(10) − exact| (modes)."""
+
+    name = "F"
+    t_end = 10.0
+    n = 1000
+    explicit_ok = False
+    # SUNDIALS: band linear solver with difference-quotient Jacobian (tridiagonal system).
+    sundials_options = {"linsolver": "band", "lband": 1, "uband": 1}
+
+    def __init__(self):
+        from scipy.sparse import diags
+
+        n = self.n
+        i = np.arange(1, n + 1, dtype=float)
+        self.g = i  # conductances 1/R_i
+        self.c = 1.0 / (i * i)
+        self.y0 = i.copy()
+        g_out = np.append(self.g[1:], 0.0)
+        main = -(self.g + g_out) / self.c
+        lower = self.g[1:] / self.c[1:]  # ∂f_i/∂v_{i-1}
+        upper = self.g[1:] / self.c[:-1]  # ∂f_i/∂v_{i+1}
+        self.constant_jac = diags([lower, main, upper], [-1, 0, 1], format="csc")
+        self.reference = self.exact(self.t_end)
+
+    def exact(self, t):
+        """Modal solution (as dirac_problems::RcLadder::exact): SVD of B = R^{-1/2} D C^{-1/2}."""
+        n = self.n
+        k = np.arange(1, n + 1, dtype=float)
+        B = np.diag(k * np.sqrt(k))
+        B[np.arange(1, n), np.arange(0, n - 1)] = -(k[:-1]) * np.sqrt(k[1:])
+        _, sigma, Vt = np.linalg.svd(B)
+        V = Vt.T
+        lam = sigma**2
+        sqrt_c = 1.0 / k
+        x0 = V.T @ (self.y0 * sqrt_c)
+        beta = V[0, :]
+        w = 2 * math.pi * 10.0
+        e = np.exp(-lam * t)
+        x = x0 * e + beta * (lam * math.sin(w * t) - w * math.cos(w * t) + w * e) / (lam**2 + w**2)
+        return (V @ x) / sqrt_c
+
+    def f(self, t, y):
+        src = math.sin(2 * math.pi * 10.0 * t)
+        prev = np.concatenate(([src], y[:-1]))
+        inflow = (prev - y) * self.g
+        outflow = np.append((y[:-1] - y[1:]) * self.g[1:], 0.0)
+        return (inflow - outflow) / self.c
+
+    def cv_rhs(self, t, y, yp):
+        yp[:] = self.f(t, y)
+
+    def ida_res(self, t, y, yp, res):
+        res[:] = yp - self.f(t, y)
+
+    def error(self, t, Y):
+        return float(np.max(np.abs(Y[-1] - self.reference)))
+
+
+def running_max_tenths(t, errors, t_end):
+    """Running maximum of `errors` at the end of each tenth of [0, t_end]."""
+    out = []
+    for k in range(1, 11):
+        mask = t <= t_end * k / 10 * (1 + 1e-12)
+        out.append(float(np.max(errors[mask])) if mask.any() else math.nan)
+    return out
+
+
+SCENES = {
+    "A": SceneA,
+    "B": SceneB,
+    "D1": SceneD1,
+    "D2": SceneD2,
+    "D2-long": SceneD2Long,
+    "E": SceneE,
+    "F": SceneF,
+}
+LONG_RTOLS = [1e-6, 1e-8, 1e-10]  # D2-long and E: a Python callback per evaluation over 10⁴
+
 
 
 # ---------------------------------------------------------------------------------------------
@@ -503,9 +662,14 @@ def run_sundials(scene: Scene, method: str, rtol: float):
     if method == "CVODE-BDF":
 
         def make():
-            s = sun.cvode.CVODE(
-                scene.cv_rhs, method="BDF", rtol=rtol, atol=atol, jacfn=scene.cv_jac
-            )
+            if scene.sundials_options:
+                s = sun.cvode.CVODE(
+                    scene.cv_rhs, method="BDF", rtol=rtol, atol=atol, **scene.sundials_options
+                )
+            else:
+                s = sun.cvode.CVODE(
+                    scene.cv_rhs, method="BDF", rtol=rtol, atol=atol, jacfn=scene.cv_jac
+                )
             s.init_step(0.0, scene.y0)  # allocate SUNDIALS memory outside the timed region
             return s
 
@@ -516,7 +680,10 @@ def run_sundials(scene: Scene, method: str, rtol: float):
         yp0 = scene.yp0()
 
         def make():
-            s = sun.ida.IDA(scene.ida_res, rtol=rtol, atol=atol, jacfn=scene.ida_jac)
+            if scene.sundials_options:
+                s = sun.ida.IDA(scene.ida_res, rtol=rtol, atol=atol, **scene.sundials_options)
+            else:
+                s = sun.ida.IDA(scene.ida_res, rtol=rtol, atol=atol, jacfn=scene.ida_jac)
             s.init_step(0.0, scene.y0, yp0)
             return s
 
@@ -556,8 +723,12 @@ def sweep_scene(name: str, quick: bool, emit) -> None:
     rtols = QUICK_RTOLS if quick else FULL_RTOLS
     slow_run = QUICK_SLOW_RUN_S if quick else SLOW_RUN_S
     predict_slow = QUICK_SLOW_RUN_S / 2 if quick else PREDICT_SLOW_S
-    jobs = [("scipy", m, run_scipy) for m in SCIPY_METHODS] + [
-        ("sundials", m, run_sundials) for m in SUNDIALS_METHODS
+    if scene.t_end >= 1e4:
+        rtols = LONG_RTOLS[:1] if quick else LONG_RTOLS
+    methods = [m for m in SCIPY_METHODS if scene.explicit_ok or m in SCIPY_IMPLICIT - {"LSODA"}]
+    # Python-callback baselines: the tool names say so.
+    jobs = [("scipy-py", m, run_scipy) for m in methods] + [
+        ("sksundae-py", m, run_sundials) for m in SUNDIALS_METHODS
     ]
     for tool, method, runner in jobs:
         for i, rtol in enumerate(rtols):
@@ -577,6 +748,10 @@ def sweep_scene(name: str, quick: bool, emit) -> None:
             err = scene.error(t, Y)
             eerr = scene.energy_error(t, Y)
             emit(row(name, tool, method, setting, wall, steps, newton, err, eerr))
+            tenths = scene.tenths(t, Y)
+            if tenths is not None and DRIFT is not None:
+                DRIFT.write(",".join([name, tool, method, setting] + [fmt(x) for x in tenths]) + "\n")
+                DRIFT.flush()
             print(
                 f"  {name} {tool:8s} {method:9s} rtol {setting}: {wall:.3e} s, {steps} steps, "
                 f"error {err:.3e}, energy {eerr:.3e}   (elapsed {time.perf_counter() - t0:.1f} s)",
@@ -719,19 +894,88 @@ def sweep_c(sections: list[int], emit) -> None:
             prev = (n, best)
 
 
+def rc_netlist(n: int, reltol: float, raw: str) -> str:
+    """Scene F as an ngspice deck: V1 = SIN(0 1 10), R_i = 1/i, C_i = 1/i² with IC = i, trap with
+    TMAX = 0.01, output only over the last 0.01 s (written as an ASCII raw file)."""
+    out = [f"SciMLBenchmarks RC ladder, n = {n}", "V1 n0 0 SIN(0 1 10)"]
+    for i in range(1, n + 1):
+        out.append(f"R{i} n{i - 1} n{i} {1.0 / i:.17g}")
+        out.append(f"C{i} n{i} 0 {1.0 / (i * i):.17g} IC={i}")
+    out += [
+        f".options reltol={reltol:g}",
+        ".tran 1e-3 10 9.99 1e-2 uic",
+        ".control",
+        "set filetype=ascii",
+        "run",
+        "rusage trantime traniter tranpoints accept rejected",
+        f"write {raw}",
+        ".endc",
+        ".end",
+    ]
+    return "\n".join(out) + "\n"
+
+
+def raw_last_point(path: str) -> dict[str, float]:
+    """The last point of an ngspice ASCII raw file, by vector name."""
+    with open(path) as fh:
+        text = fh.read()
+    lines = text.splitlines()
+    i = lines.index("Variables:") + 1
+    names = []
+    while not lines[i].startswith("Values:"):
+        names.append(lines[i].split()[1])
+        i += 1
+    values = text.split("Values:", 1)[1].split()
+    width = len(names) + 1  # each point starts with its index
+    last = values[len(values) - width + 1 :]
+    return dict(zip(names, map(float, last)))
+
+
+def sweep_f_ngspice(quick: bool, emit) -> None:
+    scene = SceneF()
+    reltols = [1e-3] if quick else [1e-3, 1e-4, 1e-5, 1e-6]
+    with tempfile.TemporaryDirectory() as d:
+        for reltol in reltols:
+            path, raw = os.path.join(d, "f.cir"), os.path.join(d, "f.raw")
+            with open(path, "w") as fh:
+                fh.write(rc_netlist(scene.n, reltol, raw))
+            try:
+                best, first = math.inf, None
+                for rep in range(1 if quick else 3):
+                    res = run_ngspice_once(path)
+                    first = first or (res, raw_last_point(raw))
+                    best = min(best, res[0])
+                    if res[0] > BEST_OF_ONE_S:
+                        break
+            except Exception as e:  # noqa: BLE001
+                note(f"F ngspice reltol {reltol:g} failed: {e}; tighter skipped")
+                break
+            (_, accepted, iters, _), last = first
+            v = np.array([last[f"v(n{k})"] for k in range(1, scene.n + 1)])
+            err = float(np.max(np.abs(v - scene.reference)))
+            emit(row("F", "ngspice", "trap", f"{reltol:.0e}", best, accepted, iters, err, math.nan))
+            print(f"  F ngspice trap reltol {reltol:.0e}: {best:.3e} s, {accepted} points, error "
+                  f"{err:.3e}", file=sys.stderr, flush=True)
+
+
 # ---------------------------------------------------------------------------------------------
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--scene", required=True, choices=["A", "B", "C", "D1", "D2"])
+    ap.add_argument("--scene", required=True, choices=["A", "B", "C", "D1", "D2", "D2-long", "E", "F"])
     ap.add_argument("--out", help="CSV file (default: stdout)")
     ap.add_argument("--quick", action="store_true", help="reduced sweep for smoke tests")
     ap.add_argument("--sections", default=None, help="scene C: comma-separated N list")
     args = ap.parse_args(argv)
 
+    global DRIFT
     out = open(args.out, "w") if args.out else sys.stdout
     out.write(HEADER + "\n")
+    if args.out and args.scene in ("D2-long", "E"):
+        base = args.out[:-4] if args.out.endswith(".csv") else args.out
+        DRIFT = open(base + ".drift.csv", "w")
+        DRIFT.write("scene,tool,method,setting," + ",".join(f"tenth{k}" for k in range(1, 11)) + "\n")
     out.flush()
 
     def emit(line: str) -> None:
@@ -749,6 +993,8 @@ def main(argv=None) -> int:
         if args.sections:
             ap.error("--sections applies to scene C only")
         sweep_scene(args.scene, args.quick, emit)
+        if args.scene == "F":
+            sweep_f_ngspice(args.quick, emit)
     total = time.perf_counter() - t0
     note(f"scene {args.scene}{' (quick)' if args.quick else ''}: peers took {total:.1f} s in total")
 

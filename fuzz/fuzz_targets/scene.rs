@@ -4,4 +4,6 @@
 #[global_allocator]
 static ALLOCATOR: dirac_fuzz::Limited = dirac_fuzz::Limited::new();
 
-libfuzzer_sys::fuzz_target!(|data: &[u8]| dirac_fuzz::scene(data));
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    dirac_fuzz::cpu_limited(|| dirac_fuzz::scene(data));
+});

@@ -5,9 +5,11 @@
 //! (with the file, line and column, or the part, port or signal at fault). A failed run never
 //! leaves a partial output file.
 
+mod animate;
 mod bench;
 mod guard;
 mod guidance;
+mod sweep;
 
 use std::fs::File;
 use std::io::{BufWriter, IsTerminal, Write};
@@ -70,10 +72,14 @@ enum Command {
     Check(CheckArgs),
     /// Plot a CSV written by `dirac run` to SVG or PNG (by the output's extension).
     Plot(PlotArgs),
+    /// Draw a scene's rigid bodies moving, as a sequence of projected SVG frames.
+    Animate(animate::AnimateArgs),
     /// Convert a netlist into an equivalent scene file.
     Convert(ConvertArgs),
     /// Work-precision sweep of a benchmark scene (bench/SCENES.md): one CSV row per run.
     Bench(BenchArgs),
+    /// Sweep parameters of a netlist or scene (whole, or one shard of a batch job) or merge shards.
+    Sweep(sweep::SweepArgs),
 }
 
 /// How the coupled system is assembled.
@@ -174,12 +180,16 @@ struct OpArgs {
 #[derive(Debug, clap::Args)]
 #[command(after_help = "\
 Scenes (bench/SCENES.md): A seed RLC loop, B damped oscillator, C RLC ladders (--sections),
-D1 stiff spring chain, D2 double pendulum. Methods: midpoint and Gauss-Galerkin of 2, 3, 4 nodes
-(orders 2, 4, 6, 8), plus the opt-in affine step map on the linear scenes A and B.
+D1 stiff spring chain, D2 double pendulum, D2-long the pendulum to t = 1e4, E Henon-Heiles to
+t = 1e4, F the SciMLBenchmarks RC ladder (n = 1000), CLI `dirac run` against the library on the
+seed and ladder netlists. Every run goes through the run layer (dirac_sim::Simulation). Methods: midpoint and Gauss-Galerkin of 2, 3,
+4 nodes (orders 2, 4, 6, 8), the opt-in affine step map on the linear scenes A and B, Yoshida
+compositions of the midpoint step on E. Long runs (D2-long, E) also write the running maximum of
+the energy error per tenth of the interval to the --out file with .csv replaced by .drift.csv.
 CSV: scene,tool,method,setting,wall_s,steps,newton_iterations,error,energy_error
 The peers (scipy, SUNDIALS, ngspice) write the same columns: bench/peers/run.sh runs everything.")]
 struct BenchArgs {
-    /// Scene to sweep (A, B, C, D1, D2; case does not matter).
+    /// Scene to sweep (A, B, C, D1, D2, D2-long, E, F, CLI; case does not matter).
     #[arg(long, value_enum, ignore_case = true)]
     scene: bench::BenchScene,
     /// Write the CSV here (atomically) instead of stdout.
@@ -281,8 +291,10 @@ fn main() -> ExitCode {
         Command::Compare(args) => compare(&args),
         Command::Check(args) => check(&args),
         Command::Plot(args) => plot(&args),
+        Command::Animate(args) => animate::animate(&args),
         Command::Convert(args) => convert(&args),
         Command::Bench(args) => bench_command(&args),
+        Command::Sweep(args) => sweep::sweep(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -1052,6 +1064,13 @@ fn bench_command(args: &BenchArgs) -> Result<(), Failure> {
     })
     .map_err(|e| Failure::Numerical(e.to_string()))?;
     out.commit()?;
+    let drift: Vec<String> = rows.iter().filter_map(bench::BenchRow::drift_csv).collect();
+    if let (Some(path), false) = (&args.out, drift.is_empty()) {
+        let side = path.with_extension("drift.csv");
+        let text = format!("{}\n{}\n", bench::DRIFT_HEADER, drift.join("\n"));
+        std::fs::write(&side, text)
+            .map_err(|e| Failure::Input(format!("{}: {e}", side.display())))?;
+    }
     match &args.plot {
         Some(path) => save_chart(&work_precision_chart(&rows), path),
         None => Ok(()),

@@ -8,29 +8,68 @@
 //! the KCL multipliers (the node potentials).
 
 use dirac_core::{ForceJacobian, LagrangianHessian, Model};
-use dirac_graph::Subsystem;
+use dirac_graph::{Check, PartError, Subsystem};
 
 use crate::waveform::Waveform;
 
 /// Inductor: `L = ½ L q̇²` (flux linkage `p = L q̇`).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Inductor {
     /// Inductance.
     pub l: f64,
 }
 
+impl Inductor {
+    /// An inductor of inductance `l` (positive and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `l` otherwise.
+    pub fn new(l: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            l: Check::new("inductor").positive("l", l)?,
+        })
+    }
+}
+
 /// Resistor: no Lagrangian, force `−R q̇` (degenerate: its charge is fixed by KCL).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Resistor {
     /// Resistance.
     pub r: f64,
 }
 
+impl Resistor {
+    /// A resistor of resistance `r` (non-negative and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `r` otherwise.
+    pub fn new(r: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            r: Check::new("resistor").non_negative("r", r)?,
+        })
+    }
+}
+
 /// Capacitor: `L = −q²/(2C)` (degenerate: no kinetic term; voltage `q/C`).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Capacitor {
     /// Capacitance.
     pub c: f64,
+}
+
+impl Capacitor {
+    /// A capacitor of capacitance `c` (positive and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `c` otherwise.
+    pub fn new(c: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            c: Check::new("capacitor").positive("c", c)?,
+        })
+    }
 }
 
 /// Independent voltage source `V(t)` (SPICE `V n+ n− …`): `v₊ − v₋ = V(t)`, force `−V(t)` on its
@@ -41,21 +80,27 @@ pub struct Capacitor {
 /// terminal into the circuit, exactly as SPICE reports `I(V1) < 0` for a supplying source. The
 /// force is affine with `t` entering additively, so the model is linear whatever the waveform.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct VoltageSource {
     /// The source voltage `V(t)`.
     pub waveform: Waveform,
 }
 
 impl VoltageSource {
-    /// A source of waveform `waveform`.
-    #[must_use]
-    pub fn new(waveform: Waveform) -> Self {
-        Self { waveform }
+    /// A source of waveform `waveform` ([`Waveform::check`]).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming the waveform value out of range.
+    pub fn new(waveform: Waveform) -> Result<Self, PartError> {
+        waveform.check("voltage_source", "waveform")?;
+        Ok(Self { waveform })
     }
 
     /// A DC source of `v` volts.
-    #[must_use]
-    pub fn dc(v: f64) -> Self {
+    ///
+    /// # Errors
+    /// See [`VoltageSource::new`].
+    pub fn dc(v: f64) -> Result<Self, PartError> {
         Self::new(Waveform::Dc(v))
     }
 }
@@ -215,21 +260,27 @@ impl Model for VoltageSource {
 ///
 /// Ports: `i` (coordinate 0, the branch current `q̇`). Coordinate 1 is `φ`.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct CurrentSource {
     /// The source current `I(t)`.
     pub waveform: Waveform,
 }
 
 impl CurrentSource {
-    /// A source of waveform `waveform`.
-    #[must_use]
-    pub fn new(waveform: Waveform) -> Self {
-        Self { waveform }
+    /// A source of waveform `waveform` ([`Waveform::check`]).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming the waveform value out of range.
+    pub fn new(waveform: Waveform) -> Result<Self, PartError> {
+        waveform.check("current_source", "waveform")?;
+        Ok(Self { waveform })
     }
 
     /// A DC source of `i` amperes.
-    #[must_use]
-    pub fn dc(i: f64) -> Self {
+    ///
+    /// # Errors
+    /// See [`CurrentSource::new`].
+    pub fn dc(i: f64) -> Result<Self, PartError> {
         Self::new(Waveform::Dc(i))
     }
 
@@ -288,6 +339,7 @@ impl Model for CurrentSource {
 /// An unconnected winding is a superconducting short (its flux linkage is conserved), not an open
 /// circuit.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct CoupledInductors {
     /// Self-inductance of winding 1.
     pub l1: f64,
@@ -298,6 +350,23 @@ pub struct CoupledInductors {
 }
 
 impl CoupledInductors {
+    /// Windings of self-inductance `l1`, `l2` (positive and finite) with coupling coefficient
+    /// `k` in `[−1, 1]`.
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming the parameter out of range.
+    pub fn new(l1: f64, l2: f64, k: f64) -> Result<Self, PartError> {
+        let c = Check::new("coupled_inductors");
+        if k.is_nan() || k.abs() > 1.0 {
+            return Err(c.fail("k", k, "must lie in [-1, 1]"));
+        }
+        Ok(Self {
+            l1: c.positive("l1", l1)?,
+            l2: c.positive("l2", l2)?,
+            k,
+        })
+    }
+
     /// The mutual inductance `M = k √(L₁ L₂)`.
     #[must_use]
     pub fn mutual(&self) -> f64 {
@@ -368,13 +437,13 @@ mod tests {
         check_model(&Resistor { r: 3.0 }, &q[..1], &v[..1], 0.0);
         check_model(&Capacitor { c: 0.2 }, &q[..1], &v[..1], 0.0);
         check_model(
-            &VoltageSource::new(Waveform::sin(1.0, 2.0, 3.0)),
+            &VoltageSource::new(Waveform::sin(1.0, 2.0, 3.0)).unwrap(),
             &q[..1],
             &v[..1],
             0.1,
         );
         check_model(
-            &CurrentSource::new(Waveform::sin(1.0, 2.0, 3.0)),
+            &CurrentSource::new(Waveform::sin(1.0, 2.0, 3.0)).unwrap(),
             &q,
             &v,
             0.1,
@@ -461,7 +530,7 @@ mod tests {
         let (r, h) = (4.0, 0.01);
         for w in waveforms {
             let mut g = Interconnection::new();
-            g.add_subsystem(VoltageSource::new(w.clone()).subsystem("V"))
+            g.add_subsystem(VoltageSource::new(w.clone()).unwrap().subsystem("V"))
                 .unwrap();
             g.add_subsystem(Resistor { r }.subsystem("R")).unwrap();
             node(&mut g, "a", &[between("V", true), between("R", true)]);
@@ -483,7 +552,7 @@ mod tests {
     fn rc_charging_from_dc_source() {
         let (v, r, c, h, q0) = (3.0, 1.0, 2.0, 0.1, -0.5);
         let mut g = Interconnection::new();
-        g.add_subsystem(VoltageSource::dc(v).subsystem("V"))
+        g.add_subsystem(VoltageSource::dc(v).unwrap().subsystem("V"))
             .unwrap();
         g.add_subsystem(Resistor { r }.subsystem("R")).unwrap();
         g.add_subsystem(Capacitor { c }.subsystem("C")).unwrap();
@@ -513,8 +582,12 @@ mod tests {
     fn current_source_charges_a_capacitor() {
         let (amp, freq, c, h) = (2.0, 1.5, 0.25, 0.01);
         let mut g = Interconnection::new();
-        g.add_subsystem(CurrentSource::new(Waveform::sin(0.0, amp, freq)).subsystem("I"))
-            .unwrap();
+        g.add_subsystem(
+            CurrentSource::new(Waveform::sin(0.0, amp, freq))
+                .unwrap()
+                .subsystem("I"),
+        )
+        .unwrap();
         g.add_subsystem(Capacitor { c }.subsystem("C")).unwrap();
         // The source pushes its current out of its − terminal into node a.
         node(&mut g, "a", &[between("I", false), between("C", true)]);
@@ -546,7 +619,7 @@ mod tests {
     fn current_source_into_parallel_rc() {
         let (i, r, c, h) = (0.5, 2.0, 1.5, 0.1);
         let mut g = Interconnection::new();
-        g.add_subsystem(CurrentSource::dc(i).subsystem("I"))
+        g.add_subsystem(CurrentSource::dc(i).unwrap().subsystem("I"))
             .unwrap();
         g.add_subsystem(Resistor { r }.subsystem("R")).unwrap();
         g.add_subsystem(Capacitor { c }.subsystem("C")).unwrap();
@@ -590,7 +663,7 @@ mod tests {
             k: k_coupling,
         };
         let mut g = Interconnection::new();
-        g.add_subsystem(VoltageSource::dc(v).subsystem("V"))
+        g.add_subsystem(VoltageSource::dc(v).unwrap().subsystem("V"))
             .unwrap();
         g.add_subsystem(Resistor { r }.subsystem("R")).unwrap();
         g.add_subsystem(part.subsystem("K")).unwrap();
@@ -631,7 +704,7 @@ mod tests {
         let (r1, r2, h) = (0.3, 0.7, 0.01);
         let w = Waveform::sin(0.0, 5.0, 2.0);
         let mut g = Interconnection::new();
-        g.add_subsystem(VoltageSource::new(w.clone()).subsystem("V"))
+        g.add_subsystem(VoltageSource::new(w.clone()).unwrap().subsystem("V"))
             .unwrap();
         g.add_subsystem(Resistor { r: r1 }.subsystem("R1")).unwrap();
         g.add_subsystem(part.subsystem("K")).unwrap();

@@ -1,7 +1,7 @@
 //! Energy-converting two-port parts: a DC motor (gyrator), an ideal transformer and an ideal gear.
 
 use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
-use dirac_graph::Subsystem;
+use dirac_graph::{Check, PartError, Subsystem};
 
 /// Permanent-magnet DC motor: armature (resistance `R`, inductance `L`) on charge `q`, rotor
 /// (inertia `J`, viscous friction `b`) on angle `θ`, coupled by one motor constant `k`:
@@ -23,6 +23,7 @@ use dirac_graph::Subsystem;
 /// `L` or `J` may be zero when the circuit or the load supplies the dynamics (the coordinate is
 /// then degenerate). Ports: `i` (coordinate 0, armature current), `theta` (coordinate 1, shaft).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct DcMotor {
     /// Motor constant `k` (V·s/rad = N·m/A).
     pub k: f64,
@@ -37,6 +38,22 @@ pub struct DcMotor {
 }
 
 impl DcMotor {
+    /// A motor of constant `k` (finite) with armature resistance `r`, inductance `l`, rotor
+    /// inertia `j` and viscous friction `b` (each non-negative and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming the parameter out of range.
+    pub fn new(k: f64, r: f64, l: f64, j: f64, b: f64) -> Result<Self, PartError> {
+        let c = Check::new("dc_motor");
+        Ok(Self {
+            k: c.finite("k", k)?,
+            r: c.non_negative("r", r)?,
+            l: c.non_negative("l", l)?,
+            j: c.non_negative("j", j)?,
+            b: c.non_negative("b", b)?,
+        })
+    }
+
     /// This part as a subsystem named `name` with ports `i` and `theta`.
     pub fn subsystem(self, name: impl Into<String>) -> Subsystem {
         Subsystem::new(name, self)
@@ -102,12 +119,23 @@ impl Model for DcMotor {
 ///
 /// Ports: `i1` (coordinate 0, primary), `i2` (coordinate 1, secondary).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct IdealTransformer {
     /// Turns ratio `n = N₂/N₁` (`v₂ = n v₁`).
     pub n: f64,
 }
 
 impl IdealTransformer {
+    /// A transformer of turns ratio `n` (non-zero and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `n` otherwise.
+    pub fn new(n: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            n: Check::new("ideal_transformer").nonzero("n", n)?,
+        })
+    }
+
     /// This part as a subsystem named `name` with ports `i1`, `i2`.
     pub fn subsystem(self, name: impl Into<String>) -> Subsystem {
         Subsystem::new(name, self)
@@ -170,12 +198,23 @@ impl Constraints for IdealTransformer {
 ///
 /// Ports: `theta1` (coordinate 0, input), `theta2` (coordinate 1, output).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct IdealGear {
     /// Ratio `r = θ₂/θ₁` (negative for an external mesh that reverses direction).
     pub ratio: f64,
 }
 
 impl IdealGear {
+    /// A gear of ratio `ratio = θ₂/θ₁` (non-zero and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `ratio` otherwise.
+    pub fn new(ratio: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            ratio: Check::new("ideal_gear").nonzero("ratio", ratio)?,
+        })
+    }
+
     /// This part as a subsystem named `name` with ports `theta1`, `theta2`.
     pub fn subsystem(self, name: impl Into<String>) -> Subsystem {
         Subsystem::new(name, self)
@@ -285,7 +324,7 @@ mod tests {
     fn motor_power_balance() {
         let motor = DcMotor { b: 0.05, ..MOTOR };
         let w = Waveform::sin(1.0, 12.0, 3.0);
-        let g = motor_on_source(motor, VoltageSource::new(w.clone()));
+        let g = motor_on_source(motor, VoltageSource::new(w.clone()).unwrap());
         let h = 1e-3;
         let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0, 0.0]]);
         let energy = |run: &Run| {
@@ -311,7 +350,7 @@ mod tests {
     #[test]
     fn motor_no_load_speed() {
         let v = 6.0;
-        let g = motor_on_source(MOTOR, VoltageSource::dc(v));
+        let g = motor_on_source(MOTOR, VoltageSource::dc(v).unwrap());
         let h = 0.01;
         // Newton takes at least one (affine, exact) update per step, so the rates converge to the
         // fixed point instead of freezing where the warm start's residual first looks small.
@@ -339,7 +378,7 @@ mod tests {
     #[test]
     fn motor_locked_rotor_current() {
         let v = 6.0;
-        let mut g = motor_on_source(MOTOR, VoltageSource::dc(v));
+        let mut g = motor_on_source(MOTOR, VoltageSource::dc(v).unwrap());
         g.add_subsystem(Ground::origin().rotational_subsystem("G"))
             .unwrap();
         joint(&mut g, ("M", "theta"), ("G", "theta"));
@@ -380,14 +419,14 @@ mod tests {
             b: 0.0,
         };
         let (v, ratio, m, len, grav, h) = (3.0, 0.5, 1.0, 1.2, 9.81, 0.01);
-        let mut rod = PlanarLinkage::new(grav);
-        let body = rod.add_body("rod", m, m * len * len / 12.0);
+        let mut rod = PlanarLinkage::new(grav).unwrap();
+        let body = rod.add_body("rod", m, m * len * len / 12.0).unwrap();
         let pivot_point = [-len / 2.0, 0.0];
         rod.pin_to_ground(body, pivot_point, [0.0, 0.0]);
         let mut q_rod = vec![0.0; 3];
         let hanging = -std::f64::consts::FRAC_PI_2;
         rod.place(&mut q_rod, body, hanging, pivot_point, [0.0, 0.0]);
-        let mut g = motor_on_source(motor, VoltageSource::dc(v));
+        let mut g = motor_on_source(motor, VoltageSource::dc(v).unwrap());
         g.add_subsystem(IdealGear { ratio }.subsystem("G")).unwrap();
         g.add_subsystem(rod.subsystem("L")).unwrap();
         joint(&mut g, ("M", "theta"), ("G", "theta1"));
@@ -419,7 +458,7 @@ mod tests {
         let (n, rl, h) = (2.5, 8.0, 1e-3);
         let w = Waveform::sin(0.5, 10.0, 50.0);
         let mut g = Interconnection::new();
-        g.add_subsystem(VoltageSource::new(w.clone()).subsystem("V"))
+        g.add_subsystem(VoltageSource::new(w.clone()).unwrap().subsystem("V"))
             .unwrap();
         g.add_subsystem(IdealTransformer { n }.subsystem("T"))
             .unwrap();
@@ -456,12 +495,18 @@ mod tests {
     fn gear_ratio_and_reflected_inertia() {
         let (j1, j2, r, torque, h) = (0.2, 0.05, -3.0, 1.5, 0.01);
         let mut g = Interconnection::new();
-        g.add_subsystem(Inertia::free(j1).subsystem("J1")).unwrap();
+        g.add_subsystem(Inertia::new(j1).unwrap().subsystem("J1"))
+            .unwrap();
         g.add_subsystem(IdealGear { ratio: r }.subsystem("G"))
             .unwrap();
-        g.add_subsystem(Inertia::free(j2).subsystem("J2")).unwrap();
-        g.add_subsystem(ForceSource::constant(torque).rotational_subsystem("T"))
+        g.add_subsystem(Inertia::new(j2).unwrap().subsystem("J2"))
             .unwrap();
+        g.add_subsystem(
+            ForceSource::constant(torque)
+                .unwrap()
+                .rotational_subsystem("T"),
+        )
+        .unwrap();
         joint(&mut g, ("J1", "theta"), ("G", "theta1"));
         joint(&mut g, ("G", "theta2"), ("J2", "theta"));
         joint(&mut g, ("T", "theta"), ("J1", "theta"));

@@ -17,9 +17,16 @@
 //! `−V(t)`. Electrical ground is just a node (no part).
 //!
 //! **Mechanical** parts use a position `x` (port `x`) or an angle `θ` (port `theta`); their flows
-//! are velocities. Springs, dampers and force sources exist both as
+//! are velocities. Each part is one physical element: a [`Mass`] is only a mass. One [`Spring`]
+//! type (linear `k` plus the Duffing term `k₃`) and one [`Damper`] type serve both as
 //! [`dirac_graph::CouplingElement`]s between two ports and as to-ground parts joined to a body's
-//! port; [`Ground`] is the fixed frame.
+//! port; [`Ground`] is the fixed frame (a wall), so a wall spring is a spring coupled to a ground.
+//!
+//! **Parameters** are checked by the constructors (`Resistor::new(r)`, `Spring::new(k, k3,
+//! rest)`, …), which return a [`PartError`] naming the part and the parameter; the parts are
+//! `#[non_exhaustive]`, so code outside this crate cannot build one by a struct literal that skips
+//! the checks (their fields stay readable). [`CircuitBuilder`] wires circuit parts between named
+//! nodes in terminal order, as a netlist reads.
 //!
 //! | part | coordinates | ports |
 //! |---|---|---|
@@ -29,7 +36,7 @@
 //! | [`CoupledInductors`] | `q₁`, `q₂` | `i1`, `i2` |
 //! | [`Diode`] (SPICE level 1: [`DiodeParameters`]) | `q`, junction flux `φ` | `i` |
 //! | [`SaturatingInductor`] | `q` | `i` |
-//! | [`Mass`] / [`Inertia`] | `x` / `θ` | `x` / `theta` |
+//! | [`Mass`] / [`Inertia`] (no spring or damper of their own) | `x` / `θ` | `x` / `theta` |
 //! | [`Spring`] (linear + cubic), [`Damper`], [`ForceSource`] | `x` (to ground) | `x` or `theta` |
 //! | [`Ground`] | `x` (pinned) | `x` or `theta` |
 //! | [`Pendulum`] (Cartesian, holonomic rod) | `x`, `y` | `x`, `y` |
@@ -46,7 +53,8 @@
 //!
 //! ```
 //! use dirac_core::{AutoDiff, GenericModel};
-//! use dirac_graph::{Interconnection, LinearSpring, Subsystem};
+//! use dirac_components::{Inertia, Spring};
+//! use dirac_graph::{Interconnection, Subsystem};
 //! use num_dual::DualNum;
 //!
 //! /// Pendulum on a shaft: L = ½ J θ̇² + m g ℓ cos θ, f = −c θ̇.
@@ -63,15 +71,18 @@
 //!
 //! let mut g = Interconnection::new();
 //! g.add_subsystem(Subsystem::new("bob", AutoDiff::new(Bob { j: 1.0, mgl: 9.81, c: 0.1 }))
-//!     .with_port("theta", 0)).unwrap();
-//! g.add_subsystem(dirac_components::Inertia::free(0.5).subsystem("rotor")).unwrap();
-//! let (a, b) = (g.port("bob", "theta").unwrap(), g.port("rotor", "theta").unwrap());
-//! g.coupling("shaft", a, b, LinearSpring { k: 20.0, rest: 0.0 });
+//!     .with_port("theta", 0))?;
+//! g.add_subsystem(Inertia::new(0.5)?.subsystem("rotor"))?;
+//! let (a, b) = (g.port("bob", "theta")?, g.port("rotor", "theta")?);
+//! g.coupling("shaft", a, b, Spring::linear(20.0)?);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
 //! The crate's tests run such a part (a driven Duffing oscillator) beside stock parts and match
 //! the hand-written equivalent to 1e-12.
 
+mod checked;
+mod circuit;
 mod diode;
 mod electrical;
 mod electromechanical;
@@ -85,7 +96,9 @@ mod testing;
 mod user_part;
 mod waveform;
 
+pub use circuit::CircuitBuilder;
 pub use diode::{Diode, DiodeBuild, DiodeError, DiodeParameters};
+pub use dirac_graph::PartError;
 pub use electrical::{
     Capacitor, CoupledInductors, CurrentSource, Inductor, Resistor, VoltageSource,
 };

@@ -11,29 +11,30 @@
 //!   tied to a body's port by `Interconnection::joint`; the other end is fixed at the origin.
 
 use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
-use dirac_graph::{CouplingElement, Subsystem};
+use dirac_graph::{Check, CouplingElement, PartError, Subsystem};
 
 use crate::waveform::Waveform;
 
-/// A point mass on a line, optionally tied to a wall by a spring and a damper:
-/// `L = ½ m ẋ² − ½ k x²`, `f = −c ẋ`.
+/// A point mass on a line: `L = ½ m ẋ²`, nothing else. A wall spring or a damper is another part:
+/// a [`Spring`] or [`Damper`] coupled to a [`Ground`] (or joined as a to-ground part).
 ///
 /// Port `x` (its position; flow: its velocity).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Mass {
     /// Mass.
     pub m: f64,
-    /// Wall spring stiffness (0 for none).
-    pub k: f64,
-    /// Wall damper coefficient (0 for none).
-    pub c: f64,
 }
 
 impl Mass {
-    /// A free mass.
-    #[must_use]
-    pub fn free(m: f64) -> Self {
-        Self { m, k: 0.0, c: 0.0 }
+    /// A mass `m` (positive and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `m` otherwise.
+    pub fn new(m: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            m: Check::new("mass").positive("m", m)?,
+        })
     }
 
     /// This part as a subsystem named `name` with port `x`.
@@ -42,25 +43,26 @@ impl Mass {
     }
 }
 
-/// A rotor of moment of inertia `J` about a fixed axis, optionally with a torsional spring and a
-/// viscous bearing to the frame: `L = ½ J θ̇² − ½ k θ²`, `f = −c θ̇`.
+/// A rotor of moment of inertia `J` about a fixed axis: `L = ½ J θ̇²`. A torsional spring or a
+/// bearing's friction to the frame is another part ([`Spring`], [`Damper`] to a [`Ground`]).
 ///
 /// Port `theta` (its angle; flow: its angular velocity).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Inertia {
     /// Moment of inertia.
     pub j: f64,
-    /// Torsional stiffness to the frame (0 for none).
-    pub k: f64,
-    /// Viscous friction to the frame (0 for none).
-    pub c: f64,
 }
 
 impl Inertia {
-    /// A free rotor.
-    #[must_use]
-    pub fn free(j: f64) -> Self {
-        Self { j, k: 0.0, c: 0.0 }
+    /// A rotor of moment of inertia `j` (positive and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `j` otherwise.
+    pub fn new(j: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            j: Check::new("inertia").positive("j", j)?,
+        })
     }
 
     /// This part as a subsystem named `name` with port `theta`.
@@ -75,25 +77,15 @@ macro_rules! inertial_model {
             fn dim(&self) -> usize {
                 1
             }
-            fn lagrangian(&self, q: &[f64], v: &[f64]) -> f64 {
-                0.5 * self.$m * v[0] * v[0] - 0.5 * self.k * q[0] * q[0]
+            fn lagrangian(&self, _q: &[f64], v: &[f64]) -> f64 {
+                0.5 * self.$m * v[0] * v[0]
             }
-            fn lagrangian_gradient(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-                lq[0] = -self.k * q[0];
+            fn lagrangian_gradient(&self, _q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+                lq[0] = 0.0;
                 lv[0] = self.$m * v[0];
             }
             fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
-                h.qq.add(0, 0, -self.k);
                 h.vv.add(0, 0, self.$m);
-            }
-            fn has_force(&self) -> bool {
-                self.c != 0.0
-            }
-            fn force(&self, _q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
-                f[0] = -self.c * v[0];
-            }
-            fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, j: &mut ForceJacobian) {
-                j.v.add(0, 0, -self.c);
             }
             fn is_linear(&self) -> bool {
                 true
@@ -103,6 +95,12 @@ macro_rules! inertial_model {
             }
             fn coordinate_name(&self, _i: usize) -> String {
                 $name.into()
+            }
+            /// Separable: `M = [m]`, no potential, no force.
+            fn separable(&self) -> Option<Triplets> {
+                let mut mass = Triplets::new();
+                mass.add(0, 0, self.$m);
+                Some(mass)
             }
         }
     };
@@ -120,6 +118,7 @@ inertial_model!(Inertia, j, "theta");
 /// between two ports; as a to-ground part ([`Spring::subsystem`]) its coordinate `x` is the free
 /// end and `d = x − ℓ` (the other end at the origin). Rotational springs are the same with angles.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Spring {
     /// Linear stiffness `k`.
     pub k: f64,
@@ -130,27 +129,49 @@ pub struct Spring {
 }
 
 impl Spring {
+    /// A spring `V(d) = ½ k d² + ¼ k₃ d⁴` on `d = x_a − x_b − rest`: `k` non-negative, `k3` and
+    /// `rest` finite.
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming the parameter out of range.
+    pub fn new(k: f64, k3: f64, rest: f64) -> Result<Self, PartError> {
+        let c = Check::new("spring");
+        Ok(Self {
+            k: c.non_negative("k", k)?,
+            k3: c.finite("k3", k3)?,
+            rest: c.finite("rest", rest)?,
+        })
+    }
+
     /// A linear spring of stiffness `k` and zero rest offset.
-    #[must_use]
-    pub fn linear(k: f64) -> Self {
-        Self {
-            k,
-            k3: 0.0,
-            rest: 0.0,
-        }
+    ///
+    /// # Errors
+    /// See [`Spring::new`].
+    pub fn linear(k: f64) -> Result<Self, PartError> {
+        Self::new(k, 0.0, 0.0)
     }
 
     /// A Duffing spring `k d + k₃ d³` with zero rest offset.
-    #[must_use]
-    pub fn cubic(k: f64, k3: f64) -> Self {
-        Self { k, k3, rest: 0.0 }
+    ///
+    /// # Errors
+    /// See [`Spring::new`].
+    pub fn cubic(k: f64, k3: f64) -> Result<Self, PartError> {
+        Self::new(k, k3, 0.0)
+    }
+
+    /// The same spring with rest offset `rest` (finite).
+    ///
+    /// # Errors
+    /// See [`Spring::new`].
+    pub fn with_rest(self, rest: f64) -> Result<Self, PartError> {
+        Self::new(self.k, self.k3, rest)
     }
 
     /// `V(d)` at extension `d` (rest offset already subtracted).
     #[must_use]
     pub fn energy(&self, d: f64) -> f64 {
         let d2 = d * d;
-        0.5 * self.k * d2 + 0.25 * self.k3 * d2 * d2
+        0.5 * self.k * d * d + 0.25 * self.k3 * d2 * d2
     }
 
     /// `V'(d)`, the tension.
@@ -194,8 +215,15 @@ impl CouplingElement for Spring {
     fn is_linear(&self) -> bool {
         self.k3 == 0.0
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn describe(&self) -> String {
-        format!("spring k = {}, k3 = {}", self.k, self.k3)
+        if self.k3 == 0.0 {
+            format!("spring k = {}", self.k)
+        } else {
+            format!("spring k = {}, k3 = {}", self.k, self.k3)
+        }
     }
 }
 
@@ -216,6 +244,9 @@ impl Model for Spring {
     fn is_linear(&self) -> bool {
         self.k3 == 0.0
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn coordinate_name(&self, _i: usize) -> String {
         "x".into()
     }
@@ -224,12 +255,23 @@ impl Model for Spring {
 /// A linear viscous damper: force `−c (v_a − v_b)` on port a (and the opposite on b) as a
 /// [`CouplingElement`], or `−c ẋ` on its coordinate as a to-ground part.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Damper {
     /// Damping coefficient.
     pub c: f64,
 }
 
 impl Damper {
+    /// A damper of coefficient `c` (non-negative and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `c` otherwise.
+    pub fn new(c: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            c: Check::new("damper").non_negative("c", c)?,
+        })
+    }
+
     /// The damper to ground as a subsystem named `name` with port `x`.
     pub fn subsystem(self, name: impl Into<String>) -> Subsystem {
         Subsystem::new(name, self).with_port("x", 0)
@@ -253,6 +295,9 @@ impl CouplingElement for Damper {
         [[[0.0; 2]; 2], [[-self.c, self.c], [self.c, -self.c]]]
     }
     fn is_linear(&self) -> bool {
+        true
+    }
+    fn is_autonomous(&self) -> bool {
         true
     }
     fn describe(&self) -> String {
@@ -281,6 +326,9 @@ impl Model for Damper {
     fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, j: &mut ForceJacobian) {
         j.v.add(0, 0, -self.c);
     }
+    fn is_autonomous(&self) -> bool {
+        true
+    }
     fn is_linear(&self) -> bool {
         true
     }
@@ -295,21 +343,27 @@ impl Model for Damper {
 /// in the `+x` (or `+θ`) direction, reacting on the fixed frame. As a [`CouplingElement`] it is an
 /// actuator between two ports: `+F(t)` on port a, `−F(t)` on port b (no net force on the pair).
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct ForceSource {
     /// The force `F(t)`.
     pub waveform: Waveform,
 }
 
 impl ForceSource {
-    /// A source of waveform `waveform`.
-    #[must_use]
-    pub fn new(waveform: Waveform) -> Self {
-        Self { waveform }
+    /// A source of waveform `waveform` ([`Waveform::check`]).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming the waveform value out of range.
+    pub fn new(waveform: Waveform) -> Result<Self, PartError> {
+        waveform.check("force_source", "waveform")?;
+        Ok(Self { waveform })
     }
 
-    /// A constant force `f`.
-    #[must_use]
-    pub fn constant(f: f64) -> Self {
+    /// A constant force `f` (finite).
+    ///
+    /// # Errors
+    /// See [`ForceSource::new`].
+    pub fn constant(f: f64) -> Result<Self, PartError> {
         Self::new(Waveform::Dc(f))
     }
 
@@ -331,6 +385,9 @@ impl CouplingElement for ForceSource {
     fn force(&self, _x: [f64; 2], _v: [f64; 2], t: f64) -> [f64; 2] {
         let f = self.waveform.value(t);
         [f, -f]
+    }
+    fn force_depends_on_velocity(&self) -> bool {
+        false
     }
     fn is_linear(&self) -> bool {
         true
@@ -389,12 +446,23 @@ impl Model for ForceSource {
 /// Port `x` ([`Ground::subsystem`]) or `theta` ([`Ground::rotational_subsystem`]). Initial
 /// position: `position`.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Ground {
     /// Where the frame is.
     pub position: f64,
 }
 
 impl Ground {
+    /// The frame at `position` (finite): a wall.
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `position` otherwise.
+    pub fn at(position: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            position: Check::new("ground").finite("position", position)?,
+        })
+    }
+
     /// The frame at the origin.
     #[must_use]
     pub fn origin() -> Self {
@@ -429,6 +497,9 @@ impl Model for Ground {
     }
     fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
     fn is_linear(&self) -> bool {
+        true
+    }
+    fn is_autonomous(&self) -> bool {
         true
     }
     fn coordinate_name(&self, _i: usize) -> String {
@@ -483,26 +554,8 @@ mod tests {
     #[test]
     fn hand_written_derivatives() {
         let (q, v) = ([0.3], [-0.8]);
-        check_model(
-            &Mass {
-                m: 2.0,
-                k: 3.0,
-                c: 0.4,
-            },
-            &q,
-            &v,
-            0.0,
-        );
-        check_model(
-            &Inertia {
-                j: 2.0,
-                k: 3.0,
-                c: 0.4,
-            },
-            &q,
-            &v,
-            0.0,
-        );
+        check_model(&Mass { m: 2.0 }, &q, &v, 0.0);
+        check_model(&Inertia { j: 2.0 }, &q, &v, 0.0);
         let spring = Spring {
             k: 2.0,
             k3: 5.0,
@@ -510,7 +563,12 @@ mod tests {
         };
         check_model(&spring, &q, &v, 0.0);
         check_model(&Damper { c: 0.7 }, &q, &v, 0.0);
-        check_model(&ForceSource::new(Waveform::sin(0.0, 1.0, 1.0)), &q, &v, 0.3);
+        check_model(
+            &ForceSource::new(Waveform::sin(0.0, 1.0, 1.0)).unwrap(),
+            &q,
+            &v,
+            0.3,
+        );
         let ground = Ground { position: 0.3 };
         check_model(&ground, &q, &v, 0.0);
         check_constraints(&ground, &[0.7], &[1.3], &[0.2]);
@@ -533,7 +591,8 @@ mod tests {
     fn spring_damper_power_balance() {
         let (m, k, c, rest, h) = (2.0, 3.0, 0.4, 0.5, 0.05);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::free(m).subsystem("M")).unwrap();
+        g.add_subsystem(Mass::new(m).unwrap().subsystem("M"))
+            .unwrap();
         g.add_subsystem(Spring { k, k3: 0.0, rest }.subsystem("S"))
             .unwrap();
         g.add_subsystem(Damper { c }.subsystem("D")).unwrap();
@@ -566,7 +625,8 @@ mod tests {
     fn spring_to_ground_all_representations() {
         let (m, k, w, rest, h, x0) = (0.5, 2.0, -1.0, 0.75, 0.05, 0.5);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::free(m).subsystem("M")).unwrap();
+        g.add_subsystem(Mass::new(m).unwrap().subsystem("M"))
+            .unwrap();
         g.add_subsystem(Ground { position: w }.subsystem("G"))
             .unwrap();
         coupling(&mut g, ("M", "x"), ("G", "x"), Spring { k, k3: 0.0, rest });
@@ -599,7 +659,8 @@ mod tests {
     fn couplings_to_ground_power_balance() {
         let (m, k, c, w, rest, h, x0) = (2.0, 3.0, 0.4, 0.25, 0.5, 0.05, 1.7);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::free(m).subsystem("M")).unwrap();
+        g.add_subsystem(Mass::new(m).unwrap().subsystem("M"))
+            .unwrap();
         g.add_subsystem(Ground { position: w }.subsystem("G"))
             .unwrap();
         coupling(&mut g, ("M", "x"), ("G", "x"), Spring { k, k3: 0.0, rest });
@@ -633,10 +694,16 @@ mod tests {
     fn torsional_oscillator_discrete_phase() {
         let (j, k, h, th0) = (0.2, 5.0, 0.01, 0.3);
         let mut g = Interconnection::new();
-        g.add_subsystem(Inertia::free(j).subsystem("J")).unwrap();
+        g.add_subsystem(Inertia::new(j).unwrap().subsystem("J"))
+            .unwrap();
         g.add_subsystem(Ground::origin().rotational_subsystem("G"))
             .unwrap();
-        coupling(&mut g, ("J", "theta"), ("G", "theta"), Spring::linear(k));
+        coupling(
+            &mut g,
+            ("J", "theta"),
+            ("G", "theta"),
+            Spring::linear(k).unwrap(),
+        );
         let mut run = Run::midpoint(&g, h, &[vec![th0], vec![0.0]]);
         let phase = 2.0 * ((k / j).sqrt() * h / 2.0).atan();
         let mut worst: f64 = 0.0;
@@ -655,8 +722,10 @@ mod tests {
     fn duffing_coupling_conserves_momentum() {
         let (m1, m2, h) = (1.0, 3.0, 0.02);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::free(m1).subsystem("A")).unwrap();
-        g.add_subsystem(Mass::free(m2).subsystem("B")).unwrap();
+        g.add_subsystem(Mass::new(m1).unwrap().subsystem("A"))
+            .unwrap();
+        g.add_subsystem(Mass::new(m2).unwrap().subsystem("B"))
+            .unwrap();
         coupling(
             &mut g,
             ("A", "x"),
@@ -690,22 +759,26 @@ mod tests {
         assert!(worst < 1e-12, "{worst:e}");
     }
 
-    /// Damped mass on a Duffing spring to ground under a constant force: the discrete fixed point
+    /// Damped mass (a damper to ground joined to it) on a Duffing spring to ground under a constant
+    /// force: the discrete fixed point
     /// is the static equilibrium `k x + k₃ x³ = F`, whose real root is Cardano's
     /// `x = ∛(F/2k₃ + √D) + ∛(F/2k₃ − √D)`, `D = (F/2k₃)² + (k/3k₃)³`.
     #[test]
     fn duffing_static_equilibrium_under_constant_force() {
         let (m, c, k, k3, f, h) = (1.0, 2.0, 1.0, 3.0, 5.0, 0.05);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass { m, k: 0.0, c }.subsystem("M"))
+        g.add_subsystem(Mass::new(m).unwrap().subsystem("M"))
             .unwrap();
-        g.add_subsystem(Spring::cubic(k, k3).subsystem("S"))
+        g.add_subsystem(Spring::cubic(k, k3).unwrap().subsystem("S"))
             .unwrap();
-        g.add_subsystem(ForceSource::constant(f).subsystem("F"))
+        g.add_subsystem(ForceSource::constant(f).unwrap().subsystem("F"))
+            .unwrap();
+        g.add_subsystem(Damper::new(c).unwrap().subsystem("D"))
             .unwrap();
         joint(&mut g, ("M", "x"), ("S", "x"));
         joint(&mut g, ("M", "x"), ("F", "x"));
-        let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0], vec![0.0]]);
+        joint(&mut g, ("M", "x"), ("D", "x"));
+        let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0], vec![0.0], vec![0.0]]);
         for _ in 0..3000 {
             run.step();
         }
@@ -723,7 +796,8 @@ mod tests {
         assert!((x - exact).abs() < 1e-12, "{x} vs {exact}");
     }
 
-    /// A constant force switched on at rest on a mass–spring: `x_k = (F/k)(1 − cos kθ)` exactly
+    /// A constant force switched on at rest on a mass–spring (a spring to ground joined to the
+    /// mass): `x_k = (F/k)(1 − cos kθ)` exactly
     /// (a shifted discrete rotation); a constant torque on a free rotor: `θ_k = T(kh)²/2J` exactly
     /// (the midpoint rule integrates quadratics exactly); an actuator between two free masses
     /// leaves the total momentum at zero and separates them by `F t²/2 (1/m₁ + 1/m₂)`.
@@ -731,12 +805,15 @@ mod tests {
     fn force_and_torque_sources() {
         let (m, k, f, h) = (2.0, 8.0, 3.0, 0.01);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass { m, k, c: 0.0 }.subsystem("M"))
+        g.add_subsystem(Mass::new(m).unwrap().subsystem("M"))
             .unwrap();
-        g.add_subsystem(ForceSource::constant(f).subsystem("F"))
+        g.add_subsystem(ForceSource::constant(f).unwrap().subsystem("F"))
+            .unwrap();
+        g.add_subsystem(Spring::linear(k).unwrap().subsystem("S"))
             .unwrap();
         joint(&mut g, ("M", "x"), ("F", "x"));
-        let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0]]);
+        joint(&mut g, ("M", "x"), ("S", "x"));
+        let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0], vec![0.0]]);
         let theta = 2.0 * ((k / m).sqrt() * h / 2.0).atan();
         let mut worst: f64 = 0.0;
         for n in 1..=1000 {
@@ -748,9 +825,14 @@ mod tests {
 
         let (j, torque) = (0.5, 2.0);
         let mut g = Interconnection::new();
-        g.add_subsystem(Inertia::free(j).subsystem("J")).unwrap();
-        g.add_subsystem(ForceSource::constant(torque).rotational_subsystem("T"))
+        g.add_subsystem(Inertia::new(j).unwrap().subsystem("J"))
             .unwrap();
+        g.add_subsystem(
+            ForceSource::constant(torque)
+                .unwrap()
+                .rotational_subsystem("T"),
+        )
+        .unwrap();
         joint(&mut g, ("J", "theta"), ("T", "theta"));
         let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0]]);
         for n in 1..=1000 {
@@ -761,9 +843,16 @@ mod tests {
 
         let (m1, m2) = (1.0, 4.0);
         let mut g = Interconnection::new();
-        g.add_subsystem(Mass::free(m1).subsystem("A")).unwrap();
-        g.add_subsystem(Mass::free(m2).subsystem("B")).unwrap();
-        coupling(&mut g, ("A", "x"), ("B", "x"), ForceSource::constant(f));
+        g.add_subsystem(Mass::new(m1).unwrap().subsystem("A"))
+            .unwrap();
+        g.add_subsystem(Mass::new(m2).unwrap().subsystem("B"))
+            .unwrap();
+        coupling(
+            &mut g,
+            ("A", "x"),
+            ("B", "x"),
+            ForceSource::constant(f).unwrap(),
+        );
         let mut run = Run::midpoint(&g, h, &[vec![0.0], vec![0.0]]);
         for n in 1..=1000 {
             run.step();

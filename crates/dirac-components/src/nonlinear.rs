@@ -29,6 +29,7 @@ fn ln_cosh(x: f64) -> f64 {
 ///
 /// Port `i` (coordinate 0).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct SaturatingInductor {
     /// Small-signal inductance `L₀` at zero current.
     pub l0: f64,
@@ -124,7 +125,7 @@ mod tests {
         };
         let (v, h) = (1.0, 0.001);
         let mut g = Interconnection::new();
-        g.add_subsystem(VoltageSource::dc(v).subsystem("V"))
+        g.add_subsystem(VoltageSource::dc(v).unwrap().subsystem("V"))
             .unwrap();
         g.add_subsystem(s.subsystem("L")).unwrap();
         node(&mut g, "a", &[("V", "i", -1.0), ("L", "i", -1.0)]);

@@ -7,7 +7,7 @@
 //! of degree ≥ 2 (multipliers at interior control points) and the (−) flavour need.
 
 use dirac_core::{ConstraintKind, Constraints, LagrangianHessian, Model, Triplets};
-use dirac_graph::Subsystem;
+use dirac_graph::{Check, PartError, Subsystem};
 
 /// A point mass `m` on a massless rod of length `ℓ` about a fixed pivot, in Cartesian
 /// coordinates `(x, y)` (`y` up) under gravity `g`:
@@ -19,6 +19,7 @@ use dirac_graph::Subsystem;
 /// Ports `x` (coordinate 0) and `y` (coordinate 1): the bob's position; a force source or a
 /// spring on either acts on the bob.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct Pendulum {
     /// Bob mass.
     pub m: f64,
@@ -31,6 +32,24 @@ pub struct Pendulum {
 }
 
 impl Pendulum {
+    /// A bob of mass `m` on a rod of length `length` (both positive and finite) about `pivot`,
+    /// under gravity `g` (finite) towards `−y`.
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming the parameter out of range.
+    pub fn new(m: f64, length: f64, g: f64, pivot: [f64; 2]) -> Result<Self, PartError> {
+        let c = Check::new("pendulum");
+        Ok(Self {
+            m: c.positive("m", m)?,
+            length: c.positive("length", length)?,
+            g: c.finite("g", g)?,
+            pivot: [
+                c.finite("pivot[0]", pivot[0])?,
+                c.finite("pivot[1]", pivot[1])?,
+            ],
+        })
+    }
+
     /// The bob position at angle `α` from the downward vertical (counter-clockwise positive).
     #[must_use]
     pub fn position(&self, alpha: f64) -> [f64; 2] {
@@ -114,6 +133,7 @@ impl Constraints for Pendulum {
 
 /// A planar rigid body: mass `m` and moment of inertia `j` about its centre of mass.
 #[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
 pub struct PlanarBody {
     /// Name (prefix of its ports).
     pub name: String,
@@ -185,9 +205,9 @@ fn rotate(theta: f64, r: [f64; 2]) -> ([f64; 2], [f64; 2]) {
 /// ```
 /// use dirac_components::PlanarLinkage;
 /// // A two-rod chain hanging from the origin (rods of length 1 along their body x axes).
-/// let mut chain = PlanarLinkage::new(9.81);
-/// let a = chain.add_body("a", 1.0, 1.0 / 12.0);
-/// let b = chain.add_body("b", 1.0, 1.0 / 12.0);
+/// let mut chain = PlanarLinkage::new(9.81)?;
+/// let a = chain.add_body("a", 1.0, 1.0 / 12.0)?;
+/// let b = chain.add_body("b", 1.0, 1.0 / 12.0)?;
 /// chain.pin_to_ground(a, [-0.5, 0.0], [0.0, 0.0]);
 /// chain.pin(b, [-0.5, 0.0], a, [0.5, 0.0]);
 /// let mut q = vec![0.0; 6];
@@ -198,6 +218,7 @@ fn rotate(theta: f64, r: [f64; 2]) -> ([f64; 2], [f64; 2]) {
 /// assert!((q[4] + 1.5).abs() < 1e-15); // b's centre 1.5 below the pivot
 /// let part = chain.subsystem("chain");
 /// assert_eq!(part.ports().len(), 6);
+/// # Ok::<(), dirac_components::PartError>(())
 /// ```
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct PlanarLinkage {
@@ -207,24 +228,37 @@ pub struct PlanarLinkage {
 }
 
 impl PlanarLinkage {
-    /// An empty linkage under gravity `g` (towards `−y`).
-    #[must_use]
-    pub fn new(gravity: f64) -> Self {
-        Self {
+    /// An empty linkage under gravity `gravity` (finite, towards `−y`).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `g` otherwise.
+    pub fn new(gravity: f64) -> Result<Self, PartError> {
+        Ok(Self {
             bodies: Vec::new(),
             pins: Vec::new(),
-            gravity,
-        }
+            gravity: Check::new("planar_linkage").finite("g", gravity)?,
+        })
     }
 
-    /// Adds a body of mass `m` and central inertia `j`; returns its index.
-    pub fn add_body(&mut self, name: impl Into<String>, m: f64, j: f64) -> usize {
+    /// Adds a body of mass `m` and central inertia `j` (both positive and finite); returns its
+    /// index.
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `bodies[i].m` or `bodies[i].j` (`i` the new index).
+    pub fn add_body(
+        &mut self,
+        name: impl Into<String>,
+        m: f64,
+        j: f64,
+    ) -> Result<usize, PartError> {
+        let c = Check::new("planar_linkage");
+        let i = self.bodies.len();
         self.bodies.push(PlanarBody {
             name: name.into(),
-            m,
-            j,
+            m: c.positive(&format!("bodies[{i}].m"), m)?,
+            j: c.positive(&format!("bodies[{i}].j"), j)?,
         });
-        self.bodies.len() - 1
+        Ok(i)
     }
 
     /// Pins body point `point` (body frame) of `body` to the fixed point `at`.
@@ -486,10 +520,10 @@ mod tests {
         check_model(&p, &[0.4, -1.0], &[0.3, 0.2], 0.0);
         check_constraints(&p, &[0.4, -1.0], &[0.7], &[0.3, -0.9]);
 
-        let mut l = PlanarLinkage::new(G);
-        let a = l.add_body("a", 2.0, 0.3);
-        let b = l.add_body("b", 1.0, 0.1);
-        let c = l.add_body("c", 0.5, 0.05);
+        let mut l = PlanarLinkage::new(G).unwrap();
+        let a = l.add_body("a", 2.0, 0.3).unwrap();
+        let b = l.add_body("b", 1.0, 0.1).unwrap();
+        let c = l.add_body("c", 0.5, 0.05).unwrap();
         l.pin_to_ground(a, [-0.5, 0.1], [0.2, 0.3]);
         l.pin(b, [-0.4, 0.0], a, [0.5, -0.1]);
         l.pin(c, [0.0, 0.2], b, [0.3, 0.05]);
@@ -545,8 +579,8 @@ mod tests {
     #[test]
     fn compound_pendulum_period() {
         let (m, len) = (3.0, 1.2);
-        let mut l = PlanarLinkage::new(G);
-        let rod = l.add_body("rod", m, m * len * len / 12.0);
+        let mut l = PlanarLinkage::new(G).unwrap();
+        let rod = l.add_body("rod", m, m * len * len / 12.0).unwrap();
         l.pin_to_ground(rod, [-len / 2.0, 0.0], [0.0, 0.0]);
         let alpha0: f64 = 0.8;
         let mut q0 = vec![0.0; 3];
@@ -593,9 +627,9 @@ mod tests {
     #[test]
     fn double_rod_chain_normal_modes() {
         let (m, len) = (1.0, 1.0);
-        let mut l = PlanarLinkage::new(G);
-        let a = l.add_body("a", m, m * len * len / 12.0);
-        let b = l.add_body("b", m, m * len * len / 12.0);
+        let mut l = PlanarLinkage::new(G).unwrap();
+        let a = l.add_body("a", m, m * len * len / 12.0).unwrap();
+        let b = l.add_body("b", m, m * len * len / 12.0).unwrap();
         let (top, bottom) = ([-len / 2.0, 0.0], [len / 2.0, 0.0]);
         l.pin_to_ground(a, top, [0.0, 0.0]);
         l.pin(b, top, a, bottom);

@@ -1,16 +1,29 @@
 //! The vertical rolling disk: a nonholonomic part with q-dependent constraint forms.
 
 use dirac_core::{ConstraintKind, Constraints, LagrangianHessian, Model, Triplets};
-use dirac_graph::Subsystem;
+use dirac_graph::{Check, PartError, Subsystem};
 
 /// Rolling without slipping for a vertical disk on `q = (x, y, θ, φ)` (contact point, rolling angle,
 /// heading): `ẋ = R cos φ θ̇`, `ẏ = R sin φ θ̇`, i.e. the one-forms `ω¹ = dx − R cos φ dθ` and
 /// `ω² = dy − R sin φ dθ`. They depend on `φ`, so the (+) and (−) schemes differ on them; the
 /// symmetric scheme conserves the disk's energy (see docs/math.md §3).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct RollingConstraint {
     /// Disk radius.
     pub radius: f64,
+}
+
+impl RollingConstraint {
+    /// Rolling without slipping at radius `radius` (positive and finite).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming `radius` otherwise.
+    pub fn new(radius: f64) -> Result<Self, PartError> {
+        Ok(Self {
+            radius: Check::new("rolling_disk").positive("radius", radius)?,
+        })
+    }
 }
 
 impl Constraints for RollingConstraint {
@@ -50,6 +63,7 @@ impl Constraints for RollingConstraint {
 ///
 /// Ports (and coordinates): `x`, `y`, `theta`, `phi`.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
 pub struct RollingDisk {
     /// Mass.
     pub m: f64,
@@ -62,6 +76,21 @@ pub struct RollingDisk {
 }
 
 impl RollingDisk {
+    /// A disk of mass `m`, inertias `i` (rolling axis) and `j` (vertical axis) and radius
+    /// `radius`, each positive and finite.
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] naming the parameter out of range.
+    pub fn new(m: f64, i: f64, j: f64, radius: f64) -> Result<Self, PartError> {
+        let c = Check::new("rolling_disk");
+        Ok(Self {
+            m: c.positive("m", m)?,
+            i: c.positive("i", i)?,
+            j: c.positive("j", j)?,
+            radius: c.positive("radius", radius)?,
+        })
+    }
+
     fn masses(&self) -> [f64; 4] {
         [self.m, self.m, self.i, self.j]
     }

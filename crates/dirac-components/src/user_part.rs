@@ -8,7 +8,7 @@ use dirac_graph::{Interconnection, Representation, Subsystem};
 use dirac_sim::IntegratorOptions;
 use num_dual::DualNum;
 
-use crate::mechanical::{ForceSource, Mass, Spring};
+use crate::mechanical::{Damper, ForceSource, Mass, Spring};
 use crate::testing::Run;
 use crate::waveform::Waveform;
 
@@ -48,25 +48,17 @@ const USER: DrivenDuffing = DrivenDuffing {
 
 /// Adds a second (stock) mass coupled to port `x` of subsystem `to` by a stock spring.
 fn with_partner(g: &mut Interconnection, to: &str) {
-    g.add_subsystem(Mass::free(0.5).subsystem("M2")).unwrap();
+    g.add_subsystem(Mass::new(0.5).unwrap().subsystem("M2"))
+        .unwrap();
     let (a, b) = (g.port(to, "x").unwrap(), g.port("M2", "x").unwrap());
-    g.coupling(
-        "k12",
-        a,
-        b,
-        Spring {
-            k: 3.0,
-            k3: 0.0,
-            rest: -0.5,
-        },
-    );
+    g.coupling("k12", a, b, Spring::new(3.0, 0.0, -0.5).unwrap());
 }
 
 /// The user's part (AutoDiff of a `GenericModel`) coupled by a stock spring to a stock mass
 /// follows the same trajectory, to 1e-12 over 2000 midpoint steps, as the hand-written
-/// equivalent built from stock parts (a mass with its damper, a Duffing spring to ground and a SIN
-/// force source, joined at one port): positions, and the user part's momentum against the joint
-/// momentum `p_M + p_S + p_F` of the stock assembly (MATH §6: constraint impulses cancel in the
+/// equivalent built from stock parts (a mass, a Duffing spring, a damper and a SIN force source,
+/// each to ground and joined at one port): positions, and the user part's momentum against the
+/// joint momentum `p_M + p_S + p_D + p_F` of the stock assembly (MATH §6: constraint impulses cancel in the
 /// sum). The AutoDiff part works in all three representations.
 #[test]
 fn autodiff_part_matches_stock_equivalent() {
@@ -79,24 +71,22 @@ fn autodiff_part_matches_stock_equivalent() {
     let mut stock = Interconnection::new();
     let u = USER;
     stock
-        .add_subsystem(
-            Mass {
-                m: u.m,
-                k: u.k,
-                c: u.c,
-            }
-            .subsystem("M"),
-        )
+        .add_subsystem(Mass::new(u.m).unwrap().subsystem("M"))
         .unwrap();
     stock
-        .add_subsystem(Spring::cubic(0.0, u.k3).subsystem("S"))
+        .add_subsystem(Spring::cubic(u.k, u.k3).unwrap().subsystem("S"))
+        .unwrap();
+    stock
+        .add_subsystem(Damper::new(u.c).unwrap().subsystem("D"))
         .unwrap();
     stock
         .add_subsystem(
-            ForceSource::new(Waveform::sin(0.0, u.amplitude, u.frequency)).subsystem("F"),
+            ForceSource::new(Waveform::sin(0.0, u.amplitude, u.frequency))
+                .unwrap()
+                .subsystem("F"),
         )
         .unwrap();
-    for part in ["S", "F"] {
+    for part in ["S", "D", "F"] {
         let (a, b) = (
             stock.port("M", "x").unwrap(),
             stock.port(part, "x").unwrap(),
@@ -110,13 +100,13 @@ fn autodiff_part_matches_stock_equivalent() {
         &stock,
         Representation::Monolithic,
         options.clone(),
-        &[vec![x1], vec![x1], vec![x1], vec![x2]],
+        &[vec![x1], vec![x1], vec![x1], vec![x1], vec![x2]],
     );
     let mut reference_states = Vec::with_capacity(steps);
     for _ in 0..steps {
         reference.step();
-        let p = reference.p(0, 0) + reference.p(1, 0) + reference.p(2, 0);
-        reference_states.push([reference.q(0, 0), reference.q(3, 0), p]);
+        let p = (0..4).map(|s| reference.p(s, 0)).sum::<f64>();
+        reference_states.push([reference.q(0, 0), reference.q(4, 0), p]);
     }
     for rep in [
         Representation::Monolithic,

@@ -2,6 +2,8 @@
 
 use std::f64::consts::PI;
 
+use dirac_graph::{Check, PartError};
+
 /// The value of an independent source as a function of time.
 ///
 /// Semantics follow ngspice's `vsrcload.c`/`isrcload.c` (transient analysis), with every parameter
@@ -116,6 +118,71 @@ impl Waveform {
             "PWL times must be non-decreasing"
         );
         Self::Pwl(points)
+    }
+
+    /// Checks the waveform of a source of type `part` whose key is `key`: every value finite,
+    /// frequency, rise, fall and width non-negative, a pulse period positive (∞: one pulse), PWL
+    /// points present with non-decreasing times. Errors name the nested key (`waveform.period`,
+    /// `waveform.points[2]`).
+    ///
+    /// # Errors
+    /// [`PartError::Parameter`] for the first value out of range.
+    pub fn check(&self, part: &'static str, key: &str) -> Result<(), PartError> {
+        let c = Check::new(part);
+        let k = |name: &str| format!("{key}.{name}");
+        match self {
+            Self::Dc(v) => {
+                c.finite(key, *v)?;
+            }
+            Self::Sin {
+                offset,
+                amplitude,
+                frequency,
+                delay,
+                damping,
+                phase_deg,
+            } => {
+                c.finite(&k("offset"), *offset)?;
+                c.finite(&k("amplitude"), *amplitude)?;
+                c.non_negative(&k("frequency"), *frequency)?;
+                c.finite(&k("delay"), *delay)?;
+                c.finite(&k("damping"), *damping)?;
+                c.finite(&k("phase"), *phase_deg)?;
+            }
+            Self::Pulse {
+                v1,
+                v2,
+                delay,
+                rise,
+                fall,
+                width,
+                period,
+            } => {
+                if period.is_nan() || *period <= 0.0 {
+                    return Err(c.fail(&k("period"), *period, "must be positive"));
+                }
+                c.finite(&k("v1"), *v1)?;
+                c.finite(&k("v2"), *v2)?;
+                c.finite(&k("delay"), *delay)?;
+                c.non_negative(&k("rise"), *rise)?;
+                c.non_negative(&k("fall"), *fall)?;
+                c.non_negative(&k("width"), *width)?;
+            }
+            Self::Pwl(points) => {
+                if points.is_empty() {
+                    return Err(c.fail(&k("points"), 0.0, "must hold at least one point"));
+                }
+                for (i, p) in points.iter().enumerate() {
+                    let at = format!("{key}.points[{i}]");
+                    c.finite(&at, p.0)?;
+                    c.finite(&at, p.1)?;
+                    if i > 0 && p.0 < points[i - 1].0 {
+                        return Err(c.fail(&at, p.0, "must not come before the previous time"));
+                    }
+                }
+            }
+        }
+        Ok(())
     }
 
     /// The value at time `t`.

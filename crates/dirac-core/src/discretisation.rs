@@ -133,6 +133,15 @@ impl Discretisation {
         (2 * s).min(rule_order)
     }
 
+    /// Whether this is the trapezoid rule on the linear path (both rules Lobatto with 2 nodes):
+    /// Störmer–Verlet on a separable model, which needs no Newton iteration there.
+    #[must_use]
+    pub fn is_trapezoid(&self) -> bool {
+        self.path.degree() == 1
+            && self.lagrangian_rule.kind() == QuadratureKind::Lobatto(2)
+            && self.force_rule.kind() == QuadratureKind::Lobatto(2)
+    }
+
     /// Whether the unforced step map is symmetric (self-adjoint): symmetric rules on any path.
     #[must_use]
     pub fn is_symmetric(&self) -> bool {

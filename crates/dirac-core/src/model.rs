@@ -147,6 +147,18 @@ pub trait Model {
     fn coordinate_name(&self, i: usize) -> String {
         format!("q{i}")
     }
+
+    /// The constant mass matrix `M` (full symmetric triplets, duplicates summed) when the model is
+    /// *separable*: `L = ½vᵀMv − V(q)` with `M` constant, `∂L/∂q` independent of `v`, and a
+    /// force `f(q, t)` independent of `v`. `None` unless proven (the default).
+    ///
+    /// A separable model without constraints steps explicitly with the trapezoid rule
+    /// (Störmer–Verlet): the step equations are then linear in the unknowns with the matrix `M/h`
+    /// (MATH §3), so no Newton iteration is needed. `M` may be singular (a massless coordinate);
+    /// the integrator then keeps the Newton path.
+    fn separable(&self) -> Option<Triplets> {
+        None
+    }
 }
 
 impl<M: Model + ?Sized> Model for &M {
@@ -191,5 +203,8 @@ impl<M: Model + ?Sized> Model for &M {
     }
     fn coordinate_name(&self, i: usize) -> String {
         (**self).coordinate_name(i)
+    }
+    fn separable(&self) -> Option<Triplets> {
+        (**self).separable()
     }
 }

@@ -284,6 +284,27 @@ impl Model for AssembledModel {
         self.autonomous
     }
 
+    /// Separable when every part is and no coupling force depends on the flows: the mass
+    /// matrix is then block diagonal over the parts (coupling potentials depend on positions
+    /// only, in whichever representation they sit).
+    fn separable(&self) -> Option<Triplets> {
+        if self
+            .couplings
+            .iter()
+            .any(|c| c.element.has_force() && c.element.force_depends_on_velocity())
+        {
+            return None;
+        }
+        let mut mass = Triplets::new();
+        for p in &self.parts {
+            let part = p.model.separable()?;
+            for (r, c, m) in part.iter() {
+                mass.add(p.offset + r, p.offset + c, m);
+            }
+        }
+        Some(mass)
+    }
+
     fn depends_on_time(&self, i: usize) -> bool {
         let part = self.parts.partition_point(|p| p.offset + p.dim <= i);
         let own = self

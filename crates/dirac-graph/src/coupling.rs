@@ -30,6 +30,12 @@ pub trait CouplingElement: Send + Sync {
     fn force(&self, _x: [f64; 2], _v: [f64; 2], _t: f64) -> [f64; 2] {
         [0.0; 2]
     }
+    /// Whether the force depends on the flows `v_a`, `v_b` (a damper). Conservative default: any
+    /// force does. An element whose force depends on `(x, t)` only keeps a model separable
+    /// ([`dirac_core::Model::separable`]).
+    fn force_depends_on_velocity(&self) -> bool {
+        self.has_force()
+    }
     /// `(∂f/∂x, ∂f/∂v)`, each 2×2 with rows `(f_a, f_b)`.
     fn force_jacobian(&self, _x: [f64; 2], _v: [f64; 2], _t: f64) -> [[[f64; 2]; 2]; 2] {
         [[[0.0; 2]; 2]; 2]
@@ -49,15 +55,18 @@ pub trait CouplingElement: Send + Sync {
     fn describe(&self) -> String;
 }
 
-/// Linear spring `V = ½k(x_a − x_b − ℓ)²`.
+/// Linear spring `V = ½k(x_a − x_b − ℓ)²`: a coupling for this crate's tests, which cannot use the
+/// parts of `dirac-components` (that crate depends on this one).
+#[cfg(test)]
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LinearSpring {
+pub(crate) struct LinearSpring {
     /// Stiffness.
-    pub k: f64,
+    pub(crate) k: f64,
     /// Rest offset `ℓ`.
-    pub rest: f64,
+    pub(crate) rest: f64,
 }
 
+#[cfg(test)]
 impl CouplingElement for LinearSpring {
     fn has_potential(&self) -> bool {
         true
@@ -84,13 +93,15 @@ impl CouplingElement for LinearSpring {
     }
 }
 
-/// Linear damper `f_a = −c(v_a − v_b) = −f_b`.
+/// Linear damper `f_a = −c(v_a − v_b) = −f_b`: a coupling for this crate's tests.
+#[cfg(test)]
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LinearDamper {
+pub(crate) struct LinearDamper {
     /// Damping coefficient.
-    pub c: f64,
+    pub(crate) c: f64,
 }
 
+#[cfg(test)]
 impl CouplingElement for LinearDamper {
     fn has_force(&self) -> bool {
         true

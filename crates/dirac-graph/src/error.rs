@@ -2,9 +2,14 @@
 
 use thiserror::Error;
 
+use crate::part_error::PartError;
+
 /// A modelling error, naming the subsystem, port or connection at fault.
-#[derive(Debug, Clone, PartialEq, Eq, Error)]
+#[derive(Debug, Clone, PartialEq, Error)]
 pub enum GraphError {
+    /// A part's parameter is out of range.
+    #[error(transparent)]
+    Part(#[from] PartError),
     /// Two subsystems share a name.
     #[error("subsystem `{0}` is defined twice")]
     DuplicateSubsystem(String),

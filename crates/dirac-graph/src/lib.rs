@@ -22,6 +22,7 @@ mod assembler;
 mod coupling;
 mod error;
 mod interconnection;
+mod part_error;
 mod port_constraint;
 mod subsystem;
 
@@ -29,10 +30,11 @@ pub use assembler::{
     AssembledConstraints, AssembledModel, AssembledSystem, Assembler, FrozenCouplingModel,
     Representation, SharedConstraints, StaggeredLink, StaggeredPlan,
 };
-pub use coupling::{CouplingElement, LinearDamper, LinearSpring};
+pub use coupling::CouplingElement;
 pub use error::GraphError;
 pub use interconnection::{
     Connection, ConnectionId, Interconnection, MAX_CONSTRAINT_PORTS, PortRef, SubsystemId,
 };
+pub use part_error::{Check, PartError};
 pub use port_constraint::PortConstraint;
 pub use subsystem::{Port, Subsystem};

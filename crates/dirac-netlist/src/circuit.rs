@@ -3,8 +3,8 @@
 use std::collections::HashMap;
 
 use dirac_components::{
-    Capacitor, CoupledInductors, CurrentSource, Diode, DiodeParameters, Inductor, Resistor,
-    VoltageSource, Waveform,
+    Capacitor, CircuitBuilder, CoupledInductors, CurrentSource, Diode, DiodeParameters, Inductor,
+    PartError, Resistor, VoltageSource, Waveform,
 };
 use dirac_graph::{ConnectionId, GraphError, Interconnection, PortRef, Subsystem};
 use dirac_sim::{
@@ -50,6 +50,21 @@ pub enum CircuitError {
         column: usize,
         /// What is wrong.
         message: String,
+    },
+    /// An element's value is outside what its part accepts (a negative capacitance, a waveform
+    /// value that is not finite).
+    #[error("{file}:{line}:{column}: element `{element}`: {source}")]
+    Part {
+        /// File name.
+        file: String,
+        /// Line of the element's card.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// The element as written.
+        element: String,
+        /// What the part's constructor refused.
+        source: Box<PartError>,
     },
     /// A diode's model parameters cannot be used.
     #[error("diode `{element}`: {source}")]
@@ -392,21 +407,31 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     }
     let conditions = DeviceConditions::read(netlist, file)?;
     let mut notes = Vec::new();
-    let mut graph = Interconnection::new();
+    let mut circuit = CircuitBuilder::new();
     let mut q0 = Vec::new();
     let mut v0 = Vec::new();
     let mut given_q = Vec::new();
     let mut given_v = Vec::new();
     let mut branches: HashMap<String, Branch> = HashMap::new();
-    let mut k_subsystem: HashMap<usize, usize> = HashMap::new();
+    let mut k_subsystem: HashMap<usize, (usize, String)> = HashMap::new();
     let mut capacitors = Vec::new();
+    let located = |e: usize, source: PartError| {
+        let origin = &netlist.origins[e];
+        CircuitError::Part {
+            file: file.to_string(),
+            line: origin.line,
+            column: origin.column,
+            element: origin.name.clone(),
+            source: Box::new(source),
+        }
+    };
 
-    let mut add = |graph: &mut Interconnection,
+    let mut add = |circuit: &mut CircuitBuilder,
                    s: Subsystem,
                    q: (Vec<f64>, Vec<bool>),
                    v: (Vec<f64>, Vec<bool>)|
      -> Result<usize, GraphError> {
-        let id = graph.add_subsystem(s)?;
+        let id = circuit.add(s)?;
         q0.push(q.0);
         given_q.push(q.1);
         v0.push(v.0);
@@ -423,13 +448,9 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             netlist.inductor(l1).unwrap_or((0.0, None)),
             netlist.inductor(l2).unwrap_or((0.0, None)),
         );
-        let part = CoupledInductors {
-            l1: v1,
-            l2: v2,
-            k: *k,
-        };
+        let part = CoupledInductors::new(v1, v2, *k).map_err(|err| located(e, err))?;
         let s = add(
-            &mut graph,
+            &mut circuit,
             part.subsystem(name.clone()),
             none(2),
             (
@@ -437,26 +458,34 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 vec![ic1.is_some(), ic2.is_some()],
             ),
         )?;
-        k_subsystem.insert(e, s);
+        k_subsystem.insert(e, (s, name.clone()));
     }
-    for element in &netlist.elements {
+    // Every other element is a part of its own between its two nodes, in card order; a coupled
+    // inductor is a winding of its K part. The builder sets the port signs from terminal order.
+    for (e, element) in netlist.elements.iter().enumerate() {
+        let check = |part: Result<Subsystem, PartError>| part.map_err(|err| located(e, err));
         let (name, part, q, v) = match element {
             Element::R { name, value, .. } => (
                 name,
-                Resistor { r: *value }.subsystem(name.clone()),
+                check(Resistor::new(*value).map(|p| p.subsystem(name.clone())))?,
                 none(1),
                 none(1),
             ),
             Element::L {
-                name, value, ic, ..
+                name,
+                value,
+                ic,
+                n1,
+                n2,
             } => {
                 if let Some(&(k, winding)) = coupled.get(name.as_str()) {
-                    let subsystem = k_subsystem[&k];
+                    let (subsystem, part) = &k_subsystem[&k];
                     let port = if winding == 0 { "i1" } else { "i2" };
+                    circuit.connect(part, port, n1, n2)?;
                     branches.insert(
                         name.clone(),
                         Branch {
-                            subsystem,
+                            subsystem: *subsystem,
                             port,
                             coordinate: winding,
                         },
@@ -465,7 +494,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 }
                 (
                     name,
-                    Inductor { l: *value }.subsystem(name.clone()),
+                    check(Inductor::new(*value).map(|p| p.subsystem(name.clone())))?,
                     none(1),
                     (vec![ic.unwrap_or(0.0)], vec![ic.is_some()]),
                 )
@@ -481,20 +510,20 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 let volts = netlist.capacitor_voltage(n1, n2, *ic);
                 (
                     name,
-                    Capacitor { c: *value }.subsystem(name.clone()),
+                    check(Capacitor::new(*value).map(|p| p.subsystem(name.clone())))?,
                     (vec![value * volts.unwrap_or(0.0)], vec![volts.is_some()]),
                     none(1),
                 )
             }
             Element::V { name, source, .. } => (
                 name,
-                VoltageSource::new(waveform(source)).subsystem(name.clone()),
+                check(VoltageSource::new(waveform(source)).map(|p| p.subsystem(name.clone())))?,
                 none(1),
                 none(1),
             ),
             Element::I { name, source, .. } => (
                 name,
-                CurrentSource::new(waveform(source)).subsystem(name.clone()),
+                check(CurrentSource::new(waveform(source)).map(|p| p.subsystem(name.clone())))?,
                 none(2),
                 none(2),
             ),
@@ -524,7 +553,10 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             }
             Element::K { .. } => continue,
         };
-        let s = add(&mut graph, part, q, v)?;
+        let s = add(&mut circuit, part, q, v)?;
+        if let Some((a, b)) = element.terminals() {
+            circuit.connect(name, "i", a, b)?;
+        }
         branches.insert(
             name.clone(),
             Branch {
@@ -534,42 +566,46 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             },
         );
     }
-    // KCL at every non-ground node: a branch's flow leaves its first node and enters its second.
-    let node_names = netlist.nodes();
-    let mut terminals: HashMap<&str, Vec<(PortRef, f64)>> = HashMap::new();
-    for element in &netlist.elements {
-        let Some((a, b)) = element.terminals() else {
+    // A node on a single element (ngspice warns and solves it): KCL says that element carries no
+    // current. A 0 A source from the node to ground keeps that row and gives the node its
+    // potential (the source's voltage, a multiplier of the row).
+    let mut terminals: HashMap<&str, Vec<usize>> = HashMap::new();
+    for (e, element) in netlist.elements.iter().enumerate() {
+        if let Some((a, b)) = element.terminals() {
+            terminals.entry(a).or_default().push(e);
+            terminals.entry(b).or_default().push(e);
+        }
+    }
+    for node in netlist.nodes() {
+        let Some(&[only]) = terminals.get(node.as_str()).map(Vec::as_slice) else {
             continue;
         };
-        let branch = &branches[element.name()];
-        let port = graph.port(graph.subsystems()[branch.subsystem].name(), branch.port)?;
-        terminals.entry(a).or_default().push((port, -1.0));
-        terminals.entry(b).or_default().push((port, 1.0));
+        if CircuitBuilder::is_ground(&node) {
+            continue;
+        }
+        let name = format!("open({node})");
+        notes.push(format!(
+            "node `{node}` connects to a single element ({}), which therefore carries no current",
+            netlist.elements[only].name()
+        ));
+        let source = CurrentSource::new(Waveform::Dc(0.0)).map_err(|err| located(only, err))?;
+        add(
+            &mut circuit,
+            source.subsystem(name.clone()),
+            none(2),
+            none(2),
+        )?;
+        circuit.connect(&name, "i", &node, "0")?;
     }
+    // KCL at every non-ground node, in order of first appearance (`Netlist::nodes`' order).
+    let graph = circuit.build()?;
     let mut nodes = HashMap::new();
     let mut signals = Vec::new();
-    for node in &node_names {
-        let mut ports = terminals.remove(node.as_str()).unwrap_or_default();
-        if ports.len() == 1 {
-            // A node on a single element (ngspice warns and solves it): KCL says that element
-            // carries no current. A 0 A source from the node to ground keeps that row and gives
-            // the node its potential (the source's voltage, a multiplier of the row).
-            let name = format!("open({node})");
-            notes.push(format!(
-                "node `{node}` connects to a single element ({}), which therefore carries no current",
-                graph.subsystems()[ports[0].0.subsystem.0].name()
-            ));
-            add(
-                &mut graph,
-                CurrentSource::new(Waveform::Dc(0.0)).subsystem(name.clone()),
-                none(2),
-                none(2),
-            )?;
-            ports.push((graph.port(&name, "i")?, -1.0));
-        }
-        let connection = graph.node(node.clone(), ports)?;
-        nodes.insert(node.clone(), connection);
+    for (i, node) in graph.connections().iter().enumerate() {
+        let connection = ConnectionId(i);
+        let node = node.name().to_string();
         signals.push(Signal::new(format!("v({node})"), Probe::Effort(connection)));
+        nodes.insert(node, connection);
     }
     let holds = netlist
         .ic

@@ -5,7 +5,10 @@
 //!   `0.15000000000000002`), values in the shortest form that reads back to the same `f64`.
 //! - [`Table::read`] reads such a file back, with `file:line:column` errors.
 //! - [`LineChart`] draws series to SVG or PNG with a bundled font (no system fonts needed).
+//! - [`animate::svg_frames`] draws a three-dimensional motion as a sequence of projected SVG
+//!   frames.
 
+pub mod animate;
 mod chart;
 mod table;
 

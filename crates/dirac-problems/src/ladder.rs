@@ -15,7 +15,7 @@ use crate::LadderSection;
 /// Only if the graph rejects a port or a name, which would be a bug in this builder.
 pub fn rlc_ladder(sections: usize, section: LadderSection) -> Result<Interconnection, GraphError> {
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::dc(1.0).subsystem("V1"))?;
+    g.add_subsystem(VoltageSource::dc(1.0)?.subsystem("V1"))?;
     let prototype = Subsystem::new("S", section)
         .with_port("series", 0)
         .with_port("shunt", 1);

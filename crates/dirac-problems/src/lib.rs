@@ -6,16 +6,20 @@
 
 mod chain;
 mod double_pendulum;
+mod henon_heiles;
 mod ladder;
 mod mechanics;
 mod oscillator;
 mod pendulum;
+mod rc_ladder;
 mod rlc;
 
 pub use chain::SpringChain;
 pub use double_pendulum::{DoublePendulum, DoublePendulumGeneric};
+pub use henon_heiles::{HenonHeiles, HenonHeilesGeneric};
 pub use ladder::rlc_ladder;
 pub use mechanics::{CircleConstraint, FreeMasses};
 pub use oscillator::{ArtificialPotential, DampedOscillator, SplitOscillator};
 pub use pendulum::{QuarticPendulums, QuarticPendulumsGeneric};
+pub use rc_ladder::{RC_LADDER_FREQUENCY, RcLadder, RcLadderExact, RcSection};
 pub use rlc::{LadderSection, LcTank, RlcLoop, rlc_exact};

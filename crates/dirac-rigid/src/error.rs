@@ -41,7 +41,14 @@ pub enum RigidError {
         /// Its kind.
         kind: crate::joint::JointKind,
     },
-    /// A graph operation failed (unknown body or port, bad connection).
+    /// A graph operation failed (unknown body or port, bad connection, a part's parameter out of
+    /// range).
     #[error(transparent)]
     Graph(#[from] dirac_graph::GraphError),
+}
+
+impl From<dirac_graph::PartError> for RigidError {
+    fn from(e: dirac_graph::PartError) -> Self {
+        Self::Graph(e.into())
+    }
 }

@@ -40,6 +40,16 @@ impl JointFrame {
         }
     }
 
+    /// The frame at `origin` whose `z` axis is along `z` and whose `x` axis is `x` with its
+    /// component along `z` removed (`x` must not be parallel to `z`).
+    #[must_use]
+    pub fn oriented(origin: [f64; 3], z: [f64; 3], x: [f64; 3]) -> Self {
+        Self {
+            origin,
+            axes: so3::frame_with_zx(z, x),
+        }
+    }
+
     /// The frame at `origin` with axes `axes` (columns).
     #[must_use]
     pub fn new(origin: [f64; 3], axes: Mat3) -> Self {
@@ -278,6 +288,45 @@ impl Joint {
         let ports = self.body_ports(g)?;
         let (dots, names): (Vec<_>, Vec<_>) = self.dots(0).into_iter().unzip();
         Ok(g.holonomic(name, ports, DotRows { dots, names })?)
+    }
+
+    /// Adds the joint to `g` as one holonomic connection per row, named `{name}[k]` (the rows of
+    /// [`Joint::connect`], in its order), so that each row's multiplier can be recorded on its own:
+    /// for the spherical, revolute, universal and fixed kinds rows 0, 1, 2 are `Δx, Δy, Δz = 0`
+    /// with `Δ = O_A − O_B` in space axes, and their multipliers are the components of the force
+    /// the joint exerts on body `B` (minus that on `A`). The motion is that of [`Joint::connect`]:
+    /// the same rows enter the same step equations.
+    ///
+    /// # Errors
+    /// As [`Joint::connect`].
+    pub fn connect_rows(
+        &self,
+        g: &mut Interconnection,
+        name: &str,
+    ) -> Result<Vec<ConnectionId>, RigidError> {
+        self.check(name)?;
+        let ports = self.body_ports(g)?;
+        self.dots(0)
+            .into_iter()
+            .enumerate()
+            .map(|(k, (dot, row))| {
+                let rows = DotRows {
+                    dots: vec![dot],
+                    names: vec![row],
+                };
+                Ok(g.holonomic(format!("{name}[{k}]"), ports.clone(), rows)?)
+            })
+            .collect()
+    }
+
+    /// Whether rows 0, 1, 2 are the coincidence of the joint origins (spherical, revolute,
+    /// universal, fixed), so that their multipliers are a reaction force.
+    #[must_use]
+    pub fn has_point_rows(&self) -> bool {
+        matches!(
+            self.kind,
+            JointKind::Spherical | JointKind::Revolute | JointKind::Universal | JointKind::Fixed
+        )
     }
 
     /// Adds a coupling `name` that ties the one-dimensional port `coordinate` (a motor shaft, a

@@ -172,16 +172,12 @@ pub struct MotorArm {
 impl MotorArm {
     /// The bundled example: a 6 V motor (k = 0.5, R = 1, L = 0.01, J = 1e-3, b = 0.02) through a
     /// 0.8 gear, a 1 kg column 0.5 m tall, a 0.5 kg arm 0.4 m long, hinge damping 0.05 N·m·s.
-    #[must_use]
-    pub fn governor() -> Self {
-        Self {
-            motor: dirac_components::DcMotor {
-                k: 0.5,
-                r: 1.0,
-                l: 0.01,
-                j: 1e-3,
-                b: 0.02,
-            },
+    ///
+    /// # Errors
+    /// None in practice: the motor's constants pass [`dirac_components::DcMotor::new`]'s checks.
+    pub fn governor() -> Result<Self, RigidError> {
+        Ok(Self {
+            motor: dirac_components::DcMotor::new(0.5, 1.0, 0.01, 1e-3, 0.02)?,
             voltage: 6.0,
             ratio: 0.8,
             column: (1.0, [0.1, 0.1, 0.5]),
@@ -189,7 +185,7 @@ impl MotorArm {
             hinge_damping: 0.05,
             initial_angle: 0.2,
             g: 9.81,
-        }
+        })
     }
 
     /// The base joint (ground to column, about z).
@@ -250,17 +246,12 @@ impl MotorArm {
         let column = RigidBody::cuboid(self.column.0, self.column.1)?.with_gravity(gravity);
         let arm = RigidBody::cuboid(self.arm.0, self.arm.1)?.with_gravity(gravity);
         let mut g = Interconnection::new();
-        g.add_subsystem(VoltageSource::dc(self.voltage).subsystem("V"))?;
+        g.add_subsystem(VoltageSource::dc(self.voltage)?.subsystem("V"))?;
         g.add_subsystem(self.motor.subsystem("M"))?;
-        g.add_subsystem(IdealGear { ratio: self.ratio }.subsystem("G"))?;
+        g.add_subsystem(IdealGear::new(self.ratio)?.subsystem("G"))?;
         g.add_subsystem(column.subsystem("column"))?;
         g.add_subsystem(arm.subsystem("arm"))?;
-        g.add_subsystem(
-            Damper {
-                c: self.hinge_damping,
-            }
-            .rotational_subsystem("D"),
-        )?;
+        g.add_subsystem(Damper::new(self.hinge_damping)?.rotational_subsystem("D"))?;
         let (vi, mi) = (g.port("V", "i")?, g.port("M", "i")?);
         g.node("a", vec![(vi, -1.0), (mi, -1.0)])?;
         g.node("gnd", vec![(vi, 1.0), (mi, 1.0)])?;

@@ -144,8 +144,9 @@ pub fn det(a: &Mat3) -> f64 {
     dot(&a[0], &cross(&a[1], &a[2]))
 }
 
-/// A unit vector perpendicular to the unit vector `n` (the one closest to the coordinate axis
-/// `n` is least aligned with), so that `(p, n × p, n)` is a right-handed frame.
+/// A unit vector perpendicular to the unit vector `n`: the coordinate axis least aligned with `n`
+/// (the first of equals), with its component along `n` removed. For `n = e_z` it is `e_x`, for
+/// `n = e_y` also `e_x`, for `n = e_x` it is `e_y`.
 #[must_use]
 pub fn perpendicular(n: &[f64; 3]) -> [f64; 3] {
     let k = (0..3)
@@ -153,18 +154,31 @@ pub fn perpendicular(n: &[f64; 3]) -> [f64; 3] {
         .unwrap_or(0);
     let mut e = [0.0; 3];
     e[k] = 1.0;
-    let c = cross(n, &e);
+    let along = dot(&e, n);
+    let c = [0, 1, 2].map(|i| e[i] - along * n[i]);
     let l = dot(&c, &c).sqrt();
     c.map(|x| x / l)
 }
 
 /// The rotation whose third column is the unit vector along `axis`: columns
-/// `(p, axis × p, axis)` with `p` from [`perpendicular`].
+/// `(p, axis × p, axis)` with `p` from [`perpendicular`] (so `frame_with_z(e_z)` is the identity).
 #[must_use]
 pub fn frame_with_z(axis: [f64; 3]) -> Mat3 {
     let l = dot(&axis, &axis).sqrt();
     let z = axis.map(|c| c / l);
-    let x = perpendicular(&z);
+    frame_with_zx(z, perpendicular(&z))
+}
+
+/// The rotation whose third column is along `z` and whose first column is `x` with its component
+/// along `z` removed (both normalised here); `x` must not be parallel to `z`.
+#[must_use]
+pub fn frame_with_zx(z: [f64; 3], x: [f64; 3]) -> Mat3 {
+    let lz = dot(&z, &z).sqrt();
+    let z = z.map(|c| c / lz);
+    let along = dot(&x, &z);
+    let x = [0, 1, 2].map(|i| x[i] - along * z[i]);
+    let lx = dot(&x, &x).sqrt();
+    let x = x.map(|c| c / lx);
     let y = cross(&z, &x);
     [[x[0], y[0], z[0]], [x[1], y[1], z[1]], [x[2], y[2], z[2]]]
 }
@@ -203,6 +217,7 @@ mod tests {
 
     #[test]
     fn frame_with_z_is_a_right_handed_rotation() {
+        assert_eq!(frame_with_z([0.0, 0.0, 2.0]), IDENTITY);
         for axis in [[0.0, 0.0, 1.0], [1.0, 1.0, 0.0], [-0.2, 0.9, 0.1]] {
             let f = frame_with_z(axis);
             assert!(orthonormality_error(&f) < ULPS);

@@ -22,8 +22,12 @@ fn torsion_period(h: f64) -> (f64, f64) {
         .with_gravity([0.0, 0.0, -9.81]);
     let mut g = Interconnection::new();
     g.add_subsystem(plate.subsystem("plate")).expect("unique");
-    g.add_subsystem(Spring::linear(k).rotational_subsystem("spring"))
-        .expect("unique");
+    g.add_subsystem(
+        Spring::linear(k)
+            .expect("spring")
+            .rotational_subsystem("spring"),
+    )
+    .expect("unique");
     let joint = Joint::new(
         JointKind::Revolute,
         Side::ground(JointFrame::at([0.0; 3])),
@@ -86,7 +90,7 @@ fn torsion_spring_on_a_revolute_joint() {
 
 /// Runs the governor arm for `t_end` and returns its final column speed and arm angle.
 fn governor(h: f64, t_end: f64) -> (f64, f64, f64) {
-    let arm = MotorArm::governor();
+    let arm = MotorArm::governor().expect("governor");
     let m = arm.build().expect("arm");
     let mut run = Run::new(
         &m.graph,
@@ -126,7 +130,7 @@ const RESIDUAL: f64 = 1e-12;
 /// Mutation seen to fail: the gear ratio inverted in the closed form (speed error 0.36).
 #[test]
 fn motor_driven_arm_reaches_the_governor_equilibrium() {
-    let (omega, alpha) = MotorArm::governor().steady_state();
+    let (omega, alpha) = MotorArm::governor().expect("governor").steady_state();
     let mut angle_errors = Vec::new();
     for h in [4e-3, 2e-3] {
         let (speed, angle, residual) = governor(h, 20.0);

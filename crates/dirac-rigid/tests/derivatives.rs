@@ -108,7 +108,7 @@ fn joint_rows_match_differences() {
             let mut g = Interconnection::new();
             g.add_subsystem(body.subsystem("A")).expect("unique");
             g.add_subsystem(body.subsystem("B")).expect("unique");
-            g.add_subsystem(Inertia::free(0.1).subsystem("rotor"))
+            g.add_subsystem(Inertia::new(0.1).expect("rotor").subsystem("rotor"))
                 .expect("unique");
             let a = if ground {
                 Side::ground(frame_a)

@@ -15,8 +15,9 @@
 mod common;
 
 use common::{Run, pivot_momentum, trapezoid, vec_diff};
+use dirac_components::Spring;
 use dirac_core::Discretisation;
-use dirac_graph::{Interconnection, LinearSpring, Representation};
+use dirac_graph::{Interconnection, Representation};
 use dirac_rigid::{Joint, JointFrame, JointKind, RigidBody, Side, so3};
 use dirac_sim::IntegratorOptions;
 
@@ -211,7 +212,7 @@ fn spring_as_potential_or_interaction_force_gives_the_same_motion() {
             format!("spring {axis}"),
             a,
             b,
-            LinearSpring { k: 40.0, rest: 0.0 },
+            Spring::linear(40.0).expect("spring"),
         );
     }
     let state = |anchor: [f64; 3], r: so3::Mat3, omega: [f64; 3]| {

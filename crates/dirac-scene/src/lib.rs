@@ -97,10 +97,10 @@
 //! | `voltage_source` | `waveform` | `q` | `i` |
 //! | `current_source` | `waveform` | `q`, `phi` | `i` |
 //! | `coupled_inductors` | `l1`, `l2` > 0, `k` ∈ [−1, 1] | `q1`, `q2` | `i1`, `i2` |
-//! | `diode` | `is` > 0, `n` (1), `vt` (kT/q at 300 K), `rs` (0) | `q`, `u` | `i` |
+//! | `diode` | `is` > 0, `n` (1), `temp` (°C, 27), `rs` (0) | `q`, `phi` | `i` |
 //! | `saturating_inductor` | `l0` > 0, `l_inf` ∈ [0, l0], `i_sat` > 0 | `q` | `i` |
-//! | `mass` | `m` > 0, wall spring `k` (0), wall damper `c` (0) | `x` | `x` |
-//! | `inertia` | `j` > 0, `k` (0), `c` (0) to the frame | `theta` | `theta` |
+//! | `mass` | `m` > 0 (a wall spring or damper is a coupling to a `ground`) | `x` | `x` |
+//! | `inertia` | `j` > 0 (torsion or friction to the frame: a coupling to a `ground`) | `theta` | `theta` |
 //! | `spring` (to ground) | `k` ≥ 0, `k3` (0), `rest` (0), `rotational` (false) | `x` / `theta` | same |
 //! | `damper` (to ground) | `c` ≥ 0, `rotational` | `x` / `theta` | same |
 //! | `force_source` (to ground) | `waveform`, `rotational` | `x` / `theta` | same |
@@ -131,8 +131,18 @@
 //! name = "A"
 //! type = "mass"
 //! m = 1.0
-//! k = 1.0
 //! q0 = 1.0
+//!
+//! [[part]]
+//! name = "wall"
+//! type = "ground"
+//!
+//! [[connection]]
+//! type = "coupling"
+//! name = "wall-A"
+//! a = "A.x"
+//! b = "wall.x"
+//! element = { type = "spring", k = 1.0 }
 //!
 //! [record]
 //! signals = ["A.x", "A.x'"]
@@ -158,10 +168,11 @@ pub use scene::model::{
     ActuatorElement, BodySpec, CapacitorParams, Connection, ConnectionKind, CoupledInductorsParams,
     DamperElement, DamperParams, DcMotorParams, DiodeParams, DiscretisationSpec, ELEMENT_TYPES,
     ElementSpec, ForceSourceParams, GroundParams, IdealGearParams, IdealTransformerParams,
-    InductorParams, InertiaParams, Initial, InitialSpec, MassParams, NodePort, PART_TYPES, Part,
-    PartKind, PendulumParams, PinSpec, PlanarLinkageParams, Record, RepresentationSpec,
-    ResistorParams, SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams,
-    SplittingSpec, SpringElement, SpringParams, WaveformSpec,
+    InductorParams, InertiaParams, InertiaSpec, Initial, InitialSpec, MassParams, NodePort,
+    PART_TYPES, Part, PartKind, PendulumParams, PinSpec, PlanarLinkageParams, RIGID_JOINT_TYPES,
+    Record, RepresentationSpec, ResistorParams, RigidBodyParams, RigidJointSpec, RotationSpec,
+    SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec,
+    SpringElement, SpringParams, WaveformSpec,
 };
 
 impl Scene {

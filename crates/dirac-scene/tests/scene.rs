@@ -332,13 +332,11 @@ i_sat = 2
 name = "M"
 type = "mass"
 m = 1
-c = 0.1
 
 [[part]]
 name = "J"
 type = "inertia"
 j = 0.5
-k = 2
 
 [[part]]
 name = "Sp"

@@ -10,6 +10,7 @@ use dirac_solve::{
 
 use crate::composition::Composition;
 use crate::error::SimError;
+use crate::explicit::ExplicitStep;
 use crate::linear::{AutoLu, SolverChoice};
 
 /// Relative size below which a reduced constraint row counts as linearly dependent.
@@ -43,6 +44,18 @@ impl From<Flavour> for Scheme {
     }
 }
 
+/// How a nonlinear step's Newton iteration is started from the previous steps' solutions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Predictor {
+    /// `2x_k − x_{k−1}`: the unknowns extrapolated linearly in `k` (error `O(h³)` in the
+    /// increments).
+    Linear,
+    /// The previous step's path polynomial `q(t_k + σh) = q_k + Σ ℓ_l(σ) Z^l` evaluated at the next
+    /// step's control points `σ = 1 + d_l` (error `O(h^{s+1})`); multipliers extrapolate linearly.
+    #[default]
+    Polynomial,
+}
+
 /// How to integrate: discretisation, flavour, step size and solver settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IntegratorOptions {
@@ -71,6 +84,14 @@ pub struct IntegratorOptions {
     /// default. With the symmetric scheme (or no constraints) the compositions of
     /// [`Composition`] raise the order of a second-order discretisation to 4, 6 or 8.
     pub composition: Composition,
+    /// Step a separable model ([`Model::separable`]) without constraints explicitly when the
+    /// discretisation is the trapezoid rule: Störmer–Verlet, the same map as the Newton path to
+    /// round-off at one force evaluation per substep (see [`Integrator::uses_explicit`]). On by
+    /// default; off forces the Newton path (for comparisons).
+    pub explicit: bool,
+    /// The Newton start of nonlinear steps (the solution is the same to the Newton tolerance;
+    /// the iteration count differs).
+    pub predictor: Predictor,
 }
 
 impl IntegratorOptions {
@@ -86,7 +107,23 @@ impl IntegratorOptions {
             affine_map: false,
             breakpoints: true,
             composition: Composition::single(),
+            explicit: true,
+            predictor: Predictor::Polynomial,
         }
+    }
+
+    /// Chooses the Newton start of nonlinear steps (see [`IntegratorOptions::predictor`]).
+    #[must_use]
+    pub fn predictor(mut self, predictor: Predictor) -> Self {
+        self.predictor = predictor;
+        self
+    }
+
+    /// Allows or forbids the explicit path (see [`IntegratorOptions::explicit`]).
+    #[must_use]
+    pub fn explicit(mut self, on: bool) -> Self {
+        self.explicit = on;
+        self
     }
 
     /// Lands substeps on source breakpoints (see [`IntegratorOptions::breakpoints`]).
@@ -163,6 +200,8 @@ pub struct Integrator<M, C> {
     p_next: Vec<f64>,
     stats: NewtonStats,
     affine: Affine,
+    /// The explicit Störmer–Verlet step, when the model qualifies.
+    explicit: Option<ExplicitStep>,
     /// Constraint impulses of the last step (all substeps and multiplier blocks), per active row.
     impulse: Vec<f64>,
     /// The state at the start of the step (restored when a substep fails and is cut).
@@ -255,6 +294,9 @@ struct Stage {
     aux: Option<(Newton<AutoLu>, f64)>,
     /// The size of the last solve (the guess of the next one is scaled from it).
     last_size: f64,
+    /// Row-major `s × s` map from the last increments `Z^{l'}` to the predicted next ones:
+    /// `ℓ_{l'}(1 + d_l) − δ_{l' s}` (empty for the linear predictor).
+    extrapolation: Vec<f64>,
 }
 
 impl Stage {
@@ -267,7 +309,23 @@ impl Stage {
     ) -> Self {
         let step = ForcedDiracStep::new(model, constraints, &options.discretisation, flavour, h);
         let unknowns = step.unknowns();
+        let path = options.discretisation.path();
+        let s = path.degree();
+        let mut extrapolation = Vec::new();
+        // The previous path is extrapolated over the next step only when the steps of this
+        // stage follow each other (one substep per step).
+        let contiguous =
+            options.composition.gammas().len() == 1 && options.scheme != Scheme::Symmetric;
+        if options.predictor == Predictor::Polynomial && contiguous && constraints.count() == 0 {
+            for &d in &path.control_nodes()[1..] {
+                for j in 1..=s {
+                    let end = if j == s { 1.0 } else { 0.0 };
+                    extrapolation.push(path.basis(1.0 + d, j) - end);
+                }
+            }
+        }
         Self {
+            extrapolation,
             fraction: h / options.h,
             aux: None,
             last_size: h,
@@ -370,8 +428,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
         let constraints = RowSubset::new(constraints, &[]);
         let stages = Stage::for_scheme(&model, &constraints, &options);
+        let explicit = explicit_step(&model, &constraints, &options);
         let n = model.dim();
         Ok(Self {
+            explicit,
             control_nodes: options.discretisation.path().control_nodes().to_vec(),
             model,
             constraints,
@@ -464,6 +524,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
         self.constraints.set_dropped(&analysis.dependent);
         self.stages = Stage::for_scheme(&self.model, &self.constraints, &self.options);
+        self.explicit = explicit_step(&self.model, &self.constraints, &self.options);
         self.affine = Affine::Unknown;
         Ok(())
     }
@@ -711,6 +772,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// Substep `i` at a size other than its regular one, solved with the stage's auxiliary Newton
     /// (the regular factorisation is kept).
     fn substep_sized(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
+        if self.explicit.is_some() {
+            return self.explicit_substep(i, size);
+        }
         let stage = &mut self.stages[i];
         let nominal = stage.step.step_size();
         stage.step.set_step_size(size);
@@ -807,7 +871,42 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
     }
 
+    /// Substep `i` of size `size` by the explicit Störmer–Verlet step (no Newton iteration).
+    fn explicit_substep(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
+        let t = self.t;
+        let stage = &mut self.stages[i];
+        let n = self.q.len();
+        if let Some(explicit) = &mut self.explicit
+            && let Err(equation) = explicit.step(
+                &self.model,
+                &mut self.q,
+                &mut self.p,
+                t,
+                size,
+                &mut stage.x[..n],
+            )
+        {
+            let source = NewtonError::NonFiniteResidual {
+                equation,
+                iterations: 0,
+            };
+            let likely_cause = self.likely_cause(&source);
+            return Err(SimError::Newton {
+                step: self.k,
+                t,
+                source,
+                likely_cause,
+            });
+        }
+        self.t += size;
+        Ok(NewtonStats::default())
+    }
+
     fn substep(&mut self, i: usize) -> Result<NewtonStats, SimError> {
+        if self.explicit.is_some() {
+            let size = self.stages[i].step.step_size();
+            return self.explicit_substep(i, size);
+        }
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
         // After the first step the guess extrapolates the previous solutions, still in
@@ -831,12 +930,30 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .step
                 .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
         } else if !constant {
-            for (x, old) in stage.x.iter_mut().zip(stage.older.iter_mut()) {
+            // Increments from the previous path polynomial (when chosen), multipliers (and,
+            // for the linear predictor, increments) extrapolated linearly in k.
+            let n = self.q.len();
+            let s = stage.step.degree();
+            let polynomial = if stage.extrapolation.is_empty() {
+                0
+            } else {
+                s * n
+            };
+            for (idx, (x, old)) in stage.x.iter_mut().zip(stage.older.iter_mut()).enumerate() {
                 let last = *x;
-                if self.k >= 2 {
+                if idx >= polynomial && self.k >= 2 {
                     *x = 2.0 * last - *old;
                 }
                 *old = last;
+            }
+            for (l, row) in stage.extrapolation.chunks_exact(s).enumerate() {
+                for i in 0..n {
+                    stage.x[l * n + i] = row
+                        .iter()
+                        .enumerate()
+                        .map(|(j, e)| e * stage.older[j * n + i])
+                        .sum();
+                }
             }
         }
         if constant {
@@ -868,6 +985,15 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         Ok(stats)
     }
 
+    /// Whether steps are explicit Störmer–Verlet steps: the model is separable
+    /// ([`Model::separable`], nonsingular mass matrix), no constraint row is active, the
+    /// discretisation is the trapezoid rule and [`IntegratorOptions::explicit`] is on. Such steps
+    /// do no Newton iterations (every substep of a composition is explicit too).
+    #[must_use]
+    pub fn uses_explicit(&self) -> bool {
+        self.explicit.is_some()
+    }
+
     /// Whether steps are applied as a precomputed linear map (linear autonomous model, constant
     /// constraint forms, one substep, `2n` and the unknown count at most 32). Such steps do no
     /// Newton iterations; [`Integrator::stats`] counts only the set-up.
@@ -880,7 +1006,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// an affine map) is applied to each basis state `e_i` of `(q, p)`.
     fn build_affine(&mut self) -> Result<Affine, SimError> {
         let n = self.q.len();
+        // The explicit path is exact and as cheap; the rounded affine map drifts (see
+        // [`IntegratorOptions::affine_map`]).
         let qualifies = self.options.affine_map
+            && self.explicit.is_none()
             && self.stages.len() == 1
             && self.model.is_autonomous()
             && self.stages[0]
@@ -1164,6 +1293,17 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     pub fn step_equations(&self) -> impl Iterator<Item = &ForcedDiracStep> {
         self.stages.iter().map(|s| &s.step)
     }
+}
+
+/// The explicit step if `options` allow it and the model and constraints qualify.
+fn explicit_step<M: Model, C: Constraints>(
+    model: &M,
+    constraints: &RowSubset<C>,
+    options: &IntegratorOptions,
+) -> Option<ExplicitStep> {
+    (options.explicit && constraints.count() == 0 && options.discretisation.is_trapezoid())
+        .then(|| ExplicitStep::new(model, options.solver))
+        .flatten()
 }
 
 /// Euclidean projection of `v` onto `ker A(q)`: solves `[I Aᵀ; A 0][w; μ] = [v; 0]`.

@@ -7,6 +7,7 @@
 
 mod composition;
 mod error;
+mod explicit;
 mod integrator;
 mod linear;
 mod modes;
@@ -23,7 +24,7 @@ mod trajectory;
 pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
 pub use error::{SimError, Time};
-pub use integrator::{Integrator, IntegratorOptions, Scheme, StepCounters, StepReport};
+pub use integrator::{Integrator, IntegratorOptions, Predictor, Scheme, StepCounters, StepReport};
 pub use linear::{AutoLu, SolverChoice};
 pub use modes::{
     FAST_DECAY_EXACT, MIN_STEPS_PER_PERIOD, MODAL_LIMIT, MethodResponse, Mode, ModeKind,

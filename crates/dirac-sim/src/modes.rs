@@ -627,12 +627,12 @@ fn balance(a: &mut DMatrix<f64>, b: &mut DMatrix<f64>) -> Vec<f64> {
                 b.row_mut(i).scale_mut(1.0 / big);
             }
         }
-        for j in 0..size {
+        for (j, col) in cols.iter_mut().enumerate() {
             let big = a.column(j).amax().max(b.column(j).amax());
             if big > 0.0 {
                 a.column_mut(j).scale_mut(1.0 / big);
                 b.column_mut(j).scale_mut(1.0 / big);
-                cols[j] /= big;
+                *col /= big;
             }
         }
     }

@@ -40,6 +40,17 @@ pub enum Probe {
     Sum(Vec<(Probe, f64)>),
     /// A constant (the ground node's potential).
     Constant(f64),
+    /// The product of two probes (a rigid body's angular velocity `vee(Ṙ Rᵀ)` is a sum of
+    /// products of rotation entries and their rates).
+    Product(Box<Probe>, Box<Probe>),
+    /// The angle `atan2(y, x)` of two probes, in `(−π, π]` (a joint's angle from the dot products
+    /// of its frames' axes).
+    Atan2 {
+        /// The sine side.
+        y: Box<Probe>,
+        /// The cosine side.
+        x: Box<Probe>,
+    },
 }
 
 /// A recorded column: its name and what it measures.
@@ -134,6 +145,9 @@ impl Probe {
         match self {
             Self::Effort(_) => true,
             Self::Sum(terms) => terms.iter().any(|(p, _)| p.needs_multipliers()),
+            Self::Product(a, b) | Self::Atan2 { y: a, x: b } => {
+                a.needs_multipliers() || b.needs_multipliers()
+            }
             _ => false,
         }
     }
@@ -175,6 +189,10 @@ impl Probe {
                 for (p, _) in terms {
                     p.visit(graph, offsets, velocity, multiplier);
                 }
+            }
+            Self::Product(a, b) | Self::Atan2 { y: a, x: b } => {
+                a.visit(graph, offsets, velocity, multiplier);
+                b.visit(graph, offsets, velocity, multiplier);
             }
             Self::Position { .. } | Self::ConstraintResidual | Self::Constant(_) => {}
         }
@@ -234,6 +252,12 @@ impl Snapshot {
                 .map(|(p, k)| k * self.evaluate(graph, offsets, p))
                 .sum(),
             Probe::Constant(value) => *value,
+            Probe::Product(a, b) => {
+                self.evaluate(graph, offsets, a) * self.evaluate(graph, offsets, b)
+            }
+            Probe::Atan2 { y, x } => self
+                .evaluate(graph, offsets, y)
+                .atan2(self.evaluate(graph, offsets, x)),
         }
     }
 }

@@ -19,7 +19,7 @@ use thiserror::Error;
 
 use crate::error::SimError;
 use crate::integrator::{Integrator, IntegratorOptions};
-use crate::modes::{ModesError, NaturalModes};
+use crate::modes::{MODAL_LIMIT, ModesError, NaturalModes};
 use crate::readout::{Readout, ReadoutError, ReadoutRow};
 use crate::signal::{Signal, Snapshot};
 use crate::staggered::{Splitting, Staggered};
@@ -33,6 +33,18 @@ pub enum Execution {
     Assembled(Representation),
     /// Co-simulation of the parts, each stepped against frozen partners.
     Staggered(Splitting),
+}
+
+impl From<Representation> for Execution {
+    fn from(representation: Representation) -> Self {
+        Self::Assembled(representation)
+    }
+}
+
+impl From<Splitting> for Execution {
+    fn from(splitting: Splitting) -> Self {
+        Self::Staggered(splitting)
+    }
 }
 
 impl std::fmt::Display for Execution {
@@ -173,10 +185,16 @@ impl std::fmt::Debug for Simulation {
 }
 
 impl Simulation {
-    /// A simulation of `graph` in `execution` with `options`, starting at `t = 0` from rest (every
-    /// position and velocity zero, none given) unless told otherwise.
+    /// A simulation of `graph` in `execution` (a [`Representation`], a [`Splitting`] or an
+    /// [`Execution`]) with `options`, starting at `t = 0` from rest (every position and velocity
+    /// zero, none given) unless told otherwise.
     #[must_use]
-    pub fn new(graph: Interconnection, execution: Execution, options: IntegratorOptions) -> Self {
+    pub fn new(
+        graph: Interconnection,
+        execution: impl Into<Execution>,
+        options: IntegratorOptions,
+    ) -> Self {
+        let execution = execution.into();
         let initial = graph
             .subsystems()
             .iter()
@@ -714,6 +732,15 @@ impl Simulation {
         match &mut self.engine {
             Some(Engine::Assembled(e)) => {
                 let integrator = &e.integrator;
+                let n = integrator.model().dim();
+                if n > MODAL_LIMIT {
+                    // Refused before the readout solve, which costs a factorisation at this size.
+                    return Err(ModesError::TooLarge {
+                        coordinates: n,
+                        limit: MODAL_LIMIT,
+                    }
+                    .into());
+                }
                 e.readout.solve(
                     integrator.model(),
                     integrator.active_constraints(),
@@ -850,7 +877,15 @@ impl Simulation {
             self.track_residual = true;
         }
         self.check_signals(signals)?;
-        self.engine = None;
+        // An engine prepared but not stepped yet (`prepare`, `natural_modes`) is the start
+        // state: reuse it instead of assembling and initialising again.
+        let fresh = matches!(
+            &self.engine,
+            Some(Engine::Assembled(e)) if e.integrator.steps_taken() == 0
+        );
+        if !fresh {
+            self.engine = None;
+        }
         self.prepare()?;
         let h = self.options.h;
         let steps = ((t_end - self.t0) / h).round() as usize;

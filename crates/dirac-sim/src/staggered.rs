@@ -143,8 +143,9 @@ mod tests {
 
     use super::*;
     use crate::test_models::Masses;
+    use dirac_components::Spring;
     use dirac_core::Discretisation;
-    use dirac_graph::{GraphError, LinearSpring, Subsystem};
+    use dirac_graph::{GraphError, Subsystem};
 
     const KAPPA: f64 = 3.0;
 
@@ -156,15 +157,7 @@ mod tests {
                 .unwrap();
         }
         let (a, b) = (g.port("a", "x").unwrap(), g.port("b", "x").unwrap());
-        g.coupling(
-            "s",
-            a,
-            b,
-            LinearSpring {
-                k: KAPPA,
-                rest: 0.0,
-            },
-        );
+        g.coupling("s", a, b, Spring::linear(KAPPA).unwrap());
         g
     }
 

@@ -2,8 +2,8 @@
 //! ordinary midpoint step of its own size, so the discrete power balance holds on every piece and
 //! every representation sees the same pieces (the same trajectory).
 
-use dirac_components::{Capacitor, ForceSource, Mass, Resistor, VoltageSource, Waveform};
-use dirac_graph::{Interconnection, LinearSpring, Representation};
+use dirac_components::{Capacitor, ForceSource, Mass, Resistor, Spring, VoltageSource, Waveform};
+use dirac_graph::{Interconnection, Representation};
 use dirac_sim::{Discretisation, Execution, IntegratorOptions, Probe, Signal, Simulation};
 
 /// A series RC driven by a PWL source with corners at 0.25 h and 2.6 h. The run must equal the
@@ -22,10 +22,12 @@ fn pieces_are_midpoint_steps_of_their_own_size() {
     ];
     let wave = Waveform::pwl(points.clone());
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::new(wave.clone()).subsystem("V"))
+    g.add_subsystem(VoltageSource::new(wave.clone()).unwrap().subsystem("V"))
         .unwrap();
-    g.add_subsystem(Resistor { r }.subsystem("R")).unwrap();
-    g.add_subsystem(Capacitor { c }.subsystem("C")).unwrap();
+    g.add_subsystem(Resistor::new(r).unwrap().subsystem("R"))
+        .unwrap();
+    g.add_subsystem(Capacitor::new(c).unwrap().subsystem("C"))
+        .unwrap();
     let port = |g: &Interconnection, p: &str| g.port(p, "i").unwrap();
     let (pv, pr, pc) = (port(&g, "V"), port(&g, "R"), port(&g, "C"));
     g.node("in", vec![(pv, -1.0), (pr, -1.0)]).unwrap();
@@ -88,20 +90,23 @@ fn pieces_are_midpoint_steps_of_their_own_size() {
 #[test]
 fn representations_agree_across_corners() {
     let mut g = Interconnection::new();
-    g.add_subsystem(Mass::free(1.0).subsystem("A")).unwrap();
-    g.add_subsystem(Mass::free(2.0).subsystem("B")).unwrap();
-    g.add_subsystem(Mass::free(1.0).subsystem("W")).unwrap();
+    g.add_subsystem(Mass::new(1.0).unwrap().subsystem("A"))
+        .unwrap();
+    g.add_subsystem(Mass::new(2.0).unwrap().subsystem("B"))
+        .unwrap();
+    g.add_subsystem(Mass::new(1.0).unwrap().subsystem("W"))
+        .unwrap();
     let (a, b, w) = (
         g.port("A", "x").unwrap(),
         g.port("B", "x").unwrap(),
         g.port("W", "x").unwrap(),
     );
-    g.coupling("spring", a, b, LinearSpring { k: 3.0, rest: 0.0 });
+    g.coupling("spring", a, b, Spring::linear(3.0).unwrap());
     g.coupling(
         "push",
         w,
         a,
-        ForceSource::new(Waveform::pulse(0.0, 1.0, 0.013, 0.002, 0.031, 0.05, 0.2)),
+        ForceSource::new(Waveform::pulse(0.0, 1.0, 0.013, 0.002, 0.031, 0.05, 0.2)).unwrap(),
     );
     let signals = vec![
         Signal::new("A", Probe::position(&g, "A", "x").unwrap()),

@@ -51,9 +51,10 @@ fn wire(g: &mut Interconnection, branches: &[(&str, &str, &str)]) {
 /// `V — R — D` to ground: source `V1` from `in` to 0, `R1` from `in` to `a`, `D1` from `a` to 0.
 fn source_resistor_diode(source: Waveform, r: f64, d: Diode) -> Interconnection {
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::new(source).subsystem("V1"))
+    g.add_subsystem(VoltageSource::new(source).expect("source").subsystem("V1"))
         .expect("V1");
-    g.add_subsystem(Resistor { r }.subsystem("R1")).expect("R1");
+    g.add_subsystem(Resistor::new(r).expect("resistance").subsystem("R1"))
+        .expect("R1");
     g.add_subsystem(d.subsystem("D1")).expect("D1");
     wire(
         &mut g,
@@ -256,14 +257,18 @@ fn rectifier_steps_keep_the_relations() {
     let h = 20e-6;
     let (r_in, r_load, c) = (10.0, 1e3, 100e-6);
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::new(Waveform::sin(0.0, 10.0, 50.0)).subsystem("V1"))
-        .expect("V1");
-    g.add_subsystem(Resistor { r: r_in }.subsystem("R1"))
+    g.add_subsystem(
+        VoltageSource::new(Waveform::sin(0.0, 10.0, 50.0))
+            .expect("source")
+            .subsystem("V1"),
+    )
+    .expect("V1");
+    g.add_subsystem(Resistor::new(r_in).expect("resistance").subsystem("R1"))
         .expect("R1");
     g.add_subsystem(d.subsystem("D1")).expect("D1");
-    g.add_subsystem(Capacitor { c }.subsystem("C1"))
+    g.add_subsystem(Capacitor::new(c).expect("capacitance").subsystem("C1"))
         .expect("C1");
-    g.add_subsystem(Resistor { r: r_load }.subsystem("RL"))
+    g.add_subsystem(Resistor::new(r_load).expect("resistance").subsystem("RL"))
         .expect("RL");
     wire(
         &mut g,
@@ -363,14 +368,18 @@ fn junction_charge_energy_balance() {
     let (r_in, r_load, c) = (1e3, 1e4, 10e-9);
     let freq = 1e5;
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::new(Waveform::sin(0.0, 5.0, freq)).subsystem("V1"))
-        .expect("V1");
-    g.add_subsystem(Resistor { r: r_in }.subsystem("R1"))
+    g.add_subsystem(
+        VoltageSource::new(Waveform::sin(0.0, 5.0, freq))
+            .expect("source")
+            .subsystem("V1"),
+    )
+    .expect("V1");
+    g.add_subsystem(Resistor::new(r_in).expect("resistance").subsystem("R1"))
         .expect("R1");
     g.add_subsystem(d.subsystem("D1")).expect("D1");
-    g.add_subsystem(Capacitor { c }.subsystem("C1"))
+    g.add_subsystem(Capacitor::new(c).expect("capacitance").subsystem("C1"))
         .expect("C1");
-    g.add_subsystem(Resistor { r: r_load }.subsystem("RL"))
+    g.add_subsystem(Resistor::new(r_load).expect("resistance").subsystem("RL"))
         .expect("RL");
     wire(
         &mut g,

@@ -9,8 +9,10 @@
 
 use std::f64::consts::{PI, TAU};
 
-use dirac_components::{Capacitor, Inductor, Mass, Pendulum, Resistor, VoltageSource};
-use dirac_graph::{Interconnection, LinearSpring, Representation};
+use dirac_components::{
+    Capacitor, Ground, Inductor, Mass, Pendulum, Resistor, Spring, VoltageSource,
+};
+use dirac_graph::{Interconnection, Representation};
 use dirac_sim::{
     Discretisation, Execution, IntegratorOptions, MethodResponse, ModeKind, NaturalModes,
     Simulation,
@@ -60,8 +62,8 @@ fn relative(a: f64, b: f64) -> f64 {
 fn lc_tank_and_seed_loop_have_their_closed_form_frequencies() {
     let (l, c, r) = (0.75, 3.0, 0.1);
     let tank = series_loop(vec![
-        Inductor { l }.subsystem("L1"),
-        Capacitor { c }.subsystem("C1"),
+        Inductor::new(l).unwrap().subsystem("L1"),
+        Capacitor::new(c).unwrap().subsystem("C1"),
     ]);
     let found = modes(tank, Representation::Monolithic, 0.05);
     let oscillations: Vec<_> = found.of_kind(ModeKind::Oscillation).collect();
@@ -80,9 +82,9 @@ fn lc_tank_and_seed_loop_have_their_closed_form_frequencies() {
     );
 
     let seed = series_loop(vec![
-        Capacitor { c }.subsystem("C1"),
-        Inductor { l }.subsystem("L1"),
-        Resistor { r }.subsystem("R1"),
+        Capacitor::new(c).unwrap().subsystem("C1"),
+        Inductor::new(l).unwrap().subsystem("L1"),
+        Resistor::new(r).unwrap().subsystem("R1"),
     ]);
     let found = modes(seed, Representation::Monolithic, 0.05);
     let mode = found.fastest(ModeKind::Oscillation).expect("oscillation");
@@ -125,12 +127,12 @@ fn rc_ladder_time_constants_are_the_path_laplacian_spectrum() {
 /// ground).
 fn rc_ladder(n: usize, r: f64, c: f64) -> Interconnection {
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::dc(1.0).subsystem("V"))
+    g.add_subsystem(VoltageSource::dc(1.0).unwrap().subsystem("V"))
         .expect("V");
     for k in 1..=n {
-        g.add_subsystem(Resistor { r }.subsystem(format!("R{k}")))
+        g.add_subsystem(Resistor::new(r).unwrap().subsystem(format!("R{k}")))
             .expect("R");
-        g.add_subsystem(Capacitor { c }.subsystem(format!("C{k}")))
+        g.add_subsystem(Capacitor::new(c).unwrap().subsystem(format!("C{k}")))
             .expect("C");
     }
     let port = |g: &Interconnection, name: String| g.port(&name, "i").expect("port");
@@ -154,7 +156,8 @@ fn rc_ladder(n: usize, r: f64, c: f64) -> Interconnection {
     g
 }
 
-/// A chain of N unit masses with springs k between neighbours and to both walls vibrates at
+/// A chain of N masses with springs k between neighbours and to both walls (one ground at 0, a
+/// spring coupling from each end mass) vibrates at
 /// `ω_j = 2√(k/m) sin(jπ/(2(N+1)))`. In the constraint representation every spring acts on a
 /// massless endpoint joined to its mass: the same spectrum after the degenerate directions are
 /// eliminated. Mutation: the constraint kernel replaced by the identity (modes.rs `kernel`) fails
@@ -163,15 +166,22 @@ fn rc_ladder(n: usize, r: f64, c: f64) -> Interconnection {
 fn spring_chain_frequencies_in_two_representations() {
     let (m, k, n) = (2.0, 8.0, 7);
     let mut g = Interconnection::new();
+    let spring = Spring::linear(k).expect("spring");
     for i in 0..n {
-        let wall = if i == 0 || i == n - 1 { k } else { 0.0 };
-        g.add_subsystem(Mass { m, k: wall, c: 0.0 }.subsystem(format!("M{i}")))
+        g.add_subsystem(Mass::new(m).expect("mass").subsystem(format!("M{i}")))
             .expect("mass");
     }
     for i in 1..n {
         let a = g.port(&format!("M{}", i - 1), "x").expect("port");
         let b = g.port(&format!("M{i}"), "x").expect("port");
-        g.coupling(format!("k{i}"), a, b, LinearSpring { k, rest: 0.0 });
+        g.coupling(format!("k{i}"), a, b, spring);
+    }
+    g.add_subsystem(Ground::origin().subsystem("wall"))
+        .expect("wall");
+    let wall = g.port("wall", "x").expect("port");
+    for i in [0, n - 1] {
+        let a = g.port(&format!("M{i}"), "x").expect("port");
+        g.coupling(format!("wall{i}"), a, wall, spring);
     }
     let mut exact: Vec<f64> = (1..=n)
         .map(|j| 2.0 * (k / m).sqrt() * (j as f64 * PI / (2 * (n + 1)) as f64).sin())
@@ -194,12 +204,7 @@ fn spring_chain_frequencies_in_two_representations() {
 /// (`K` without `Σ λ ∂A/∂q`) leaves no oscillation at all.
 #[test]
 fn pendulum_frequency_comes_from_the_constraint_curvature() {
-    let pendulum = Pendulum {
-        m: 0.7,
-        length: 1.3,
-        g: 9.81,
-        pivot: [0.0, 0.0],
-    };
+    let pendulum = Pendulum::new(0.7, 1.3, 9.81, [0.0, 0.0]).expect("pendulum");
     let mut g = Interconnection::new();
     g.add_subsystem(pendulum.subsystem("P")).expect("pendulum");
     let mut sim = Simulation::new(
@@ -267,8 +272,8 @@ fn warnings_fire_exactly_for_under_resolved_modes() {
     let period = TAU * (l * c).sqrt();
     let tank = || {
         series_loop(vec![
-            Inductor { l }.subsystem("L1"),
-            Capacitor { c }.subsystem("C1"),
+            Inductor::new(l).unwrap().subsystem("L1"),
+            Capacitor::new(c).unwrap().subsystem("C1"),
         ])
     };
     for (steps, warned) in [(5.0, true), (50.0, false)] {

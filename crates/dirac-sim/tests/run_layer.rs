@@ -21,11 +21,11 @@ fn wire(g: &mut Interconnection, nodes: &[(&str, &[(&str, f64)])]) {
 fn seed() -> Interconnection {
     let rlc = RlcLoop::seed();
     let mut g = Interconnection::new();
-    g.add_subsystem(Capacitor { c: rlc.c }.subsystem("C1"))
+    g.add_subsystem(Capacitor::new(rlc.c).unwrap().subsystem("C1"))
         .expect("C1");
-    g.add_subsystem(Inductor { l: rlc.l }.subsystem("L1"))
+    g.add_subsystem(Inductor::new(rlc.l).unwrap().subsystem("L1"))
         .expect("L1");
-    g.add_subsystem(Resistor { r: rlc.r }.subsystem("R1"))
+    g.add_subsystem(Resistor::new(rlc.r).unwrap().subsystem("R1"))
         .expect("R1");
     wire(
         &mut g,
@@ -115,11 +115,11 @@ use dirac_sim::{RunError, Start};
 #[test]
 fn source_across_capacitor_starts_consistent_and_does_not_ring() {
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::dc(1.0).subsystem("V1"))
+    g.add_subsystem(VoltageSource::dc(1.0).unwrap().subsystem("V1"))
         .expect("V1");
-    g.add_subsystem(Capacitor { c: 1e-6 }.subsystem("C1"))
+    g.add_subsystem(Capacitor::new(1e-6).unwrap().subsystem("C1"))
         .expect("C1");
-    g.add_subsystem(Resistor { r: 1e3 }.subsystem("R1"))
+    g.add_subsystem(Resistor::new(1e3).unwrap().subsystem("R1"))
         .expect("R1");
     wire(
         &mut g,
@@ -156,9 +156,9 @@ fn source_across_capacitor_starts_consistent_and_does_not_ring() {
 #[test]
 fn parallel_capacitors_with_different_charges_are_contradictory() {
     let mut g = Interconnection::new();
-    g.add_subsystem(Capacitor { c: 1.0 }.subsystem("C1"))
+    g.add_subsystem(Capacitor::new(1.0).unwrap().subsystem("C1"))
         .expect("C1");
-    g.add_subsystem(Capacitor { c: 1.0 }.subsystem("C2"))
+    g.add_subsystem(Capacitor::new(1.0).unwrap().subsystem("C2"))
         .expect("C2");
     wire(&mut g, &[("a", &[("C1", -1.0), ("C2", -1.0)])]);
     let mut sim = Simulation::new(
@@ -181,13 +181,13 @@ fn parallel_capacitors_with_different_charges_are_contradictory() {
 #[test]
 fn steady_state_of_a_current_divider() {
     let mut g = Interconnection::new();
-    g.add_subsystem(CurrentSource::dc(1e-3).subsystem("I1"))
+    g.add_subsystem(CurrentSource::dc(1e-3).unwrap().subsystem("I1"))
         .expect("I1");
-    g.add_subsystem(Resistor { r: 1e3 }.subsystem("R1"))
+    g.add_subsystem(Resistor::new(1e3).unwrap().subsystem("R1"))
         .expect("R1");
-    g.add_subsystem(Resistor { r: 3e3 }.subsystem("R2"))
+    g.add_subsystem(Resistor::new(3e3).unwrap().subsystem("R2"))
         .expect("R2");
-    g.add_subsystem(Capacitor { c: 1e-6 }.subsystem("C1"))
+    g.add_subsystem(Capacitor::new(1e-6).unwrap().subsystem("C1"))
         .expect("C1");
     // I n+ n−: current leaves through its − terminal; here I1 from 0 to a pushes 1 mA into a.
     wire(
@@ -223,11 +223,15 @@ fn steady_state_of_a_current_divider() {
 #[test]
 fn floating_node_has_no_dc_path() {
     let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::new(Waveform::Dc(1.0)).subsystem("V1"))
-        .expect("V1");
-    g.add_subsystem(Capacitor { c: 1e-6 }.subsystem("C1"))
+    g.add_subsystem(
+        VoltageSource::new(Waveform::Dc(1.0))
+            .unwrap()
+            .subsystem("V1"),
+    )
+    .expect("V1");
+    g.add_subsystem(Capacitor::new(1e-6).unwrap().subsystem("C1"))
         .expect("C1");
-    g.add_subsystem(Capacitor { c: 1e-6 }.subsystem("C2"))
+    g.add_subsystem(Capacitor::new(1e-6).unwrap().subsystem("C2"))
         .expect("C2");
     wire(
         &mut g,

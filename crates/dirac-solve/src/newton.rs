@@ -69,11 +69,14 @@ pub trait LinearSolver {
 ///   equation whose terms are 1e-8 is converged; one of 1e-15 in an equation whose terms are
 ///   1e-14 is not); or, when the update was also at round-off of the largest unknown
 ///   (`‖Δx‖∞ ≤ update_tol·‖x‖∞`), within a looser 5e-11 of its terms (equations whose terms
-///   cancel inside the model). The iterate is then polished by one more update from the
+///   cancel inside the model) plus `4ε·‖x‖∞·Σ_j |J_ij|`, the change of the equation when every
+///   unknown moves by the absolute precision it has in that regime (equations whose terms all
+///   vanish at the root). The iterate is then polished by one more update from the
 ///   factorisation at hand, so its error is round-off, not the tolerance.
 ///
-/// Every test is relative to each equation or unknown: no absolute floor, which would accept
-/// any state of a system whose values are all small (a circuit carrying picoamperes).
+/// Every test is relative to each equation or unknown, or (the round-off floor) to the largest
+/// unknown: no absolute floor, which would accept any state of a system whose values are all
+/// small (a circuit carrying picoamperes).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NewtonOptions {
     /// Maximum number of Newton updates per solve.
@@ -151,6 +154,8 @@ pub struct Newton<S: LinearSolver> {
     row_scale: Vec<f64>,
     /// `Σ_j |J_ij x_j|` per equation (the size of its terms) for the residual test.
     magnitude: Vec<f64>,
+    /// `Σ_j |J_ij|` per equation, for the residual test's round-off floor.
+    row_sum: Vec<f64>,
     analysed: bool,
     factored: bool,
 }
@@ -167,6 +172,7 @@ impl<S: LinearSolver> Newton<S> {
             scaled: Vec::new(),
             row_scale: Vec::new(),
             magnitude: Vec::new(),
+            row_sum: Vec::new(),
             analysed: false,
             factored: false,
         }
@@ -215,6 +221,7 @@ impl<S: LinearSolver> Newton<S> {
             self.update = vec![0.0; n];
             self.row_scale = vec![0.0; n];
             self.magnitude = vec![0.0; n];
+            self.row_sum = vec![0.0; n];
             self.reset();
         }
         let mut stats = NewtonStats::default();
@@ -301,9 +308,9 @@ impl<S: LinearSolver> Newton<S> {
                 iteration > 0 && (exact_update || !modified) && (refresh || reuse || !damped) && {
                     let relative = self.relative_residual(system, x).0;
                     relative <= self.options.residual_tol
-                        || (relative <= STAGNATION_RESIDUAL
-                            && !damped
-                            && last_update <= self.options.update_tol * max_norm(x).0)
+                        || (!damped
+                            && last_update <= self.options.update_tol * max_norm(x).0
+                            && self.stagnated(system, x))
                 };
             if refresh {
                 self.factor().map_err(|source| NewtonError::Linear {
@@ -407,6 +414,28 @@ impl<S: LinearSolver> Newton<S> {
         (worst, at)
     }
 
+    /// The residual test's second tier, for an iterate whose last undamped exact update was at
+    /// round-off of the largest unknown: every equation satisfies
+    /// `|F_i| ≤ STAGNATION_RESIDUAL·(c_i + Σ_j |J_ij x_j|) + ROUNDOFF·‖x‖∞·Σ_j |J_ij|`. The second
+    /// term is the change of `F_i` when every unknown moves by the absolute precision the
+    /// unknowns have in that regime (`ROUNDOFF·‖x‖∞`); it has the units of `F_i` and matters only
+    /// in an equation whose terms all vanish at the root (a joint row `Δx = 0` between bodies at
+    /// rest), where no relative test can pass.
+    fn stagnated<F: NonlinearSystem + ?Sized>(&mut self, system: &mut F, x: &[f64]) -> bool {
+        system.constant_magnitudes(&mut self.magnitude);
+        self.row_sum.fill(0.0);
+        for (r, c, v) in self.jacobian.iter() {
+            self.magnitude[r] += (v * x[c]).abs();
+            self.row_sum[r] += v.abs();
+        }
+        let floor = ROUNDOFF * max_norm(x).0;
+        self.residual
+            .iter()
+            .zip(&self.magnitude)
+            .zip(&self.row_sum)
+            .all(|((r, m), s)| r.abs() <= STAGNATION_RESIDUAL * m + floor * s)
+    }
+
     /// Stamps the Jacobian at `x` (analysing the pattern on the first call).
     fn stamp<F: NonlinearSystem + ?Sized>(
         &mut self,
@@ -477,6 +506,16 @@ const KEPT_ACCEPT: f64 = 4.0 * f64::EPSILON;
 /// momentum row sits at 5.5e-13 of `Σ|J_ij x_j|` there. An error in a small unknown that large
 /// would still show: a diode's reverse current off by 1e-12 A is 1e-3 of its row.
 const STAGNATION_RESIDUAL: f64 = 5e-11;
+
+/// The absolute precision, relative to the largest unknown `‖x‖∞`, that every unknown has once
+/// the updates are at round-off of the largest one: an update solved from a system that mixes
+/// unknowns of all sizes carries an absolute error of a few `ε·‖x‖∞` in every component, so a
+/// small unknown (a body's position that should be 0 next to O(1) momenta and forces) sits at
+/// `±ε‖x‖∞`, and an equation made only of such unknowns keeps a residual of that size with every
+/// term ≈ 0 (the bundled four-bar's joint row: 1.1e-16). Four ulps leave room for the solve's
+/// error growth; the floor applies only in the at-round-off regime and is followed by a
+/// polishing update.
+const ROUNDOFF: f64 = 4.0 * f64::EPSILON;
 
 /// Iterations on one kept factorisation before it is refreshed regardless of contraction.
 const MAX_KEPT_ITERATIONS: usize = 8;
@@ -783,6 +822,50 @@ mod tests {
             let stats = newton.solve(&mut Stall { first: true }, &mut x).unwrap();
             assert!((x[0] - 2.0).abs() <= 2.0 * f64::EPSILON, "{x:?} {stats:?}");
             assert_eq!(stats.limited, 1);
+        }
+    }
+
+    /// A joint-like row whose terms all vanish at the root, next to an O(1) unknown:
+    /// `a² = 2`, `u = w`, and `u + w = 0` evaluated as `((a + u) − a) + w`, the way a model
+    /// evaluates a relative position from coordinates of size `a` (so `u` is resolved only to the
+    /// absolute precision `ε·|a|`). At the root `u = w = 0`: every term of the last row vanishes,
+    /// its residual stays at the round-off of `a` and no test relative to the row's own terms can
+    /// pass. The round-off floor of the residual test's second tier accepts it.
+    ///
+    /// Mutation: `ROUNDOFF = 0.0` gives `NotConverged` (25 iterations).
+    struct VanishingRow;
+    impl NonlinearSystem for VanishingRow {
+        fn len(&self) -> usize {
+            3
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            r[0] = x[0] * x[0] - 2.0;
+            r[1] = x[1] - x[2];
+            r[2] = ((x[0] + x[1]) - x[0]) + x[2];
+        }
+        fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+            jac.add(0, 0, 2.0 * x[0]);
+            jac.add(1, 1, 1.0);
+            jac.add(1, 2, -1.0);
+            jac.add(2, 1, 1.0);
+            jac.add(2, 2, 1.0);
+        }
+        fn constant_magnitudes(&mut self, out: &mut [f64]) {
+            out.copy_from_slice(&[2.0, 0.0, 0.0]);
+        }
+    }
+
+    #[test]
+    fn row_whose_terms_all_vanish_converges() {
+        for options in [NewtonOptions::default(), exact_newton()] {
+            let mut newton = Newton::new(DenseLu::new(), options);
+            let mut x = [1.0, 0.3, -0.2];
+            let stats = newton.solve(&mut VanishingRow, &mut x).unwrap();
+            println!("vanishing row: {x:?} {stats:?}");
+            assert!((x[0] - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON, "{x:?}");
+            // The small unknowns are resolved to the absolute precision `ε·|a|` the model gives
+            // them.
+            assert!(x[1].abs() <= 4.0 * f64::EPSILON && x[2].abs() <= 4.0 * f64::EPSILON);
         }
     }
 }

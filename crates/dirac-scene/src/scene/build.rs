@@ -1,26 +1,27 @@
 //! Building a scene: parts → subsystems, connections → graph edges, settings → integrator options,
 //! signal names → indices into the global state.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use dirac_components::{
     Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, DiodeParameters,
-    ForceSource, Ground, IdealGear, IdealTransformer, Inductor, Inertia, Mass, Pendulum,
+    ForceSource, Ground, IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError, Pendulum,
     PlanarLinkage, Resistor, RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
 };
 use dirac_core::Discretisation;
 use dirac_graph::{
-    Connection, ConnectionId, Interconnection, LinearSpring, PortRef, Representation, Subsystem,
-    SubsystemId,
+    Connection, ConnectionId, Interconnection, PortRef, Representation, Subsystem, SubsystemId,
 };
+use dirac_rigid::{COORDINATES, Joint, JointKind, Side, rotation_index};
 use dirac_sim::{
     Execution, IntegratorOptions, Probe, RunError, Scheme, Signal, Simulation, Splitting, Start,
 };
 
 use super::error::{Location, Origin, SceneError, listed};
 use super::model::{
-    ConnectionKind, DiscretisationSpec, ElementSpec, Initial, InitialSpec, Part, PartKind,
-    RepresentationSpec, Scene, SchemeSpec, SplittingSpec, WaveformSpec,
+    ConnectionKind, DiscretisationSpec, ElementSpec, InertiaSpec, Initial, InitialSpec, Part,
+    PartKind, RepresentationSpec, RigidBodyParams, RigidJointSpec, RotationSpec, Scene, SchemeSpec,
+    SplittingSpec, WaveformSpec,
 };
 
 /// Largest order accepted for Gauss and Lobatto discretisations.
@@ -52,6 +53,9 @@ pub struct BuiltScene {
     /// The signals `[record]` asks for (by default every coordinate and every flow port), then
     /// `energy`, `power(<part>)`, `constraint_residual` and `force(<connection>)` when asked for.
     pub signals: Vec<Signal>,
+    /// The rigid joints by connection name (each is in `graph` as the connections `{name}[k]`,
+    /// one per row; see [`dirac_rigid::Joint::connect_rows`]).
+    pub rigid_joints: Vec<(String, dirac_rigid::Joint)>,
 }
 
 impl BuiltScene {
@@ -92,12 +96,183 @@ impl BuiltScene {
 
     /// The signal named `name`: `part.coordinate` (its value), `part.coordinate'` (its rate),
     /// `part.port` (a port's flow), `energy`, `power(<part>)`, `constraint_residual` or
-    /// `force(<connection>)`.
+    /// `force(<connection>)`; for a rigid body also `body.wx|wy|wz` (angular velocity, space
+    /// axes) and `body.w1|w2|w3` (body axes), for a rigid joint `joint.fx|fy|fz` (the force on
+    /// its body `b`, space axes), `joint.angle` or `joint.slide` (its coordinate) and `force(joint[k])` (the
+    /// multiplier of row `k`).
     ///
     /// # Errors
     /// [`SceneError::BadSignal`] or [`SceneError::UnknownPart`] saying what exists.
     pub fn signal(&self, name: &str) -> Result<Signal, SceneError> {
-        resolve_signal(&self.graph, self.execution, name, None)
+        resolve_signal(&self.graph, &self.rigid_joints, self.execution, name, None)
+    }
+}
+
+/// `Position` of coordinate `c` of part `part`.
+fn position(part: SubsystemId, c: usize) -> Probe {
+    Probe::Position {
+        part,
+        coordinate: c,
+    }
+}
+
+/// A rigid body's angular velocity component `which`: `wx`, `wy`, `wz` in space axes
+/// (`ω = vee(Ṙ Rᵀ)`), `w1`, `w2`, `w3` in body axes (`Ω = vee(Rᵀ Ṙ)`); sums of products of
+/// rotation entries and their rates at `t_k`.
+fn angular_velocity(part: SubsystemId, which: &str) -> Option<Probe> {
+    let r = |i: usize, j: usize| position(part, rotation_index(i, j));
+    let rate = |i: usize, j: usize| Probe::Velocity {
+        part,
+        coordinate: rotation_index(i, j),
+    };
+    // vee(W) = (W₃₂, W₁₃, W₂₁); (Ṙ Rᵀ)_ab = Σ_j Ṙ_aj R_bj, (Rᵀ Ṙ)_ab = Σ_i R_ia Ṙ_ib.
+    let (a, b, space) = match which {
+        "wx" => (2, 1, true),
+        "wy" => (0, 2, true),
+        "wz" => (1, 0, true),
+        "w1" => (2, 1, false),
+        "w2" => (0, 2, false),
+        "w3" => (1, 0, false),
+        _ => return None,
+    };
+    let terms = (0..3)
+        .map(|k| {
+            let product = if space {
+                Probe::Product(Box::new(rate(a, k)), Box::new(r(b, k)))
+            } else {
+                Probe::Product(Box::new(r(k, a)), Box::new(rate(k, b)))
+            };
+            (product, 1.0)
+        })
+        .collect();
+    Some(Probe::Sum(terms))
+}
+
+/// The space components of a joint side's body-fixed vector `v` (a point when `point`, else a
+/// direction), as probes linear in the body's coordinates (constants for the ground).
+fn side_vector(graph: &Interconnection, side: &Side, v: [f64; 3], point: bool) -> [Probe; 3] {
+    let body = side.body.as_ref().and_then(|b| graph.subsystem_id(b));
+    [0, 1, 2].map(|i| match body {
+        Some(id) => {
+            let mut terms: Vec<(Probe, f64)> = (0..3)
+                .map(|j| (position(id, rotation_index(i, j)), v[j]))
+                .collect();
+            if point {
+                terms.push((position(id, i), 1.0));
+            }
+            Probe::Sum(terms)
+        }
+        None => Probe::Constant(v[i]),
+    })
+}
+
+/// `u · w` of two probe vectors.
+fn dot_probe(u: [Probe; 3], w: [Probe; 3]) -> Probe {
+    Probe::Sum(
+        u.into_iter()
+            .zip(w)
+            .map(|(a, b)| (Probe::Product(Box::new(a), Box::new(b)), 1.0))
+            .collect(),
+    )
+}
+
+/// `joint.fx|fy|fz`, `joint.angle` or `joint.slide` of the rigid joint `j` named `name`.
+fn rigid_joint_signal(
+    graph: &Interconnection,
+    name: &str,
+    j: &Joint,
+    quantity: &str,
+    execution: Execution,
+) -> Result<Probe, String> {
+    let axis = |side: &Side, k: usize| {
+        let f = side.frame.axes;
+        side_vector(graph, side, [f[0][k], f[1][k], f[2][k]], false)
+    };
+    let rotational = matches!(
+        j.kind,
+        JointKind::Revolute | JointKind::Cylindrical | JointKind::Planar
+    );
+    match quantity {
+        "fx" | "fy" | "fz" if j.has_point_rows() => {
+            if matches!(execution, Execution::Staggered(_)) {
+                return Err("a joint's force is its multiplier, which a staggered run does not have; record it in the monolithic, constraint or force representation".into());
+            }
+            let k = usize::from(quantity.as_bytes()[1] - b'x');
+            let row = format!("{name}[{k}]");
+            graph
+                .connection_id(&row)
+                .map(Probe::Effort)
+                .ok_or_else(|| format!("the joint has no row `{row}`"))
+        }
+        "angle" if rotational => Ok(Probe::Atan2 {
+            y: Box::new(dot_probe(axis(&j.b, 0), axis(&j.a, 1))),
+            x: Box::new(dot_probe(axis(&j.b, 0), axis(&j.a, 0))),
+        }),
+        "slide" if j.kind == JointKind::Prismatic => {
+            let pa = side_vector(graph, &j.a, j.a.frame.origin, true);
+            let pb = side_vector(graph, &j.b, j.b.frame.origin, true);
+            let gap = pb
+                .into_iter()
+                .zip(pa)
+                .map(|(b, a)| Probe::Sum(vec![(b, 1.0), (a, -1.0)]));
+            let gap: Vec<Probe> = gap.collect();
+            let gap: [Probe; 3] = gap
+                .try_into()
+                .map_err(|_| "a point has three components".to_string())?;
+            Ok(dot_probe(gap, axis(&j.a, 2)))
+        }
+        _ => {
+            let mut offered = Vec::new();
+            if j.has_point_rows() {
+                offered.extend(["fx", "fy", "fz"]);
+            }
+            if rotational {
+                offered.push("angle");
+            }
+            if j.kind == JointKind::Prismatic {
+                offered.push("slide");
+            }
+            Err(format!(
+                "the {:?} joint `{name}` has no signal `{quantity}`; it offers {} and `force({name}[k])` for row k",
+                j.kind,
+                listed(offered)
+            ))
+        }
+    }
+}
+
+/// Parameter checks of one rigid-body item (the stock parts check themselves through their
+/// constructors), errors placed at the parameter's value.
+struct Check<'a> {
+    item: String,
+    origin: &'a Origin,
+}
+
+impl Check<'_> {
+    fn fail(&self, key: &str, value: f64, requirement: &'static str) -> SceneError {
+        SceneError::BadParameter {
+            at: self.origin.field(key),
+            item: self.item.clone(),
+            parameter: key.to_string(),
+            value,
+            requirement,
+        }
+    }
+
+    fn finite(&self, key: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.fail(key, v, "must be finite"))
+        }
+    }
+
+    fn positive(&self, key: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.fail(key, v, "must be positive and finite"))
+        }
     }
 }
 
@@ -123,6 +298,7 @@ fn flow_ports(sub: &Subsystem, names: &[String], s: usize) -> Vec<Signal> {
 /// `power(<part>)`, `constraint_residual` or `force(<connection>)`.
 fn resolve_signal(
     graph: &Interconnection,
+    joints: &[(String, dirac_rigid::Joint)],
     execution: Execution,
     name: &str,
     at: Option<Location>,
@@ -153,6 +329,15 @@ fn resolve_signal(
     if let Some(c) = name
         .strip_prefix("force(")
         .and_then(|r| r.strip_suffix(')'))
+        .filter(|c| joints.iter().any(|(j, _)| j == c))
+    {
+        return Err(bad(format!(
+            "`{c}` is a rigid joint: record `{c}.fx`, `{c}.fy`, `{c}.fz` (its reaction force) or `force({c}[k])` (the multiplier of its row k)"
+        )));
+    }
+    if let Some(c) = name
+        .strip_prefix("force(")
+        .and_then(|r| r.strip_suffix(')'))
     {
         let Some(id) = graph.connection_id(c) else {
             return Err(bad(format!(
@@ -167,6 +352,14 @@ fn resolve_signal(
             )),
             _ => Ok(Signal::new(name, Probe::Effort(id))),
         };
+    }
+    if let Some((joint, quantity)) = name.split_once('.')
+        && graph.subsystem_id(joint).is_none()
+        && let Some((_, j)) = joints.iter().find(|(n, _)| n == joint)
+    {
+        return rigid_joint_signal(graph, joint, j, quantity, execution)
+            .map(|probe| Signal::new(name, probe))
+            .map_err(bad);
     }
     let Some((part, rest)) = name.split_once('.') else {
         return Err(bad(
@@ -201,6 +394,13 @@ fn resolve_signal(
         };
         return Ok(Signal::new(name, probe));
     }
+    if !rate
+        && names.len() == COORDINATES.len()
+        && names.iter().zip(COORDINATES).all(|(a, b)| a == b)
+        && let Some(probe) = angular_velocity(id, base)
+    {
+        return Ok(Signal::new(name, probe));
+    }
     if let Some(port) = sub.port_index(base) {
         if rate {
             return Err(bad(format!(
@@ -222,252 +422,146 @@ fn resolve_signal(
     )))
 }
 
-/// Parameter checks of one item, errors placed at the parameter's value.
-struct Check<'a> {
-    item: String,
-    origin: &'a Origin,
-}
-
-impl Check<'_> {
-    fn fail(&self, key: &str, value: f64, requirement: &'static str) -> SceneError {
-        SceneError::BadParameter {
-            at: self.origin.field(key),
-            item: self.item.clone(),
-            parameter: key.to_string(),
+/// A part's refusal of a parameter, placed at the parameter's value in the scene (`prefix` is the
+/// key of the table the part's parameters sit in: empty for a part, `element.` for a coupling).
+fn placed(item: String, origin: &Origin, prefix: &str, e: PartError) -> SceneError {
+    match e {
+        PartError::Parameter {
+            parameter,
             value,
             requirement,
-        }
-    }
-
-    fn finite(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be finite"))
-        }
-    }
-
-    fn positive(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be positive and finite"))
-        }
-    }
-
-    fn non_negative(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v >= 0.0 {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be non-negative and finite"))
-        }
-    }
-
-    fn nonzero(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v != 0.0 {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be non-zero and finite"))
-        }
-    }
-
-    fn waveform(&self, key: &str, w: &WaveformSpec) -> Result<Waveform, SceneError> {
-        let k = |name: &str| format!("{key}.{name}");
-        Ok(match w {
-            WaveformSpec::Dc(v) => Waveform::Dc(self.finite(key, *v)?),
-            WaveformSpec::Sin {
-                offset,
-                amplitude,
-                frequency,
-                delay,
-                damping,
-                phase,
-            } => Waveform::Sin {
-                offset: self.finite(&k("offset"), *offset)?,
-                amplitude: self.finite(&k("amplitude"), *amplitude)?,
-                frequency: self.non_negative(&k("frequency"), *frequency)?,
-                delay: self.finite(&k("delay"), *delay)?,
-                damping: self.finite(&k("damping"), *damping)?,
-                phase_deg: self.finite(&k("phase"), *phase)?,
-            },
-            WaveformSpec::Pulse {
-                v1,
-                v2,
-                delay,
-                rise,
-                fall,
-                width,
-                period,
-            } => {
-                let period = match period {
-                    Some(p) if p.is_nan() || *p <= 0.0 => {
-                        return Err(self.fail(&k("period"), *p, "must be positive"));
-                    }
-                    Some(p) => *p,
-                    None => f64::INFINITY,
-                };
-                Waveform::Pulse {
-                    v1: self.finite(&k("v1"), *v1)?,
-                    v2: self.finite(&k("v2"), *v2)?,
-                    delay: self.finite(&k("delay"), *delay)?,
-                    rise: self.non_negative(&k("rise"), *rise)?,
-                    fall: self.non_negative(&k("fall"), *fall)?,
-                    width: self.non_negative(&k("width"), *width)?,
-                    period,
-                }
+            ..
+        } => {
+            let parameter = format!("{prefix}{parameter}");
+            SceneError::BadParameter {
+                at: origin.field(&parameter),
+                item,
+                parameter,
+                value,
+                requirement,
             }
-            WaveformSpec::Pwl(points) => {
-                if points.is_empty() {
-                    return Err(self.fail(&k("points"), 0.0, "must hold at least one point"));
-                }
-                for (i, p) in points.iter().enumerate() {
-                    let at = format!("{key}.points[{i}]");
-                    self.finite(&at, p[0])?;
-                    self.finite(&at, p[1])?;
-                    if i > 0 && p[0] < points[i - 1][0] {
-                        return Err(self.fail(&at, p[0], "must not come before the previous time"));
-                    }
-                }
-                Waveform::Pwl(points.iter().map(|p| (p[0], p[1])).collect())
-            }
-        })
+        }
+        other => SceneError::Graph(other.into()),
     }
 }
 
-/// A part's subsystem and default initial positions.
+/// The runtime waveform a scene's waveform table describes (checked by the source that uses it).
+fn waveform(w: &WaveformSpec) -> Waveform {
+    match w {
+        WaveformSpec::Dc(v) => Waveform::Dc(*v),
+        WaveformSpec::Sin {
+            offset,
+            amplitude,
+            frequency,
+            delay,
+            damping,
+            phase,
+        } => Waveform::Sin {
+            offset: *offset,
+            amplitude: *amplitude,
+            frequency: *frequency,
+            delay: *delay,
+            damping: *damping,
+            phase_deg: *phase,
+        },
+        WaveformSpec::Pulse {
+            v1,
+            v2,
+            delay,
+            rise,
+            fall,
+            width,
+            period,
+        } => Waveform::Pulse {
+            v1: *v1,
+            v2: *v2,
+            delay: *delay,
+            rise: *rise,
+            fall: *fall,
+            width: *width,
+            period: period.unwrap_or(f64::INFINITY),
+        },
+        WaveformSpec::Pwl(points) => Waveform::Pwl(points.iter().map(|p| (p[0], p[1])).collect()),
+    }
+}
+
+/// A to-ground part's subsystem: port `x`, or `theta` when rotational.
+fn to_ground<M>(part: M, name: String, rotational: bool) -> Subsystem
+where
+    M: dirac_core::Model + Send + Sync + 'static,
+{
+    let port = if rotational { "theta" } else { "x" };
+    Subsystem::new(name, part).with_port(port, 0)
+}
+
+/// A part's subsystem and default initial positions; parameters are checked by the part's
+/// constructor and a refusal is placed at the parameter's value.
 fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
-    let c = Check {
-        item: format!("part `{}` ({})", part.name, part.kind.type_name()),
-        origin: &part.origin,
-    };
+    let item = || format!("part `{}` ({})", part.name, part.kind.type_name());
+    let at = |e: PartError| placed(item(), &part.origin, "", e);
     let name = part.name.clone();
     let zeros = |n: usize| vec![0.0; n];
     Ok(match &part.kind {
-        PartKind::Resistor(p) => (
-            Resistor {
-                r: c.non_negative("r", p.r)?,
-            }
-            .subsystem(name),
-            zeros(1),
-        ),
-        PartKind::Inductor(p) => (
-            Inductor {
-                l: c.positive("l", p.l)?,
-            }
-            .subsystem(name),
-            zeros(1),
-        ),
-        PartKind::Capacitor(p) => (
-            Capacitor {
-                c: c.positive("c", p.c)?,
-            }
-            .subsystem(name),
-            zeros(1),
-        ),
+        PartKind::Resistor(p) => (Resistor::new(p.r).map_err(at)?.subsystem(name), zeros(1)),
+        PartKind::Inductor(p) => (Inductor::new(p.l).map_err(at)?.subsystem(name), zeros(1)),
+        PartKind::Capacitor(p) => (Capacitor::new(p.c).map_err(at)?.subsystem(name), zeros(1)),
         PartKind::VoltageSource(p) => (
-            VoltageSource::new(c.waveform("waveform", &p.waveform)?).subsystem(name),
+            VoltageSource::new(waveform(&p.waveform))
+                .map_err(at)?
+                .subsystem(name),
             zeros(1),
         ),
         PartKind::CurrentSource(p) => (
-            CurrentSource::new(c.waveform("waveform", &p.waveform)?).subsystem(name),
+            CurrentSource::new(waveform(&p.waveform))
+                .map_err(at)?
+                .subsystem(name),
             zeros(2),
         ),
-        PartKind::CoupledInductors(p) => {
-            if p.k.is_nan() || p.k.abs() > 1.0 {
-                return Err(c.fail("k", p.k, "must lie in [-1, 1]"));
-            }
-            (
-                CoupledInductors {
-                    l1: c.positive("l1", p.l1)?,
-                    l2: c.positive("l2", p.l2)?,
-                    k: p.k,
-                }
+        PartKind::CoupledInductors(p) => (
+            CoupledInductors::new(p.l1, p.l2, p.k)
+                .map_err(at)?
                 .subsystem(name),
-                zeros(2),
-            )
-        }
+            zeros(2),
+        ),
         PartKind::Diode(p) => {
+            // The scene's parameters are measured at the junction temperature `temp` (TNOM = temp);
+            // a refusal of the temperature adjustment is placed at `temp`.
+            let check = dirac_graph::Check::new("diode");
             let card = DiodeParameters {
-                rs: c.non_negative("rs", p.rs)?,
+                rs: check.non_negative("rs", p.rs).map_err(at)?,
                 tnom: p.temp,
-                ..DiodeParameters::new(c.positive("is", p.is)?, c.positive("n", p.n)?)
+                ..DiodeParameters::new(
+                    check.positive("is", p.is).map_err(at)?,
+                    check.positive("n", p.n).map_err(at)?,
+                )
             };
             let diode = Diode::at_temperature(&card, p.temp)
-                .map_err(|e| c.fail("temp", e.value, e.reason))?
+                .map_err(|e| at(check.fail("temp", e.value, e.reason)))?
                 .diode;
             (diode.subsystem(name), zeros(2))
         }
-        PartKind::SaturatingInductor(p) => {
-            let l0 = c.positive("l0", p.l0)?;
-            let l_inf = c.non_negative("l_inf", p.l_inf)?;
-            if l_inf > l0 {
-                return Err(c.fail("l_inf", l_inf, "must not exceed `l0`"));
-            }
-            (
-                SaturatingInductor {
-                    l0,
-                    l_inf,
-                    i_sat: c.positive("i_sat", p.i_sat)?,
-                }
+        PartKind::SaturatingInductor(p) => (
+            SaturatingInductor::new(p.l0, p.l_inf, p.i_sat)
+                .map_err(at)?
                 .subsystem(name),
-                zeros(1),
-            )
-        }
-        PartKind::Mass(p) => (
-            Mass {
-                m: c.positive("m", p.m)?,
-                k: c.non_negative("k", p.k)?,
-                c: c.non_negative("c", p.c)?,
-            }
-            .subsystem(name),
             zeros(1),
         ),
-        PartKind::Inertia(p) => (
-            Inertia {
-                j: c.positive("j", p.j)?,
-                k: c.non_negative("k", p.k)?,
-                c: c.non_negative("c", p.c)?,
-            }
-            .subsystem(name),
-            zeros(1),
-        ),
+        PartKind::Mass(p) => (Mass::new(p.m).map_err(at)?.subsystem(name), zeros(1)),
+        PartKind::Inertia(p) => (Inertia::new(p.j).map_err(at)?.subsystem(name), zeros(1)),
         PartKind::Spring(p) => {
-            let s = Spring {
-                k: c.non_negative("k", p.k)?,
-                k3: c.finite("k3", p.k3)?,
-                rest: c.finite("rest", p.rest)?,
-            };
-            let sub = if p.rotational {
-                s.rotational_subsystem(name)
-            } else {
-                s.subsystem(name)
-            };
-            (sub, zeros(1))
+            let s = Spring::new(p.k, p.k3, p.rest).map_err(at)?;
+            (to_ground(s, name, p.rotational), zeros(1))
         }
         PartKind::Damper(p) => {
-            let d = Damper {
-                c: c.non_negative("c", p.c)?,
-            };
-            let sub = if p.rotational {
-                d.rotational_subsystem(name)
-            } else {
-                d.subsystem(name)
-            };
-            (sub, zeros(1))
+            let d = Damper::new(p.c).map_err(at)?;
+            (to_ground(d, name, p.rotational), zeros(1))
         }
         PartKind::ForceSource(p) => {
-            let f = ForceSource::new(c.waveform("waveform", &p.waveform)?);
-            let sub = if p.rotational {
-                f.rotational_subsystem(name)
-            } else {
-                f.subsystem(name)
-            };
-            (sub, zeros(1))
+            let f = ForceSource::new(waveform(&p.waveform)).map_err(at)?;
+            (to_ground(f, name, p.rotational), zeros(1))
         }
         PartKind::Ground(p) => {
-            let g = Ground {
-                position: c.finite("position", p.position)?,
-            };
+            let g = Ground::at(p.position).map_err(at)?;
             let sub = if p.rotational {
                 g.rotational_subsystem(name)
             } else {
@@ -476,21 +570,13 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
             (sub, vec![g.position])
         }
         PartKind::Pendulum(p) => {
-            let pendulum = Pendulum {
-                m: c.positive("m", p.m)?,
-                length: c.positive("length", p.length)?,
-                g: c.finite("g", p.g)?,
-                pivot: [
-                    c.finite("pivot[0]", p.pivot[0])?,
-                    c.finite("pivot[1]", p.pivot[1])?,
-                ],
-            };
+            let pendulum = Pendulum::new(p.m, p.length, p.g, p.pivot).map_err(at)?;
             // At rest hanging straight down unless `q0` says otherwise.
             let hanging = pendulum.position(0.0).to_vec();
             (pendulum.subsystem(name), hanging)
         }
         PartKind::PlanarLinkage(p) => {
-            let mut linkage = PlanarLinkage::new(c.finite("g", p.g)?);
+            let mut linkage = PlanarLinkage::new(p.g).map_err(at)?;
             let mut index: HashMap<&str, usize> = HashMap::new();
             for (i, b) in p.bodies.iter().enumerate() {
                 let key = |k: &str| format!("bodies[{i}].{k}");
@@ -502,11 +588,7 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
                         reason: "body names must be non-empty and unique within the linkage",
                     });
                 }
-                linkage.add_body(
-                    b.name.clone(),
-                    c.positive(&key("m"), b.m)?,
-                    c.positive(&key("j"), b.j)?,
-                );
+                linkage.add_body(b.name.clone(), b.m, b.j).map_err(at)?;
             }
             for (i, pin) in p.pins.iter().enumerate() {
                 let key = |k: &str| format!("pins[{i}].{k}");
@@ -546,40 +628,206 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
             (linkage.subsystem(name), zeros(n))
         }
         PartKind::DcMotor(p) => (
-            DcMotor {
-                k: c.finite("k", p.k)?,
-                r: c.non_negative("r", p.r)?,
-                l: c.non_negative("l", p.l)?,
-                j: c.non_negative("j", p.j)?,
-                b: c.non_negative("b", p.b)?,
-            }
-            .subsystem(name),
+            DcMotor::new(p.k, p.r, p.l, p.j, p.b)
+                .map_err(at)?
+                .subsystem(name),
             zeros(2),
         ),
         PartKind::IdealTransformer(p) => (
-            IdealTransformer {
-                n: c.nonzero("n", p.n)?,
-            }
-            .subsystem(name),
+            IdealTransformer::new(p.n).map_err(at)?.subsystem(name),
             zeros(2),
         ),
         PartKind::IdealGear(p) => (
-            IdealGear {
-                ratio: c.nonzero("ratio", p.ratio)?,
-            }
-            .subsystem(name),
+            IdealGear::new(p.ratio).map_err(at)?.subsystem(name),
             zeros(2),
         ),
         PartKind::RollingDisk(p) => (
-            RollingDisk {
-                m: c.positive("m", p.m)?,
-                i: c.positive("i", p.i)?,
-                j: c.positive("j", p.j)?,
-                radius: c.positive("radius", p.radius)?,
-            }
-            .subsystem(name),
+            RollingDisk::new(p.m, p.i, p.j, p.radius)
+                .map_err(at)?
+                .subsystem(name),
             zeros(4),
         ),
+        PartKind::RigidBody(p) => {
+            let c = Check {
+                item: format!("part `{}` (rigid_body)", part.name),
+                origin: &part.origin,
+            };
+            let body = rigid_body(part, p, &c)?;
+            let (q, _) = rigid_initial(p, &c)?;
+            (body.subsystem(name), q)
+        }
+    })
+}
+
+/// The rigid body of a `rigid_body` part.
+fn rigid_body(
+    part: &Part,
+    p: &RigidBodyParams,
+    c: &Check<'_>,
+) -> Result<dirac_rigid::RigidBody, SceneError> {
+    let m = c.positive("m", p.m)?;
+    let inertia = match p.inertia {
+        InertiaSpec::Principal(j) => {
+            let mut t = [[0.0; 3]; 3];
+            for (i, ji) in j.iter().enumerate() {
+                t[i][i] = c.finite(&format!("inertia[{i}]"), *ji)?;
+            }
+            t
+        }
+        InertiaSpec::Tensor(t) => t,
+    };
+    let bad = |reason: String| SceneError::BadRigid {
+        at: part.origin.field("inertia"),
+        item: c.item.clone(),
+        reason,
+    };
+    let mut body = dirac_rigid::RigidBody::new(m, inertia).map_err(|e| bad(e.to_string()))?;
+    let g = p.gravity;
+    for (i, gi) in g.iter().enumerate() {
+        c.finite(&format!("gravity[{i}]"), *gi)?;
+    }
+    body = body.with_gravity(g);
+    for (name, r) in &p.points {
+        if name.is_empty() || name.contains('.') {
+            return Err(SceneError::BadName {
+                at: part.origin.key(&format!("points.{name}")),
+                what: "body point",
+                name: name.clone(),
+                reason: "point names must be non-empty and without `.`",
+            });
+        }
+        for (i, ri) in r.iter().enumerate() {
+            c.finite(&format!("points.{name}[{i}]"), *ri)?;
+        }
+        body = body.with_point(name.clone(), *r);
+    }
+    Ok(body)
+}
+
+/// The rotation of a [`RotationSpec`], checked to be one.
+fn rotation(spec: &RotationSpec, c: &Check<'_>) -> Result<dirac_rigid::so3::Mat3, SceneError> {
+    use dirac_rigid::so3;
+    let r = match spec {
+        RotationSpec::AxisAngle { axis, angle } => {
+            let n = so3::dot(axis, axis).sqrt();
+            if !(n.is_finite() && n > 0.0 && angle.is_finite()) {
+                return Err(c.fail(
+                    "rotation.axis",
+                    n,
+                    "must be a finite non-zero axis with a finite angle",
+                ));
+            }
+            so3::from_axis_angle(*axis, *angle)
+        }
+        RotationSpec::Quaternion(q) => {
+            let n = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(n.is_finite() && n > 0.0) {
+                return Err(c.fail("rotation", n, "must be a finite non-zero quaternion"));
+            }
+            so3::from_quaternion(*q)
+        }
+        RotationSpec::Matrix(m) => *m,
+    };
+    let error = so3::orthonormality_error(&r);
+    if !(error <= 1e-12 && so3::det(&r) > 0.0) {
+        return Err(c.fail(
+            "rotation",
+            error,
+            "is not a rotation (‖RᵀR − I‖ must be below 1e-12 and det R = +1)",
+        ));
+    }
+    Ok(r)
+}
+
+/// The initial coordinates and rates a `rigid_body` part states through `position`, `rotation`,
+/// `velocity` and `angular_velocity` (defaults: at rest at the origin, unrotated).
+fn rigid_initial(p: &RigidBodyParams, c: &Check<'_>) -> Result<(Vec<f64>, Vec<f64>), SceneError> {
+    use dirac_rigid::{RigidBody, so3};
+    let r = match &p.rotation {
+        Some(spec) => rotation(spec, c)?,
+        None => so3::IDENTITY,
+    };
+    let x = p.position.unwrap_or([0.0; 3]);
+    let v = p.velocity.unwrap_or([0.0; 3]);
+    let w = p.angular_velocity.unwrap_or([0.0; 3]);
+    for (key, vector) in [("position", x), ("velocity", v), ("angular_velocity", w)] {
+        for (i, value) in vector.iter().enumerate() {
+            c.finite(&format!("{key}[{i}]"), *value)?;
+        }
+    }
+    Ok((RigidBody::coordinates(x, &r), RigidBody::rates(&r, v, w)))
+}
+
+/// The joint frame on one side of a rigid joint.
+fn joint_frame(
+    origin: Option<[f64; 3]>,
+    axis: Option<[f64; 3]>,
+    reference: Option<[f64; 3]>,
+    side: char,
+    c: &Check<'_>,
+) -> Result<dirac_rigid::JointFrame, SceneError> {
+    use dirac_rigid::{JointFrame, so3};
+    let origin = origin.unwrap_or([0.0; 3]);
+    let z = axis.unwrap_or([0.0, 0.0, 1.0]);
+    let nz = so3::dot(&z, &z).sqrt();
+    for (i, v) in origin.iter().enumerate() {
+        c.finite(&format!("origin_{side}[{i}]"), *v)?;
+    }
+    if !(nz.is_finite() && nz > 0.0) {
+        return Err(c.fail(
+            &format!("axis_{side}"),
+            nz,
+            "must be a finite non-zero vector",
+        ));
+    }
+    let z = z.map(|v| v / nz);
+    let x = match reference {
+        Some(x) => {
+            let along = so3::dot(&x, &z);
+            let rest = [0, 1, 2].map(|i| x[i] - along * z[i]);
+            let n = so3::dot(&rest, &rest).sqrt();
+            if !(n.is_finite() && n > 1e-9 * so3::dot(&x, &x).sqrt()) {
+                return Err(c.fail(
+                    &format!("ref_{side}"),
+                    n,
+                    "must be finite and not parallel to the axis",
+                ));
+            }
+            x
+        }
+        None => so3::perpendicular(&z),
+    };
+    Ok(JointFrame::oriented(origin, z, x))
+}
+
+/// The rigid joint a connection describes.
+fn rigid_joint(
+    kind: dirac_rigid::JointKind,
+    spec: &RigidJointSpec,
+    c: &Check<'_>,
+) -> Result<dirac_rigid::Joint, SceneError> {
+    use dirac_rigid::{Joint, Side};
+    let fa = joint_frame(spec.origin_a, spec.axis_a, spec.ref_a, 'a', c)?;
+    let fb = joint_frame(spec.origin_b, spec.axis_b, spec.ref_b, 'b', c)?;
+    let a = match &spec.a {
+        Some(body) => Side::body(body.clone(), fa),
+        None => Side::ground(fa),
+    };
+    Ok(Joint::new(kind, a, Side::body(spec.b.clone(), fb)))
+}
+
+/// The joint kind and spec of a rigid-joint connection.
+fn rigid_kind(kind: &ConnectionKind) -> Option<(dirac_rigid::JointKind, &RigidJointSpec)> {
+    use dirac_rigid::JointKind;
+    Some(match kind {
+        ConnectionKind::Spherical(s) => (JointKind::Spherical, s),
+        ConnectionKind::Revolute(s) => (JointKind::Revolute, s),
+        ConnectionKind::Universal(s) => (JointKind::Universal, s),
+        ConnectionKind::Cylindrical(s) => (JointKind::Cylindrical, s),
+        ConnectionKind::Prismatic(s) => (JointKind::Prismatic, s),
+        ConnectionKind::Planar(s) => (JointKind::Planar, s),
+        ConnectionKind::Fixed(s) => (JointKind::Fixed, s),
+        _ => return None,
     })
 }
 
@@ -591,10 +839,6 @@ fn initial(
     names: &[String],
     default: Vec<f64>,
 ) -> Result<(Vec<f64>, Vec<bool>), SceneError> {
-    let c = Check {
-        item: format!("part `{}` ({})", part.name, part.kind.type_name()),
-        origin: &part.origin,
-    };
     let length = |got: usize| SceneError::InitialLength {
         at: part.origin.field(key),
         part: part.name.clone(),
@@ -641,7 +885,15 @@ fn initial(
             Some(Initial::List(_)) => format!("{key}[{i}]"),
             _ => key.to_string(),
         };
-        c.finite(&path, *v)?;
+        if !v.is_finite() {
+            return Err(SceneError::BadParameter {
+                at: part.origin.field(&path),
+                item: format!("part `{}` ({})", part.name, part.kind.type_name()),
+                parameter: path,
+                value: *v,
+                requirement: "must be finite",
+            });
+        }
     }
     Ok((out, stated))
 }
@@ -777,9 +1029,28 @@ impl Scene {
             let (subsystem, default_q) = part_subsystem(part)?;
             let model = subsystem.model();
             let names: Vec<String> = (0..model.dim()).map(|i| model.coordinate_name(i)).collect();
-            let zeros = vec![0.0; names.len()];
-            let (q, gq) = initial(part, "q0", part.q0.as_ref(), &names, default_q)?;
-            let (v, gv) = initial(part, "v0", part.v0.as_ref(), &names, zeros)?;
+            let mut default_v = vec![0.0; names.len()];
+            // A rigid body's pose and motion keys state its coordinates and rates.
+            let mut stated = (false, false);
+            if let PartKind::RigidBody(p) = &part.kind {
+                let c = Check {
+                    item: format!("part `{}` (rigid_body)", part.name),
+                    origin: &part.origin,
+                };
+                default_v = rigid_initial(p, &c)?.1;
+                stated = (
+                    p.position.is_some() || p.rotation.is_some(),
+                    p.velocity.is_some() || p.angular_velocity.is_some(),
+                );
+            }
+            let (q, mut gq) = initial(part, "q0", part.q0.as_ref(), &names, default_q)?;
+            let (v, mut gv) = initial(part, "v0", part.v0.as_ref(), &names, default_v)?;
+            if stated.0 {
+                gq.fill(true);
+            }
+            if stated.1 {
+                gv.fill(true);
+            }
             q0.push(q);
             given_q.push(gq);
             v0.push(v);
@@ -789,6 +1060,18 @@ impl Scene {
 
         let mut connections: HashMap<&str, (ConnectionId, &super::model::Connection)> =
             HashMap::new();
+        // Rigid joints by name, for the joint-coordinate couplings (which may come first).
+        let mut joints: HashMap<&str, dirac_rigid::Joint> = HashMap::new();
+        let mut rigid_joints = Vec::new();
+        for c in &self.connections {
+            if let Some((kind, spec)) = rigid_kind(&c.kind) {
+                let check = Check {
+                    item: format!("joint `{}`", c.name),
+                    origin: &c.origin,
+                };
+                joints.insert(c.name.as_str(), rigid_joint(kind, spec, &check)?);
+            }
+        }
         for c in &self.connections {
             if c.name.is_empty() {
                 return Err(SceneError::BadName {
@@ -822,6 +1105,7 @@ impl Scene {
                         });
                     }
                     let mut resolved = Vec::with_capacity(ports.len());
+                    let mut distinct = HashSet::with_capacity(ports.len());
                     for (i, p) in ports.iter().enumerate() {
                         let at = field_of(
                             &c.origin,
@@ -841,7 +1125,7 @@ impl Scene {
                                 ),
                             });
                         }
-                        if resolved.iter().any(|(q, _)| *q == r) {
+                        if !distinct.insert(r) {
                             return Err(SceneError::BadConnection {
                                 at,
                                 connection: c.name.clone(),
@@ -859,35 +1143,78 @@ impl Scene {
                     }
                     graph.joint(c.name.clone(), pa, pb)
                 }
+                ConnectionKind::JointCoordinate { joint, port: p } => {
+                    let Some(j) = joints.get(joint.as_str()) else {
+                        return Err(SceneError::BadConnection {
+                            at: c.origin.field("joint"),
+                            connection: c.name.clone(),
+                            reason: format!(
+                                "no rigid joint is named `{joint}`; the rigid joints are {}",
+                                listed(joints.keys())
+                            ),
+                        });
+                    };
+                    let pr = port(p, c.origin.field("port"))?;
+                    j.couple_coordinate(&mut graph, &c.name, pr)
+                        .map_err(|e| rigid_error(e, c))?
+                }
+                ConnectionKind::Spherical(_)
+                | ConnectionKind::Revolute(_)
+                | ConnectionKind::Universal(_)
+                | ConnectionKind::Cylindrical(_)
+                | ConnectionKind::Prismatic(_)
+                | ConnectionKind::Planar(_)
+                | ConnectionKind::Fixed(_) => {
+                    let Some(j) = joints.get(c.name.as_str()) else {
+                        return Err(bad("is not a rigid joint"));
+                    };
+                    for (key, body) in [("a", j.a.body.as_ref()), ("b", j.b.body.as_ref())] {
+                        let Some(body) = body else { continue };
+                        let at = c.origin.field(key);
+                        let Some(sub) = graph.subsystems().iter().find(|s| s.name() == body) else {
+                            return Err(SceneError::UnknownPart {
+                                at,
+                                reference: body.clone(),
+                                part: body.clone(),
+                            });
+                        };
+                        if sub.port_index("r33").is_none() {
+                            return Err(SceneError::BadConnection {
+                                at,
+                                connection: c.name.clone(),
+                                reason: format!("part `{body}` is not a rigid body"),
+                            });
+                        }
+                    }
+                    if j.a.body.is_some() && j.a.body == j.b.body {
+                        return Err(bad("joins a body to itself"));
+                    }
+                    let rows = j
+                        .connect_rows(&mut graph, &c.name)
+                        .map_err(|e| rigid_error(e, c))?;
+                    rigid_joints.push((c.name.clone(), j.clone()));
+                    rows[0]
+                }
                 ConnectionKind::Coupling { a, b, element } => {
                     let (pa, pb) = (port(a, c.origin.field("a"))?, port(b, c.origin.field("b"))?);
                     if pa == pb {
                         return Err(bad("couples a port to itself"));
                     }
-                    let check = Check {
-                        item: format!("coupling `{}`", c.name),
-                        origin: &c.origin,
+                    let at = |e: PartError| {
+                        placed(format!("coupling `{}`", c.name), &c.origin, "element.", e)
                     };
                     match element {
                         ElementSpec::Spring(s) => {
-                            let k = check.non_negative("element.k", s.k)?;
-                            let k3 = check.finite("element.k3", s.k3)?;
-                            let rest = check.finite("element.rest", s.rest)?;
-                            if k3 == 0.0 {
-                                graph.coupling(c.name.clone(), pa, pb, LinearSpring { k, rest })
-                            } else {
-                                graph.coupling(c.name.clone(), pa, pb, Spring { k, k3, rest })
-                            }
+                            let spring = Spring::new(s.k, s.k3, s.rest).map_err(at)?;
+                            graph.coupling(c.name.clone(), pa, pb, spring)
                         }
                         ElementSpec::Damper(d) => {
-                            let damper = Damper {
-                                c: check.non_negative("element.c", d.c)?,
-                            };
+                            let damper = Damper::new(d.c).map_err(at)?;
                             graph.coupling(c.name.clone(), pa, pb, damper)
                         }
                         ElementSpec::ForceSource(f) => {
-                            let w = check.waveform("element.waveform", &f.waveform)?;
-                            graph.coupling(c.name.clone(), pa, pb, ForceSource::new(w))
+                            let force = ForceSource::new(waveform(&f.waveform)).map_err(at)?;
+                            graph.coupling(c.name.clone(), pa, pb, force)
                         }
                     }
                 }
@@ -922,6 +1249,7 @@ impl Scene {
                 .map(|(i, name)| {
                     resolve_signal(
                         &graph,
+                        &rigid_joints,
                         execution,
                         name,
                         record.origin.field(&format!("signals[{i}]")),
@@ -936,6 +1264,7 @@ impl Scene {
             let label = format!("power({name})");
             signals.push(resolve_signal(
                 &graph,
+                &rigid_joints,
                 execution,
                 &label,
                 record.origin.field(&format!("power[{i}]")),
@@ -951,6 +1280,7 @@ impl Scene {
             let label = format!("force({name})");
             signals.push(resolve_signal(
                 &graph,
+                &rigid_joints,
                 execution,
                 &label,
                 record.origin.field(&format!("forces[{i}]")),
@@ -971,7 +1301,20 @@ impl Scene {
             start,
             t_end: sim.t_end,
             signals,
+            rigid_joints,
         })
+    }
+}
+
+/// A rigid-body error of connection `c`, placed at the connection.
+fn rigid_error(e: dirac_rigid::RigidError, c: &super::model::Connection) -> SceneError {
+    match e {
+        dirac_rigid::RigidError::Graph(g) => SceneError::Graph(g),
+        other => SceneError::BadRigid {
+            at: c.origin.item(),
+            item: format!("connection `{}`", c.name),
+            reason: other.to_string(),
+        },
     }
 }
 
@@ -995,7 +1338,7 @@ fn resolve_port(
             reference: reference.to_string(),
         });
     };
-    let Some(sub) = graph.subsystems().iter().find(|s| s.name() == part) else {
+    let Some(sub) = graph.subsystem_id(part).map(|id| &graph.subsystems()[id.0]) else {
         return Err(SceneError::UnknownPart {
             at,
             reference: reference.to_string(),

@@ -285,6 +285,17 @@ pub enum SceneError {
     /// The scene could not be written as TOML.
     #[error("cannot write the scene as TOML: {0}")]
     Serialise(String),
+    /// A rigid body or joint that cannot be built (an inertia that no body has, a frame that is
+    /// not a rotation, a joint with no coordinate to couple).
+    #[error("{}{item}: {reason}", place(.at))]
+    BadRigid {
+        /// Where.
+        at: Option<Location>,
+        /// The part or connection.
+        item: String,
+        /// What is wrong.
+        reason: String,
+    },
     /// The interconnection could not be built or assembled.
     #[error(transparent)]
     Graph(#[from] GraphError),
@@ -328,7 +339,8 @@ impl SceneError {
             | Self::InitialLength { at, .. }
             | Self::BadConnection { at, .. }
             | Self::TooFewPorts { at, .. }
-            | Self::BadSetting { at, .. } => at.as_ref(),
+            | Self::BadSetting { at, .. }
+            | Self::BadRigid { at, .. } => at.as_ref(),
             _ => None,
         }
     }

@@ -1,5 +1,6 @@
 //! The scene data model: what a scene file says, as Rust values (serialisable back to TOML).
 
+use std::collections::BTreeMap;
 use std::fmt;
 
 use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
@@ -456,7 +457,7 @@ pub enum PartKind {
     CurrentSource(SourceParams),
     /// `type = "coupled_inductors"`: coordinates `q1`, `q2`, ports `i1`, `i2`.
     CoupledInductors(CoupledInductorsParams),
-    /// `type = "diode"`: coordinates `q`, `u`, port `i` (anode to cathode).
+    /// `type = "diode"`: coordinates `q`, `phi` (junction flux), port `i` (anode to cathode).
     Diode(DiodeParams),
     /// `type = "saturating_inductor"`: coordinate `q`, port `i`.
     SaturatingInductor(SaturatingInductorParams),
@@ -485,10 +486,13 @@ pub enum PartKind {
     /// `type = "rolling_disk"`: coordinates and ports `x`, `y`, `theta`, `phi`; rolls without
     /// slipping (q-dependent one-forms: use `scheme = "symmetric"` for bounded energy).
     RollingDisk(RollingDiskParams),
+    /// `type = "rigid_body"`: a body in space, coordinates and ports `x`, `y`, `z` (centre of
+    /// mass) and `r11` … `r33` (rotation), plus `{point}.x|y|z` per named point.
+    RigidBody(Box<RigidBodyParams>),
 }
 
 /// The `type` names of [`PartKind`], in declaration order.
-pub const PART_TYPES: [&str; 20] = [
+pub const PART_TYPES: [&str; 21] = [
     "resistor",
     "inductor",
     "capacitor",
@@ -509,6 +513,7 @@ pub const PART_TYPES: [&str; 20] = [
     "ideal_transformer",
     "ideal_gear",
     "rolling_disk",
+    "rigid_body",
 ];
 
 impl PartKind {
@@ -536,6 +541,7 @@ impl PartKind {
             Self::IdealTransformer(_) => 17,
             Self::IdealGear(_) => 18,
             Self::RollingDisk(_) => 19,
+            Self::RigidBody(_) => 20,
         };
         PART_TYPES[i]
     }
@@ -631,33 +637,20 @@ pub struct SaturatingInductorParams {
     pub i_sat: f64,
 }
 
-/// `mass`: `m` (> 0), wall spring `k` and wall damper `c` (≥ 0, default 0).
+/// `mass`: `m` (> 0). A wall spring or damper is a coupling to a `ground`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MassParams {
     /// Mass.
     pub m: f64,
-    /// Wall spring stiffness.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub k: f64,
-    /// Wall damper coefficient.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub c: f64,
 }
 
-/// `inertia`: `j` (> 0), torsional spring `k` and bearing friction `c` to the frame (≥ 0,
-/// default 0).
+/// `inertia`: `j` (> 0). A torsional spring or bearing friction is a coupling to a `ground`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct InertiaParams {
     /// Moment of inertia.
     pub j: f64,
-    /// Torsional stiffness to the frame.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub k: f64,
-    /// Viscous friction to the frame.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub c: f64,
 }
 
 /// `spring` to ground (free end at its coordinate): `k` (≥ 0), cubic `k3` (default 0), `rest`
@@ -821,6 +814,72 @@ pub struct RollingDiskParams {
     pub radius: f64,
 }
 
+fn default_gravity_vector() -> [f64; 3] {
+    [0.0, 0.0, -9.81]
+}
+
+/// A body's inertia tensor about its centre of mass, in body axes: principal moments
+/// `[J₁, J₂, J₃]` or a symmetric 3×3 table.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum InertiaSpec {
+    /// `inertia = [0.02, 0.02, 0.03]`
+    Principal([f64; 3]),
+    /// `inertia = [[0.02, 0, 0], [0, 0.02, 0], [0, 0, 0.03]]`
+    Tensor([[f64; 3]; 3]),
+}
+
+/// A rotation: `{ axis = [0, 1, 0], angle = 0.4 }` (radians, right-handed), a unit quaternion
+/// `[w, x, y, z]`, or a 3×3 matrix (rows).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum RotationSpec {
+    /// `{ axis = [0, 1, 0], angle = 0.4 }`
+    AxisAngle {
+        /// The axis (normalised when used).
+        axis: [f64; 3],
+        /// The angle in radians.
+        angle: f64,
+    },
+    /// `[w, x, y, z]` (normalised when used).
+    Quaternion([f64; 4]),
+    /// `[[r11, r12, r13], [r21, r22, r23], [r31, r32, r33]]`
+    Matrix([[f64; 3]; 3]),
+}
+
+/// `rigid_body`: mass `m` (> 0), `inertia` ([`InertiaSpec`]), `gravity` (default
+/// `[0, 0, −9.81]`), named body-fixed `points = { tip = [0, 0, 0.3] }` (body axes, from the
+/// centre of mass), and the initial state: `position` of the centre of mass, `rotation`
+/// ([`RotationSpec`], body to space), `velocity` of the centre of mass and `angular_velocity`
+/// (body axes). These set the defaults of `q0` and `v0` (which may still override coordinates by
+/// name).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidBodyParams {
+    /// Mass.
+    pub m: f64,
+    /// Inertia about the centre of mass, body axes.
+    pub inertia: InertiaSpec,
+    /// Gravitational acceleration.
+    #[serde(default = "default_gravity_vector")]
+    pub gravity: [f64; 3],
+    /// Named body-fixed points (ports `{name}.x`, `.y`, `.z`).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub points: BTreeMap<String, [f64; 3]>,
+    /// Initial position of the centre of mass.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position: Option<[f64; 3]>,
+    /// Initial rotation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rotation: Option<RotationSpec>,
+    /// Initial velocity of the centre of mass.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity: Option<[f64; 3]>,
+    /// Initial angular velocity, body axes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub angular_velocity: Option<[f64; 3]>,
+}
+
 /// `ideal_gear`: `ratio = θ₂/θ₁` (≠ 0).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -869,7 +928,74 @@ pub enum ConnectionKind {
         /// The element.
         element: ElementSpec,
     },
+    /// `type = "spherical"`: a ball joint between rigid bodies (see [`RigidJointSpec`]).
+    Spherical(RigidJointSpec),
+    /// `type = "revolute"`: a hinge about the joint frames' `z` axis.
+    Revolute(RigidJointSpec),
+    /// `type = "universal"`: a Hooke joint (`x` of frame `a` stays perpendicular to `y` of `b`).
+    Universal(RigidJointSpec),
+    /// `type = "cylindrical"`: rotation about and sliding along `z`.
+    Cylindrical(RigidJointSpec),
+    /// `type = "prismatic"`: sliding along `z`.
+    Prismatic(RigidJointSpec),
+    /// `type = "planar"`: motion in the `xy` plane of frame `a`.
+    Planar(RigidJointSpec),
+    /// `type = "fixed"`: the frames coincide.
+    Fixed(RigidJointSpec),
+    /// `type = "joint_coordinate"`: ties the one-dimensional `port` (a motor shaft, a gear, a
+    /// rotational spring, damper or torque source) to the angle (revolute, cylindrical, planar)
+    /// or the slide (prismatic) of the rigid joint named `joint`.
+    JointCoordinate {
+        /// The rigid joint.
+        joint: String,
+        /// `part.port`.
+        port: String,
+    },
 }
+
+/// The two sides of a rigid joint: bodies `a` (omitted: the fixed frame) and `b`, and on each a
+/// joint frame: `origin_a` (body axes from the centre of mass, or a point in space for the fixed
+/// frame; default `[0, 0, 0]`), `axis_a` (the frame's `z` axis, default `[0, 0, 1]`) and
+/// `ref_a` (its `x` axis, made perpendicular to `z`; default: the coordinate axis least aligned
+/// with `z`), and the same for `b`. The frames should coincide in the initial configuration.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidJointSpec {
+    /// Body `a` (`None`: the fixed frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub a: Option<String>,
+    /// Body `b`.
+    pub b: String,
+    /// Joint origin on `a`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin_a: Option<[f64; 3]>,
+    /// Joint origin on `b`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin_b: Option<[f64; 3]>,
+    /// Joint axis (frame `z`) on `a`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis_a: Option<[f64; 3]>,
+    /// Joint axis (frame `z`) on `b`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub axis_b: Option<[f64; 3]>,
+    /// Reference direction (frame `x`) on `a`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ref_a: Option<[f64; 3]>,
+    /// Reference direction (frame `x`) on `b`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ref_b: Option<[f64; 3]>,
+}
+
+/// The `type` names of the rigid joints.
+pub const RIGID_JOINT_TYPES: [&str; 7] = [
+    "spherical",
+    "revolute",
+    "universal",
+    "cylindrical",
+    "prismatic",
+    "planar",
+    "fixed",
+];
 
 /// One signed port of a node.
 #[derive(Debug, Clone, PartialEq)]

@@ -1,0 +1,71 @@
+/* Explicit symplectic integrators for separable problems H = |p|^2/2 + V(q): Stormer-Verlet
+ * (kick-drift-kick, the discrete flow of the trapezoid discrete Lagrangian) and its symmetric
+ * compositions of order 4 (triple jump) and 6 (Yoshida 1990, solution A). The force at the end
+ * of a substep is reused at the start of the next, so a step costs one force evaluation per
+ * stage. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <math.h>
+
+#include "peers.h"
+
+extern char peers_error_message[256];
+
+int symplectic(const problem_t *p, double t0, double t1, const double *y0, long steps, int order,
+               int record, traj_t *out, stats_t *st) {
+    if (!p->separable || steps <= 0) {
+        snprintf(peers_error_message, sizeof peers_error_message,
+                 "symplectic: scene is not separable or no steps");
+        return -4;
+    }
+    double gam[7];
+    int m;
+    if (order == 2) {
+        m = 1;
+        gam[0] = 1.0;
+    } else if (order == 4) {
+        double c = cbrt(2.0), g1 = 1.0 / (2.0 - c);
+        m = 3;
+        gam[0] = g1;
+        gam[1] = -c * g1;
+        gam[2] = g1;
+    } else if (order == 6) {
+        const double w1 = -1.17767998417887, w2 = 0.235573213359357, w3 = 0.784513610477560;
+        double w0 = 1.0 - 2.0 * (w1 + w2 + w3);
+        m = 7;
+        gam[0] = w3; gam[1] = w2; gam[2] = w1; gam[3] = w0; gam[4] = w1; gam[5] = w2; gam[6] = w3;
+    } else {
+        snprintf(peers_error_message, sizeof peers_error_message, "symplectic: order %d", order);
+        return -4;
+    }
+    int n = p->nq;
+    double *y = malloc((size_t)(2 * n + n) * sizeof(double));
+    if (!y) return -1;
+    double *q = y, *v = y + n, *f = y + 2 * n;
+    memcpy(y, y0, (size_t)(2 * n) * sizeof(double));
+    double h = (t1 - t0) / (double)steps;
+    memset(st, 0, sizeof *st);
+    if (record && traj_push(out, t0, y)) goto fail_mem;
+    p->force(q, f, p);
+    st->rhs_evals = 1;
+    for (long k = 0; k < steps; k++) {
+        for (int s = 0; s < m; s++) {
+            double hs = gam[s] * h;
+            for (int i = 0; i < n; i++) v[i] += 0.5 * hs * f[i];
+            for (int i = 0; i < n; i++) q[i] += hs * v[i];
+            p->force(q, f, p);
+            for (int i = 0; i < n; i++) v[i] += 0.5 * hs * f[i];
+        }
+        st->rhs_evals += m;
+        st->steps++;
+        if (record && traj_push(out, t0 + (double)(k + 1) * h, y)) goto fail_mem;
+    }
+    if (!record && traj_push(out, t1, y)) goto fail_mem;
+    free(y);
+    return 0;
+fail_mem:
+    snprintf(peers_error_message, sizeof peers_error_message, "symplectic: out of memory");
+    free(y);
+    return -1;
+}

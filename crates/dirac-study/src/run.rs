@@ -1,0 +1,435 @@
+//! Running a model as the command line does: settings by name over the file's own, the start
+//! the file asks for, rows from the first output time on.
+
+use dirac_core::{Discretisation, Model as _};
+use dirac_graph::{Assembler, Representation};
+use dirac_netlist::Circuit;
+use dirac_sim::{
+    Execution, IntegratorOptions, RunSummary, Scheme, Signal, Simulation, Sink, Splitting, Start,
+    Trajectory,
+};
+
+use crate::model::Built;
+use crate::{Model, RunSettings, StudyError};
+
+/// A run set up and ready to step: the simulation, its signals, its end time.
+#[derive(Debug)]
+pub struct Prepared {
+    simulation: Simulation,
+    signals: Vec<Signal>,
+    t_end: f64,
+    first_output: f64,
+}
+
+impl Prepared {
+    /// The warnings of the set-up (dropped redundant constraints, repaired initial values).
+    #[must_use]
+    pub fn warnings(&self) -> &[String] {
+        self.simulation.warnings()
+    }
+
+    /// The signals recorded.
+    #[must_use]
+    pub fn signals(&self) -> &[Signal] {
+        &self.signals
+    }
+
+    /// The end time.
+    #[must_use]
+    pub fn t_end(&self) -> f64 {
+        self.t_end
+    }
+
+    /// The step size.
+    #[must_use]
+    pub fn h(&self) -> f64 {
+        self.simulation.options().h
+    }
+
+    /// The execution (representation or splitting).
+    #[must_use]
+    pub fn execution(&self) -> Execution {
+        self.simulation.execution()
+    }
+
+    /// Number of output rows before the first output time is applied, `round(t_end/h) + 1`.
+    #[must_use]
+    pub fn rows(&self) -> usize {
+        (self.t_end / self.h()).round() as usize + 1
+    }
+
+    /// Runs to the end time, streaming every row at or after the first output time (a
+    /// netlist's `.tran` TSTART) to `sink`.
+    ///
+    /// # Errors
+    /// A step, readout or the sink failing.
+    pub fn run_into(&mut self, sink: &mut dyn Sink) -> Result<RunSummary, StudyError> {
+        let mut skip = FromTime {
+            inner: sink,
+            first: self.first_output,
+        };
+        Ok(self
+            .simulation
+            .run_into(self.t_end, &self.signals, &mut skip)?)
+    }
+
+    /// Runs to the end time and keeps every row.
+    ///
+    /// # Errors
+    /// See [`Prepared::run_into`].
+    pub fn run(&mut self) -> Result<(Trajectory, RunSummary), StudyError> {
+        let mut trajectory = Trajectory::new();
+        let summary = self.run_into(&mut trajectory)?;
+        Ok((trajectory, summary))
+    }
+}
+
+/// Passes on the rows at or after `first`.
+struct FromTime<'a> {
+    inner: &'a mut dyn Sink,
+    first: f64,
+}
+
+impl Sink for FromTime<'_> {
+    fn begin(&mut self, names: &[String]) -> Result<(), String> {
+        self.inner.begin(names)
+    }
+
+    fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
+        if t < self.first * (1.0 - 1e-12) {
+            return Ok(());
+        }
+        self.inner.row(k, t, values)
+    }
+}
+
+/// One representation's deviation from the monolithic run (`dirac compare`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Comparison {
+    /// `monolithic`, `constraint`, `force`, `staggered-gs`, `staggered-jacobi`.
+    pub execution: String,
+    /// Largest absolute difference from the monolithic run over every signal and row; `None`
+    /// when this execution could not run.
+    pub max_abs_deviation: Option<f64>,
+    /// Why it could not run.
+    pub note: Option<String>,
+}
+
+/// The size of one representation of a model (`dirac check`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RepresentationSize {
+    /// `monolithic`, `constraint` or `force`.
+    pub representation: String,
+    /// Coordinates of the assembled system.
+    pub coordinates: usize,
+    /// Constraint rows of the assembled system.
+    pub constraint_rows: usize,
+}
+
+/// What `dirac check` reports about a model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckReport {
+    /// Number of parts.
+    pub parts: usize,
+    /// Number of connections.
+    pub connections: usize,
+    /// Sizes in each assembled representation.
+    pub representations: Vec<RepresentationSize>,
+    /// Coordinates without a kinetic term (algebraic or first-order directions).
+    pub degenerate: Vec<String>,
+    /// The file's signals.
+    pub signals: Vec<String>,
+    /// Where the run starts.
+    pub start: Start,
+    /// A netlist's `.tran` step and end time.
+    pub tran: Option<(f64, f64)>,
+}
+
+impl Model {
+    /// The execution `settings` ask for, else the file's own.
+    ///
+    /// # Errors
+    /// A staggered run of a netlist (a circuit's nodes are constraints, not couplings).
+    pub fn execution_for(&self, settings: &RunSettings) -> Result<Execution, StudyError> {
+        let own = self.execution();
+        let execution = settings
+            .representation
+            .map_or(own, |choice| choice.execution(Some(own)));
+        if matches!(execution, Execution::Staggered(_))
+            && matches!(self.built, Built::Netlist { .. })
+        {
+            return Err(StudyError::Settings(format!(
+                "{}: staggered co-simulation needs coupling elements between subsystems; a circuit's nodes are constraints",
+                self.name()
+            )));
+        }
+        Ok(execution)
+    }
+
+    /// Integrator options and end time: the file's, changed by `settings`.
+    ///
+    /// # Errors
+    /// No step size or end time (a netlist without `.tran` and none given), or values that are
+    /// not positive and finite.
+    pub fn options_for(
+        &self,
+        settings: &RunSettings,
+    ) -> Result<(IntegratorOptions, f64), StudyError> {
+        let name = self.name();
+        let (h, t_end, discretisation, scheme) = match &self.built {
+            Built::Netlist { circuit, .. } => {
+                let tran = circuit.tran_settings();
+                (
+                    settings.h.or(tran.map(|t| t.0)),
+                    settings.t_end.or(tran.map(|t| t.1)),
+                    circuit
+                        .method
+                        .clone()
+                        .unwrap_or_else(Discretisation::midpoint),
+                    Scheme::Plus,
+                )
+            }
+            Built::Scene { scene, .. } => (
+                Some(settings.h.unwrap_or(scene.options.h)),
+                Some(settings.t_end.unwrap_or(scene.t_end)),
+                scene.options.discretisation.clone(),
+                scene.options.scheme,
+            ),
+        };
+        let h = h.ok_or_else(|| StudyError::Settings(format!("{name}: no .tran card and no h")))?;
+        let t_end = t_end
+            .ok_or_else(|| StudyError::Settings(format!("{name}: no .tran card and no t_end")))?;
+        if !(h > 0.0 && h.is_finite()) {
+            return Err(StudyError::Settings(format!(
+                "step size must be positive and finite, got {h}"
+            )));
+        }
+        if !(t_end >= 0.0 && t_end.is_finite()) {
+            return Err(StudyError::Settings(format!(
+                "end time must be non-negative and finite, got {t_end}"
+            )));
+        }
+        let discretisation = settings
+            .method
+            .map_or(discretisation, crate::Method::discretisation);
+        let scheme = settings.scheme.unwrap_or(scheme);
+        Ok((
+            IntegratorOptions::new(discretisation, h).scheme(scheme),
+            t_end,
+        ))
+    }
+
+    /// A simulation of this model in `execution` with `options`, starting at `start`, with the
+    /// file's initial values (and a netlist's `.ic` holds).
+    ///
+    /// # Errors
+    /// Initial values that do not fit the parts.
+    pub fn simulation(
+        &self,
+        execution: Execution,
+        options: IntegratorOptions,
+        start: Start,
+    ) -> Result<Simulation, StudyError> {
+        Ok(match &self.built {
+            Built::Netlist { circuit, .. } => circuit.simulation(execution, options, start)?,
+            Built::Scene { scene, .. } => scene.simulation_with(execution, options, start)?,
+        })
+    }
+
+    /// The signals `settings` name, else the file's.
+    ///
+    /// # Errors
+    /// A name that is not a signal of this model.
+    pub fn signals_for(&self, settings: &RunSettings) -> Result<Vec<Signal>, StudyError> {
+        match &settings.signals {
+            Some(names) => self.signals(names),
+            None => Ok(self.default_signals()),
+        }
+    }
+
+    /// Sets up the run `settings` ask for: the execution, options, start and signals, the
+    /// consistent initial state.
+    ///
+    /// # Errors
+    /// Bad settings or signals, an inconsistent start, a steady state that cannot be found.
+    pub fn prepare(&self, settings: &RunSettings) -> Result<Prepared, StudyError> {
+        self.prepare_with(settings, None)
+    }
+
+    /// [`Model::prepare`], recording `extra` after the signals `settings` name (the Python
+    /// package records the energy this way for the run's energy drift, whatever the model's
+    /// signal names are).
+    ///
+    /// # Errors
+    /// See [`Model::prepare`].
+    pub fn prepare_with(
+        &self,
+        settings: &RunSettings,
+        extra: Option<Signal>,
+    ) -> Result<Prepared, StudyError> {
+        let execution = self.execution_for(settings)?;
+        let (options, t_end) = self.options_for(settings)?;
+        let mut signals = self.signals_for(settings)?;
+        signals.extend(extra);
+        let mut simulation = self.simulation(execution, options, self.start())?;
+        simulation.check_signals(&signals)?;
+        simulation.prepare()?;
+        Ok(Prepared {
+            simulation,
+            signals,
+            t_end,
+            first_output: self.first_output_time(),
+        })
+    }
+
+    /// Runs as `settings` ask and keeps every row.
+    ///
+    /// # Errors
+    /// See [`Model::prepare`] and [`Prepared::run_into`].
+    pub fn run(&self, settings: &RunSettings) -> Result<(Trajectory, RunSummary), StudyError> {
+        self.prepare(settings)?.run()
+    }
+
+    /// The operating point (steady state with the sources at `t = 0`): a netlist's node voltages
+    /// and inductor and source currents as SPICE's `.op` prints them, a scene's signals.
+    ///
+    /// # Errors
+    /// A model without a steady state, or Newton failing to find it.
+    pub fn operating_point(&self) -> Result<Vec<(String, f64)>, StudyError> {
+        let settings = RunSettings {
+            h: Some(1.0),
+            t_end: Some(0.0),
+            ..RunSettings::default()
+        };
+        let (options, _) = self.options_for(&settings)?;
+        let signals = match &self.built {
+            Built::Netlist { circuit, .. } => circuit.operating_point_signals(),
+            Built::Scene { scene, .. } => scene.signals.clone(),
+        };
+        let mut simulation = self.simulation(self.execution(), options, Start::SteadyState)?;
+        let (trajectory, _) = simulation.run(0.0, &signals)?;
+        Ok(signals
+            .iter()
+            .zip(trajectory.row(0))
+            .map(|(s, v)| (s.name.clone(), *v))
+            .collect())
+    }
+
+    /// Runs every representation (and for a scene both staggered splittings) with the file's
+    /// signals and reports each one's largest deviation from the monolithic run.
+    ///
+    /// # Errors
+    /// Bad settings, or the monolithic run failing.
+    pub fn compare(&self, settings: &RunSettings) -> Result<Vec<Comparison>, StudyError> {
+        let (options, t_end) = self.options_for(settings)?;
+        let signals = self.signals_for(settings)?;
+        let collect = |execution: Execution| -> Result<Trajectory, StudyError> {
+            let mut simulation = self.simulation(execution, options.clone(), self.start())?;
+            Ok(simulation.run(t_end, &signals)?.0)
+        };
+        let reference = collect(Execution::Assembled(Representation::Monolithic))?;
+        let deviation = |other: &Trajectory| {
+            (0..other.len().min(reference.len()))
+                .flat_map(|k| {
+                    other
+                        .row(k)
+                        .iter()
+                        .zip(reference.row(k))
+                        .map(|(x, y)| (x - y).abs())
+                        .collect::<Vec<_>>()
+                })
+                .fold(0.0_f64, f64::max)
+        };
+        let mut results = Vec::new();
+        for representation in [
+            Representation::Monolithic,
+            Representation::Constraint,
+            Representation::InteractionForce,
+        ] {
+            let run = collect(Execution::Assembled(representation))?;
+            results.push(Comparison {
+                execution: representation.to_string(),
+                max_abs_deviation: Some(deviation(&run)),
+                note: None,
+            });
+        }
+        for splitting in [Splitting::GaussSeidel, Splitting::Jacobi] {
+            let execution = Execution::Staggered(splitting);
+            let name = execution.to_string();
+            if matches!(self.built, Built::Netlist { .. }) {
+                results.push(Comparison {
+                    execution: name,
+                    max_abs_deviation: None,
+                    note: Some("not applicable: a circuit's nodes are constraints between parts, not coupling elements".to_string()),
+                });
+                continue;
+            }
+            results.push(match collect(execution) {
+                Ok(run) => Comparison {
+                    execution: name,
+                    max_abs_deviation: Some(deviation(&run)),
+                    note: None,
+                },
+                Err(why) => Comparison {
+                    execution: name,
+                    max_abs_deviation: None,
+                    note: Some(why.to_string()),
+                },
+            });
+        }
+        Ok(results)
+    }
+
+    /// Sizes of the assembled representations, degenerate directions, signals and start.
+    ///
+    /// # Errors
+    /// An interconnection that cannot be assembled.
+    pub fn check(&self) -> Result<CheckReport, StudyError> {
+        let graph = self.graph();
+        let mut representations = Vec::new();
+        for representation in [
+            Representation::Monolithic,
+            Representation::Constraint,
+            Representation::InteractionForce,
+        ] {
+            let system = Assembler::assemble(graph, representation)
+                .map_err(|e| StudyError::Run(e.into()))?;
+            representations.push(RepresentationSize {
+                representation: representation.to_string(),
+                coordinates: system.coordinates(),
+                constraint_rows: system.constraint_rows(),
+            });
+        }
+        let system = Assembler::assemble(graph, Representation::Monolithic)
+            .map_err(|e| StudyError::Run(e.into()))?;
+        let n = system.coordinates();
+        let mut hessian = dirac_core::LagrangianHessian::default();
+        hessian.begin();
+        system
+            .model
+            .lagrangian_hessian(&vec![0.0; n], &vec![0.0; n], &mut hessian);
+        let mut regular = vec![false; n];
+        for (r, c, v) in hessian.vv.iter() {
+            if r == c && v != 0.0 {
+                regular[r] = true;
+            }
+        }
+        let degenerate = (0..n)
+            .filter(|&i| !regular[i])
+            .map(|i| system.model.coordinate_name(i))
+            .collect();
+        Ok(CheckReport {
+            parts: graph.subsystems().len(),
+            connections: graph.connections().len(),
+            representations,
+            degenerate,
+            signals: self
+                .default_signals()
+                .iter()
+                .map(|s| s.name.clone())
+                .collect(),
+            start: self.start(),
+            tran: self.circuit().and_then(Circuit::tran_settings),
+        })
+    }
+}
