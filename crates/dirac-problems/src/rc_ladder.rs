@@ -107,7 +107,7 @@ impl RcLadder {
         let n = self.n;
         let mut g = Interconnection::new();
         g.add_subsystem(
-            VoltageSource::new(Waveform::sin(0.0, 1.0, RC_LADDER_FREQUENCY)).subsystem("V1"),
+            VoltageSource::new(Waveform::sin(0.0, 1.0, RC_LADDER_FREQUENCY))?.subsystem("V1"),
         )?;
         for k in 1..=n {
             let section = RcSection {

@@ -648,41 +648,6 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
     })
 }
 
-/// Checks of the rigid-body and joint values, which have no checked constructor of their own: a
-/// failure names the item and the value's place in the scene file.
-struct Check<'a> {
-    item: String,
-    origin: &'a Origin,
-}
-
-impl Check<'_> {
-    fn fail(&self, key: &str, value: f64, requirement: &'static str) -> SceneError {
-        SceneError::BadParameter {
-            at: self.origin.field(key),
-            item: self.item.clone(),
-            parameter: key.to_string(),
-            value,
-            requirement,
-        }
-    }
-
-    fn finite(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be finite"))
-        }
-    }
-
-    fn positive(&self, key: &str, v: f64) -> Result<f64, SceneError> {
-        if v.is_finite() && v > 0.0 {
-            Ok(v)
-        } else {
-            Err(self.fail(key, v, "must be positive and finite"))
-        }
-    }
-}
-
 /// The rigid body of a `rigid_body` part.
 fn rigid_body(
     part: &Part,
