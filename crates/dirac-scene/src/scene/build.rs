@@ -241,6 +241,41 @@ fn rigid_joint_signal(
     }
 }
 
+/// Parameter checks of one rigid-body item (the stock parts check themselves through their
+/// constructors), errors placed at the parameter's value.
+struct Check<'a> {
+    item: String,
+    origin: &'a Origin,
+}
+
+impl Check<'_> {
+    fn fail(&self, key: &str, value: f64, requirement: &'static str) -> SceneError {
+        SceneError::BadParameter {
+            at: self.origin.field(key),
+            item: self.item.clone(),
+            parameter: key.to_string(),
+            value,
+            requirement,
+        }
+    }
+
+    fn finite(&self, key: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.fail(key, v, "must be finite"))
+        }
+    }
+
+    fn positive(&self, key: &str, v: f64) -> Result<f64, SceneError> {
+        if v.is_finite() && v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.fail(key, v, "must be positive and finite"))
+        }
+    }
+}
+
 /// Flow signals of the ports of `sub` not named like one of its coordinates.
 fn flow_ports(sub: &Subsystem, names: &[String], s: usize) -> Vec<Signal> {
     sub.ports()
