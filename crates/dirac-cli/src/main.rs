@@ -823,18 +823,6 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
         &options,
         t_end,
     )?;
-    let deviation = |other: &Trajectory| {
-        (0..other.len().min(reference.len()))
-            .flat_map(|k| {
-                other
-                    .row(k)
-                    .iter()
-                    .zip(reference.row(k))
-                    .map(|(x, y)| (x - y).abs())
-                    .collect::<Vec<_>>()
-            })
-            .fold(0.0_f64, f64::max)
-    };
     let mut results = Vec::new();
     for representation in [
         Representation::Monolithic,
@@ -849,7 +837,7 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
         )?;
         results.push((
             representation.to_string(),
-            Some(deviation(&run)),
+            Some(run.max_deviation(&reference)),
             None::<String>,
         ));
     }
@@ -865,7 +853,7 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
             continue;
         }
         match collect(&loaded, execution, &options, t_end) {
-            Ok(run) => results.push((name, Some(deviation(&run)), None)),
+            Ok(run) => results.push((name, Some(run.max_deviation(&reference)), None)),
             Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
                 results.push((name, None, Some(why)))
             }

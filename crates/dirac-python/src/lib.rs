@@ -13,7 +13,6 @@
 
 use std::path::PathBuf;
 
-use dirac_netlist::CircuitError;
 use dirac_sim::{Probe, RunError, RunSummary, Signal, SimError, Sink, SteadyStateError};
 use dirac_solve::NewtonError;
 use dirac_study::{
@@ -70,9 +69,6 @@ fn place(e: &StudyError) -> Place {
             file: Some(file.clone()),
             ..Place::default()
         },
-        StudyError::Circuit(c @ CircuitError::UnknownSignal { .. }) => {
-            place_in_message(&c.to_string())
-        }
         other => place_in_message(&other.to_string()),
     }
 }

@@ -528,6 +528,17 @@ impl Readout {
 
     /// Newton counters of every solve so far.
     #[must_use]
+    /// The reduced unknowns the next nonlinear solve starts from (the last solution).
+    pub(crate) fn start_guess(&self) -> Vec<f64> {
+        self.reduced.clone()
+    }
+
+    /// Restores a start saved by [`Readout::start_guess`], so that a solve made on the side (the
+    /// natural modes) leaves the next readout exactly as it would have been without it.
+    pub(crate) fn restore_start_guess(&mut self, guess: &[f64]) {
+        self.reduced.copy_from_slice(guess);
+    }
+
     pub fn stats(&self) -> NewtonStats {
         self.stats
     }

@@ -741,14 +741,19 @@ impl Simulation {
                     }
                     .into());
                 }
-                e.readout.solve(
+                // The solve is on the side: the first recorded row must not depend on whether
+                // the modes were asked for (the CLI asks, the library's callers need not).
+                let guess = e.readout.start_guess();
+                let solved = e.readout.solve(
                     integrator.model(),
                     integrator.active_constraints(),
                     integrator.q(),
                     integrator.p(),
                     integrator.t(),
-                )?;
-                Ok(NaturalModes::analyse(
+                );
+                e.readout.restore_start_guess(&guess);
+                solved?;
+                let modes = NaturalModes::analyse(
                     integrator.model(),
                     integrator.active_constraints(),
                     (
@@ -758,7 +763,8 @@ impl Simulation {
                     ),
                     integrator.t(),
                     h,
-                )?)
+                )?;
+                Ok(modes)
             }
             _ => Err(RunError::Settings(
                 "natural modes need an assembled representation (monolithic, constraint or force)"

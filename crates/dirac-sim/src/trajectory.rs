@@ -62,6 +62,17 @@ impl Trajectory {
         &self.values[k * w..(k + 1) * w]
     }
 
+    /// The largest `|x − y|` between this trajectory and `other`, row by row and signal by signal
+    /// over the rows both have (how far two representations of one model apart ran). A NaN on
+    /// either side makes the result NaN instead of being skipped.
+    #[must_use]
+    pub fn max_deviation(&self, other: &Trajectory) -> f64 {
+        (0..self.len().min(other.len()))
+            .flat_map(|k| self.row(k).iter().zip(other.row(k)))
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0_f64, |m, d| if d.is_nan() { f64::NAN } else { m.max(d) })
+    }
+
     /// The column of signal `name`, if recorded.
     #[must_use]
     pub fn signal(&self, name: &str) -> Option<Vec<f64>> {
@@ -104,5 +115,31 @@ impl<F: FnMut(usize, f64, &[f64]) -> Result<(), String>> Sink for F {
 
     fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
         self(k, t, values)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Sink, Trajectory};
+
+    fn trajectory(rows: &[[f64; 2]]) -> Trajectory {
+        let mut t = Trajectory::new();
+        t.begin(&["a".into(), "b".into()]).unwrap();
+        for (k, r) in rows.iter().enumerate() {
+            Sink::row(&mut t, k, k as f64, r).unwrap();
+        }
+        t
+    }
+
+    /// The deviation is the largest entry-wise difference over the common rows, and a NaN is
+    /// reported, not skipped (a fold with `f64::max` alone returns 0 for an all-NaN run).
+    #[test]
+    fn max_deviation_is_entrywise_and_sees_nan() {
+        let x = trajectory(&[[1.0, 2.0], [3.0, 4.0], [9.0, 9.0]]);
+        let y = trajectory(&[[1.0, 2.5], [2.0, 4.0]]);
+        assert_eq!(x.max_deviation(&y), 1.0);
+        assert_eq!(y.max_deviation(&x), 1.0);
+        let nan = trajectory(&[[f64::NAN, f64::NAN], [f64::NAN, f64::NAN]]);
+        assert!(x.max_deviation(&nan).is_nan());
     }
 }

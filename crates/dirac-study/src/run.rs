@@ -328,18 +328,6 @@ impl Model {
             Ok(simulation.run(t_end, &signals)?.0)
         };
         let reference = collect(Execution::Assembled(Representation::Monolithic))?;
-        let deviation = |other: &Trajectory| {
-            (0..other.len().min(reference.len()))
-                .flat_map(|k| {
-                    other
-                        .row(k)
-                        .iter()
-                        .zip(reference.row(k))
-                        .map(|(x, y)| (x - y).abs())
-                        .collect::<Vec<_>>()
-                })
-                .fold(0.0_f64, f64::max)
-        };
         let mut results = Vec::new();
         for representation in [
             Representation::Monolithic,
@@ -349,7 +337,7 @@ impl Model {
             let run = collect(Execution::Assembled(representation))?;
             results.push(Comparison {
                 execution: representation.to_string(),
-                max_abs_deviation: Some(deviation(&run)),
+                max_abs_deviation: Some(run.max_deviation(&reference)),
                 note: None,
             });
         }
@@ -367,7 +355,7 @@ impl Model {
             results.push(match collect(execution) {
                 Ok(run) => Comparison {
                     execution: name,
-                    max_abs_deviation: Some(deviation(&run)),
+                    max_abs_deviation: Some(run.max_deviation(&reference)),
                     note: None,
                 },
                 Err(why) => Comparison {
