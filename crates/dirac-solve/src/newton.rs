@@ -62,6 +62,12 @@ pub trait LinearSolver {
 /// - **update test:** the last update was undamped, came from a Jacobian evaluated at the iterate
 ///   it started from, and moved every unknown by at most `update_tol · max(|x_old|, |x_new|)` of
 ///   that unknown (with an exact Jacobian the remaining error is then of order `update_tol²`);
+///   for an unknown that is small next to the other terms of its equations the size is taken from
+///   those equations instead (`Newton::unknown_scales`: the update then moves none of them by more
+///   than `update_tol` of their terms), and every unknown may also move by a few times the jitter
+///   that round-off in the residual gives it (`Newton::noise_floor`: the precision to which the
+///   Newton matrix determines it, e.g. a joint multiplier that the `M/h²` stiffness of its
+///   constraint ties to the round-off of the positions);
 /// - **residual test:** after an update from a Jacobian at its own iterate, every equation
 ///   satisfies `|F_i(x)| ≤ residual_tol · (c_i + Σ_j |J_ij x_j|)`, with `c_i` the size of its
 ///   terms that do not depend on the unknowns ([`NonlinearSystem::constant_magnitudes`]): its
@@ -156,6 +162,13 @@ pub struct Newton<S: LinearSolver> {
     magnitude: Vec<f64>,
     /// `Σ_j |J_ij|` per equation, for the residual test's round-off floor.
     row_sum: Vec<f64>,
+    /// Per unknown, the jitter of a Newton update caused by round-off in the residual (see
+    /// [`Newton::noise_floor`]); a second buffer for the other sign pattern.
+    noise: Vec<f64>,
+    noise_probe: Vec<f64>,
+    /// Per unknown, `min_i (c_i + Σ_k |J_ik x_k|) / |J_ij|` over the equations it enters (see
+    /// [`Newton::unknown_scales`]).
+    unknown_scale: Vec<f64>,
     analysed: bool,
     factored: bool,
 }
@@ -173,6 +186,9 @@ impl<S: LinearSolver> Newton<S> {
             row_scale: Vec::new(),
             magnitude: Vec::new(),
             row_sum: Vec::new(),
+            noise: Vec::new(),
+            noise_probe: Vec::new(),
+            unknown_scale: Vec::new(),
             analysed: false,
             factored: false,
         }
@@ -222,6 +238,9 @@ impl<S: LinearSolver> Newton<S> {
             self.row_scale = vec![0.0; n];
             self.magnitude = vec![0.0; n];
             self.row_sum = vec![0.0; n];
+            self.noise = vec![0.0; n];
+            self.noise_probe = vec![0.0; n];
+            self.unknown_scale = vec![0.0; n];
             self.reset();
         }
         let mut stats = NewtonStats::default();
@@ -241,6 +260,9 @@ impl<S: LinearSolver> Newton<S> {
         let mut kept_iterations = 0;
         // Whether the last update moved every unknown by at most KEPT_ACCEPT relative to itself.
         let mut at_roundoff = false;
+        // Whether `self.noise` holds the jitter for the factorisation in use (it changes little
+        // between iterates on one factorisation, so it is estimated once per factorisation).
+        let mut noise_known = false;
         for iteration in 0..=self.options.max_iterations {
             system.residual(x, &mut self.residual);
             stats.residual_evaluations += 1;
@@ -329,6 +351,7 @@ impl<S: LinearSolver> Newton<S> {
                 last_update
             };
             exact_update = refresh;
+            noise_known &= !refresh;
             previous_rnorm = rnorm;
             for ((u, r), s) in self
                 .update
@@ -382,6 +405,33 @@ impl<S: LinearSolver> Newton<S> {
                 small_update &= a <= tol * old.abs().max(xi.abs());
             }
             last_update = unorm;
+            // An unknown that is small next to the terms of the equations it enters (a joint
+            // multiplier of 1e-4 in momentum rows of size 1) is resolved once its update moves
+            // none of them by more than `update_tol` of their terms; and no update can do better
+            // than the jitter that round-off in the residual gives it (asked only once Newton has
+            // had an update to converge with).
+            if !small_update && !damped && !reuse && (exact_update || !modified) {
+                self.unknown_scales(system, x);
+                let noise = iteration > 0;
+                if noise && !noise_known {
+                    noise_known = true;
+                    self.noise_floor(system, x)
+                        .map_err(|source| NewtonError::Linear {
+                            source,
+                            residual: rnorm,
+                            worst_equation: worst,
+                        })?;
+                }
+                small_update = self
+                    .update
+                    .iter()
+                    .zip(&self.unknown_scale)
+                    .zip(&self.noise)
+                    .all(|((u, scale), eta)| {
+                        let jitter = if noise { NOISE_MARGIN * eta } else { 0.0 };
+                        u.abs() <= tol * scale + jitter
+                    });
+            }
             if reuse && self.options.affine_shortcut {
                 return Ok(stats);
             }
@@ -412,6 +462,75 @@ impl<S: LinearSolver> Newton<S> {
             }
         }
         (worst, at)
+    }
+
+    /// Per unknown `j`, the size of the unknown as the equations it weighs in see it:
+    /// `s_j = max(|x_j|, max_i (c_i + Σ_k |J_ik x_k|) / |J_ij|)` over the equations where its
+    /// coefficient is at least `SCALE_COEFFICIENT` of the equation's largest. `m_i / |J_ij|` is
+    /// the change of `x_j` that moves equation `i` by the size of its terms, so an update below
+    /// `update_tol·s_j` changes that equation by less than `update_tol` of its terms. It differs
+    /// from `|x_j|` only for an unknown that is small next to its equations' other terms (a
+    /// pinned body's position, 1e-32 next to momenta of 1, or a joint multiplier of 1e-4), whose
+    /// relative resolution no equation needs. Equations where the unknown barely enters (a
+    /// junction voltage through the 1e-12 S of GMIN) say nothing about its size and are left out.
+    fn unknown_scales<F: NonlinearSystem + ?Sized>(&mut self, system: &mut F, x: &[f64]) {
+        system.constant_magnitudes(&mut self.magnitude);
+        for (r, c, v) in self.jacobian.iter() {
+            self.magnitude[r] += (v * x[c]).abs();
+        }
+        for (s, xi) in self.unknown_scale.iter_mut().zip(x) {
+            *s = xi.abs();
+        }
+        for (r, c, v) in self.jacobian.iter() {
+            let a = v.abs();
+            if a * self.row_scale[r] >= SCALE_COEFFICIENT {
+                let s = self.magnitude[r] / a;
+                if s > self.unknown_scale[c] {
+                    self.unknown_scale[c] = s;
+                }
+            }
+        }
+    }
+
+    /// Per unknown, how far a Newton update moves it when every residual carries the round-off of
+    /// evaluating its own terms, `ε·(c_i + Σ_j |J_ij x_j|)`: `η = |J⁻¹ δF|` with `δF_i` that size
+    /// and a fixed pseudo-random sign per equation, the larger of two sign patterns (one pattern
+    /// can cancel in an unknown; two rarely both do). This is the precision to which Newton can
+    /// determine each unknown from the factorisation at hand, in the unknown's own units: a
+    /// constraint multiplier inherits the round-off of the positions times the stiffness `M/h²`
+    /// of the equation that fixes it, a node charge that of the currents in its KCL row. Two
+    /// solves with the current factorisation; no new one.
+    fn noise_floor<F: NonlinearSystem + ?Sized>(
+        &mut self,
+        system: &mut F,
+        x: &[f64],
+    ) -> Result<(), LinearSolveError> {
+        system.constant_magnitudes(&mut self.magnitude);
+        for (r, c, v) in self.jacobian.iter() {
+            self.magnitude[r] += (v * x[c]).abs();
+        }
+        self.noise.fill(0.0);
+        for pattern in [0x9E37_79B9_7F4A_7C15_u64, 0xD1B5_4A32_D192_ED03] {
+            let mut state = pattern;
+            for ((p, m), s) in self
+                .noise_probe
+                .iter_mut()
+                .zip(&self.magnitude)
+                .zip(&self.row_scale)
+            {
+                // xorshift64: a fixed, reproducible sign per equation.
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let sign = if state & 1 == 0 { 1.0 } else { -1.0 };
+                *p = sign * f64::EPSILON * m * s;
+            }
+            self.solver.solve_in_place(&mut self.noise_probe)?;
+            for (eta, p) in self.noise.iter_mut().zip(&self.noise_probe) {
+                *eta = eta.max(p.abs());
+            }
+        }
+        Ok(())
     }
 
     /// The residual test's second tier, for an iterate whose last undamped exact update was at
@@ -516,6 +635,16 @@ const STAGNATION_RESIDUAL: f64 = 5e-11;
 /// error growth; the floor applies only in the at-round-off regime and is followed by a
 /// polishing update.
 const ROUNDOFF: f64 = 4.0 * f64::EPSILON;
+
+/// The smallest coefficient, relative to its equation's largest, through which an equation sets
+/// an unknown's scale in [`Newton::unknown_scales`]: `√ε`, below which the unknown's share of the
+/// equation is lost in the round-off of the larger terms' product with any update.
+const SCALE_COEFFICIENT: f64 = 1.5e-8;
+
+/// How many times its round-off jitter ([`Newton::noise_floor`]) an update may move an unknown
+/// and still count as converged: the estimate takes one ulp of each equation's terms, while a
+/// residual that sums a handful of terms carries a few.
+const NOISE_MARGIN: f64 = 8.0;
 
 /// Iterations on one kept factorisation before it is refreshed regardless of contraction.
 const MAX_KEPT_ITERATIONS: usize = 8;
@@ -866,6 +995,58 @@ mod tests {
             // The small unknowns are resolved to the absolute precision `ε·|a|` the model gives
             // them.
             assert!(x[1].abs() <= 4.0 * f64::EPSILON && x[2].abs() <= 4.0 * f64::EPSILON);
+        }
+    }
+
+    /// `F_i(x) = d_i x_i − b_i` with `|b_i|` reported as each equation's constant terms: at the
+    /// root every equation's terms add up to `m_i = 2|b_i|`, and a round-off of `ε·m_i` in `F_i`
+    /// moves `x_i` by exactly `ε·m_i/|d_i| = 2ε|x_i|`, whatever the sign patterns. The noise
+    /// floor must give that per unknown, for coefficients `d_i` twelve orders of magnitude apart
+    /// (row equilibration must not leak into the unknowns' units).
+    ///
+    /// Mutation: leaving out the row scale in the probe right-hand side gives `η_i = 2ε|x_i|·|d_i|`
+    /// and fails for every `d_i ≠ 1`.
+    struct Diagonal {
+        d: Vec<f64>,
+        b: Vec<f64>,
+    }
+    impl NonlinearSystem for Diagonal {
+        fn len(&self) -> usize {
+            self.d.len()
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            for (i, ri) in r.iter_mut().enumerate() {
+                *ri = self.d[i] * x[i] - self.b[i];
+            }
+        }
+        fn jacobian(&mut self, _x: &[f64], jac: &mut Triplets) {
+            for (i, d) in self.d.iter().enumerate() {
+                jac.add(i, i, *d);
+            }
+        }
+        fn constant_magnitudes(&mut self, out: &mut [f64]) {
+            for (o, b) in out.iter_mut().zip(&self.b) {
+                *o = b.abs();
+            }
+        }
+    }
+
+    #[test]
+    fn noise_floor_is_the_round_off_of_each_unknown() {
+        let mut system = Diagonal {
+            d: vec![1e6, -3.0, 1e-6, 7.0],
+            b: vec![2.0, 5e-3, -4e-9, 0.25],
+        };
+        let mut newton = Newton::new(DenseLu::new(), exact_newton());
+        let mut x = [0.0; 4];
+        newton.solve(&mut system, &mut x).unwrap();
+        newton.noise_floor(&mut system, &x).unwrap();
+        for (i, (eta, xi)) in newton.noise.iter().zip(&x).enumerate() {
+            let expected = 2.0 * f64::EPSILON * xi.abs();
+            assert!(
+                (eta - expected).abs() <= 1e-12 * expected,
+                "unknown {i}: η = {eta:e}, expected {expected:e}"
+            );
         }
     }
 }
