@@ -482,6 +482,9 @@ fn bundled_spatial_chain_keeps_its_vertical_momentum() {
         lz[0],
         energy[0].abs()
     );
-    assert!(start <= SAME_START, "scene and mechanism differ by {start:e}");
+    assert!(
+        start <= SAME_START,
+        "scene and mechanism differ by {start:e}"
+    );
     assert!(dl < MOMENTUM && worst < CLOSURE && de < ENERGY);
 }
