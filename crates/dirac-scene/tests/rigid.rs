@@ -488,3 +488,146 @@ fn bundled_spatial_chain_keeps_its_vertical_momentum() {
     );
     assert!(dl < MOMENTUM && worst < CLOSURE && de < ENERGY);
 }
+
+/// The rotation matrix of row `k` from the recorded entries `r11 … r33` (columns `first..first+9`
+/// in the order `r11, r12, r13, r21, …`).
+fn recorded_rotation(row: &[f64], first: usize) -> [[f64; 3]; 3] {
+    [0, 1, 2].map(|i| [0, 1, 2].map(|j| row[first + 3 * i + j]))
+}
+
+/// Signals of a body's nine rotation entries, row by row (`r11, r12, r13, r21, …`).
+fn rotation_signals(body: &str) -> String {
+    (1..=3)
+        .flat_map(|i| (1..=3).map(move |j| format!("\"{body}.r{i}{j}\"")))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// What a recorded angular velocity is, exactly. The trapezoid step's two discrete Legendre
+/// transforms at `t_k` give `p_k = M v̄_k − (h/2) F_k + A(q_k)ᵀΛ_k` and `p_k = M v̄_{k−1} +
+/// (h/2) F_k` (`v̄` the chords `(q_{k+1} − q_k)/h`; forces of `q_k` alone), so
+/// `p_k = M (q_{k+1} − q_{k−1})/2h + A(q_k)ᵀΛ_k/2`: the readout at `t_k`, which solves
+/// `M v = p_k + Aᵀγ` with `A v = 0`, is the `M`-orthogonal projection of the central chord of the
+/// discrete flow onto the tangent space at `q_k`. For a free body's rotation that is
+/// `Ω_k = J⁻¹ Π(R_k, C J_d)` with `C = (R_{k+1} − R_{k−1})/2h` and `Π(R, P)` the pairing of
+/// `P` with the tangent vectors `R η̂` (docs/rigid.md, "Rates at t_k"). A tumbling asymmetric body
+/// (no gravity, ωh ≈ 0.01) records `w1..w3` equal to this, computed from its recorded rotations,
+/// to round-off at every row.
+///
+/// Measured 5.3e-14 rad/s (rates of order 10; differences of recorded rotations over 2h carry
+/// 1e-16/2e-3 of round-off). Without torques the one-sided chords project to the same `Ω_k`
+/// (their difference is normal to `SO(3)`), so the test does not tell them apart; it does tell
+/// the exact relation from other second-order estimates.
+///
+/// Mutations seen to fail (tests/mutations.md RB13–RB14): the chord's metric `J_d` replaced by `J`
+/// (error 30); the wider chord `(R_{k+2} − R_{k−2})/4h` (error 6.0e-4, an O(h²) estimate).
+#[test]
+fn recorded_rates_are_the_projected_central_chord() {
+    const CHORD: f64 = 1e-12;
+    let moments = [0.02, 0.035, 0.05];
+    let h = 1e-3;
+    let built = build(&format!(
+        r#"
+[simulation]
+discretisation = "trapezoid"
+h = {h}
+t_end = 1.0
+
+[[part]]
+name = "body"
+type = "rigid_body"
+m = 1.0
+inertia = [{}, {}, {}]
+gravity = [0, 0, 0]
+rotation = {{ axis = [1, 2, 2], angle = 0.7 }}
+angular_velocity = [4.0, -9.0, 3.0]
+
+[record]
+signals = ["body.w1", "body.w2", "body.w3", {}]
+"#,
+        moments[0],
+        moments[1],
+        moments[2],
+        rotation_signals("body")
+    ));
+    let rows = run(&built);
+    let trace = moments.iter().sum::<f64>();
+    let jd = moments.map(|j| 0.5 * trace - j);
+    let mut worst = 0.0_f64;
+    for k in 1..rows.len() - 1 {
+        let (before, now, after) = (
+            recorded_rotation(&rows[k - 1].1, 3),
+            recorded_rotation(&rows[k].1, 3),
+            recorded_rotation(&rows[k + 1].1, 3),
+        );
+        // A = R_kᵀ C J_d, Π = (A₃₂ − A₂₃, A₁₃ − A₃₁, A₂₁ − A₁₂), Ω = J⁻¹ Π.
+        let a = |i: usize, j: usize| {
+            (0..3)
+                .map(|l| now[l][i] * (after[l][j] - before[l][j]) / (2.0 * h) * jd[j])
+                .sum::<f64>()
+        };
+        let pi = [a(2, 1) - a(1, 2), a(0, 2) - a(2, 0), a(1, 0) - a(0, 1)];
+        for c in 0..3 {
+            worst = worst.max((rows[k].1[c] - pi[c] / moments[c]).abs());
+        }
+    }
+    println!("tumbling body: recorded Ω against the projected central chord: {worst:.2e}");
+    assert!(worst < CHORD, "{worst:e}");
+}
+
+/// A free body spun about a principal axis at the stated `ω₀` turns by the same angle `θ` every
+/// step, with `h Π₃ = J₃ sin θ` (the discrete Legendre transform of the step, docs/math.md §10.2:
+/// `h Π + (h²/2) M = vee(F J_d − J_d Fᵀ)` at `F = exp(θ ê₃)`, `M = 0`) and `Π₃ = J₃ ω₀` from the
+/// initial state: so `θ = asin(h ω₀)`, not `h ω₀`. The recorded rate `w3` is `ω₀` at every row
+/// (the projected central chord `sin θ / h`, see above), so it is below the flow's mean rate
+/// `θ/h` by `asin(hω₀)/(hω₀) − 1 ≈ (ω₀h)²/6`: 2.67e-4 at `ω₀ h = 0.04`. Both hold to round-off.
+///
+/// Mutation seen to fail (tests/mutations.md RB15): the flow's angle expected to be `h ω₀` (the
+/// step's mean rate equal to the recorded one): off by 1.07e-5 rad per step.
+#[test]
+fn principal_spin_turns_by_asin_of_the_recorded_rate() {
+    // Measured 7.3e-16 rad per step and 2.1e-13 rad/s (round-off over 2000 steps).
+    const ANGLE: f64 = 1e-13;
+    const RATE: f64 = 1e-12;
+    let (h, omega) = (1e-3, 40.0_f64);
+    let built = build(&format!(
+        r#"
+[simulation]
+discretisation = "trapezoid"
+h = {h}
+t_end = 2.0
+
+[[part]]
+name = "body"
+type = "rigid_body"
+m = 1.0
+inertia = [0.02, 0.035, 0.05]
+gravity = [0, 0, 0]
+rotation = {{ axis = [1, 2, 2], angle = 0.7 }}
+angular_velocity = [0.0, 0.0, {omega}]
+
+[record]
+signals = ["body.w3", {}]
+"#,
+        rotation_signals("body")
+    ));
+    let rows = run(&built);
+    let theta = (h * omega).asin();
+    let (mut angle, mut rate) = (0.0_f64, 0.0_f64);
+    for k in 0..rows.len() - 1 {
+        let (now, next) = (
+            recorded_rotation(&rows[k].1, 1),
+            recorded_rotation(&rows[k + 1].1, 1),
+        );
+        // F = R_kᵀ R_{k+1} = exp(φ ê₃): φ = atan2(F₂₁, F₁₁).
+        let f = |i: usize, j: usize| (0..3).map(|l| now[l][i] * next[l][j]).sum::<f64>();
+        angle = angle.max((f(1, 0).atan2(f(0, 0)) - theta).abs());
+        rate = rate.max((rows[k].1[0] - omega).abs());
+    }
+    println!(
+        "principal spin: step angle − asin(hω₀) {angle:.2e} rad (asin(hω₀) − hω₀ = {:.3e}), w3 − ω₀ {rate:.2e}; mean rate / recorded − 1 = {:.3e}",
+        theta - h * omega,
+        theta / (h * omega) - 1.0
+    );
+    assert!(angle < ANGLE && rate < RATE, "{angle:e} {rate:e}");
+}
