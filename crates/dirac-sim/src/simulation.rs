@@ -1244,6 +1244,7 @@ impl Engine {
                 out.t = integrator.t();
                 out.q.clear();
                 out.q.extend_from_slice(&integrator.q()[..parts]);
+                out.p = e.system.subsystem_momenta(integrator.p());
                 out.v.resize(parts, 0.0);
                 if readout {
                     e.readout.solve(
@@ -1263,6 +1264,7 @@ impl Engine {
             }
             Self::Staggered(e) => {
                 out.t = e.staggered.time();
+                out.p = e.staggered.momenta();
                 out.q.clear();
                 out.v.clear();
                 for (part, readout_of) in e.staggered.parts().iter().zip(&mut e.readouts) {
