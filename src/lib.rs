@@ -63,10 +63,37 @@ pub mod prelude {
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
 
-/// The user guide's Rust examples, compiled and run as doctests.
-#[cfg(doctest)]
-#[doc = include_str!("../docs/guide.md")]
-pub struct GuideDoctests;
+/// Includes each page of docs/ as the documentation of an item, so that its Rust code blocks are
+/// compiled and run as doctests, and lists the pages for `docs_checked` (one list for both).
+macro_rules! doctested_pages {
+    ($($item:ident = $page:literal),* $(,)?) => {
+        /// The Rust code blocks of every page in docs/, compiled and run as doctests.
+        #[cfg(doctest)]
+        mod docs {
+            $(
+                #[doc = include_str!(concat!("../docs/", $page))]
+                pub struct $item;
+            )*
+        }
+
+        /// The pages of docs/ included as doctests.
+        #[cfg(test)]
+        const DOCTESTED_PAGES: &[&str] = &[$($page),*];
+    };
+}
+
+doctested_pages! {
+    Audit = "audit.md",
+    Guide = "guide.md",
+    Hardening = "hardening.md",
+    Math = "math.md",
+    Paper = "paper.md",
+    Performance = "performance.md",
+    Python = "python.md",
+    Results = "results.md",
+    Rigid = "rigid.md",
+    Speed = "speed.md",
+}
 
 #[cfg(test)]
 mod tests {
@@ -130,5 +157,42 @@ mod tests {
             println!("{rep}: largest deviation from the exact midpoint solution {worst:.2e}");
             assert!(worst <= ROUND_OFF, "{rep}: {worst:e}");
         }
+    }
+}
+
+#[cfg(test)]
+mod docs_checked {
+    //! Every page of docs/ is included as doctests, so a Rust code block added to any of them is
+    //! compiled and run by `cargo test --doc -p dirac` (a page left out of `mod docs` would let its
+    //! code rot unseen: issue 14).
+
+    use super::DOCTESTED_PAGES;
+
+    /// The doctested pages are exactly the Markdown files of docs/.
+    ///
+    /// Mutation: removing `Math = "math.md"` from `doctested_pages!` fails with
+    /// `["math.md"]` listed as missing.
+    #[test]
+    fn every_docs_page_is_doctested() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs");
+        let mut pages: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|name| name.ends_with(".md"))
+            .collect();
+        pages.sort();
+        let missing: Vec<&String> = pages
+            .iter()
+            .filter(|p| !DOCTESTED_PAGES.contains(&p.as_str()))
+            .collect();
+        assert!(
+            missing.is_empty(),
+            "docs pages not included as doctests in src/lib.rs `mod docs`: {missing:?}"
+        );
+        assert_eq!(
+            pages, DOCTESTED_PAGES,
+            "src/lib.rs lists a page that is not in docs/"
+        );
     }
 }
