@@ -2,6 +2,7 @@
 
 use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
 use dirac_graph::{Check, PartError, Subsystem};
+use serde::{Deserialize, Serialize};
 
 /// Permanent-magnet DC motor: armature (resistance `R`, inductance `L`) on charge `q`, rotor
 /// (inertia `J`, viscous friction `b`) on angle `θ`, coupled by one motor constant `k`:
@@ -22,7 +23,8 @@ use dirac_graph::{Check, PartError, Subsystem};
 ///
 /// `L` or `J` may be zero when the circuit or the load supplies the dynamics (the coordinate is
 /// then degenerate). Ports: `i` (coordinate 0, armature current), `theta` (coordinate 1, shaft).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct DcMotor {
     /// Motor constant `k` (V·s/rad = N·m/A).
@@ -34,6 +36,7 @@ pub struct DcMotor {
     /// Rotor inertia.
     pub j: f64,
     /// Viscous friction.
+    #[serde(default, skip_serializing_if = "crate::serde_defaults::is_zero")]
     pub b: f64,
 }
 
@@ -118,7 +121,8 @@ impl Model for DcMotor {
 /// DC; use [`crate::CoupledInductors`] for a physical transformer.
 ///
 /// Ports: `i1` (coordinate 0, primary), `i2` (coordinate 1, secondary).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct IdealTransformer {
     /// Turns ratio `n = N₂/N₁` (`v₂ = n v₁`).
@@ -197,7 +201,8 @@ impl Constraints for IdealTransformer {
 /// step, with no round-off drift of the alignment. Start with `θ₂ = r θ₁`.
 ///
 /// Ports: `theta1` (coordinate 0, input), `theta2` (coordinate 1, output).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct IdealGear {
     /// Ratio `r = θ₂/θ₁` (negative for an external mesh that reverses direction).

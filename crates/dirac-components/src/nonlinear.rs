@@ -2,6 +2,7 @@
 
 use dirac_core::{ForceJacobian, LagrangianHessian, Model};
 use dirac_graph::Subsystem;
+use serde::{Deserialize, Serialize};
 
 /// `ln(e − 1)`: the curve parameter of the diode at zero current.
 const X0: f64 = 0.541_324_854_612_918_1;
@@ -178,7 +179,8 @@ fn ln_cosh(x: f64) -> f64 {
 /// in finite time.
 ///
 /// Port `i` (coordinate 0).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct SaturatingInductor {
     /// Small-signal inductance `L₀` at zero current.

@@ -8,6 +8,7 @@
 
 use dirac_core::{ConstraintKind, Constraints, LagrangianHessian, Model, Triplets};
 use dirac_graph::{Check, PartError, Subsystem};
+use serde::{Deserialize, Serialize};
 
 /// A point mass `m` on a massless rod of length `ℓ` about a fixed pivot, in Cartesian
 /// coordinates `(x, y)` (`y` up) under gravity `g`:
@@ -18,16 +19,19 @@ use dirac_graph::{Check, PartError, Subsystem};
 ///
 /// Ports `x` (coordinate 0) and `y` (coordinate 1): the bob's position; a force source or a
 /// spring on either acts on the bob.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Pendulum {
     /// Bob mass.
     pub m: f64,
     /// Rod length `ℓ`.
     pub length: f64,
-    /// Gravitational acceleration (acting towards `−y`).
+    /// Gravitational acceleration (acting towards `−y`; 9.81 when a file leaves it out).
+    #[serde(default = "crate::serde_defaults::gravity")]
     pub g: f64,
-    /// Pivot position `(x_p, y_p)`.
+    /// Pivot position `(x_p, y_p)` (the origin when a file leaves it out).
+    #[serde(default)]
     pub pivot: [f64; 2],
 }
 

@@ -2,6 +2,7 @@
 
 use dirac_core::{ConstraintKind, Constraints, LagrangianHessian, Model, Triplets};
 use dirac_graph::{Check, PartError, Subsystem};
+use serde::{Deserialize, Serialize};
 
 /// Rolling without slipping for a vertical disk on `q = (x, y, θ, φ)` (contact point, rolling angle,
 /// heading): `ẋ = R cos φ θ̇`, `ẏ = R sin φ θ̇`, i.e. the one-forms `ω¹ = dx − R cos φ dθ` and
@@ -62,7 +63,8 @@ impl Constraints for RollingConstraint {
 /// [`RollingConstraint`] as internal constraints.
 ///
 /// Ports (and coordinates): `x`, `y`, `theta`, `phi`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct RollingDisk {
     /// Mass.
