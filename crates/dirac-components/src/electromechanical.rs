@@ -371,7 +371,7 @@ mod tests {
         }
         // Mean rates of the last step from the solved increments (differences of the accumulated
         // positions would lose digits: θ ≈ 600 rad while Δθ ≈ 0.06).
-        let z = run.sim.last_unknowns();
+        let z = run.integrator().last_unknowns();
         let (i, om) = (z[run.index(1, 0)] / h, z[run.index(1, 1)] / h);
         println!("no-load: ω = {om:.15} (V/k = {}), i = {i:.2e}", v / MOTOR.k);
         assert!(rel(om, v / MOTOR.k, 1e-300) < 1e-12 && i.abs() < 1e-12 * v / MOTOR.r);
@@ -448,7 +448,7 @@ mod tests {
         }
         let alpha = run.q(3, 2) - hanging;
         let exact = (motor.k * v / (motor.r * ratio * m * grav * len / 2.0)).asin();
-        let z = run.sim.last_unknowns();
+        let z = run.integrator().last_unknowns();
         let i = z[run.index(1, 0)] / h;
         println!("motor-gear-rod: α = {alpha:.15} (closed form {exact:.15}), i = {i:.15}");
         assert!((alpha - exact).abs() < 1e-10 && (i - v / motor.r).abs() < 1e-10);

@@ -743,15 +743,16 @@ mod tests {
                 rest: 1.0,
             },
         );
-        let system = dirac_graph::Assembler::assemble(&g, Representation::Monolithic).unwrap();
-        let mut sim = dirac_sim::Integrator::new(
-            system.model.clone(),
-            system.constraints.clone(),
+        let mut sim = dirac_sim::Simulation::new(
+            g,
+            Representation::Monolithic,
             IntegratorOptions::new(Discretisation::midpoint(), h),
-        )
-        .unwrap();
+        );
         let (xa, xb, va, vb) = (0.0, 2.0, 0.3, -0.5);
-        sim.initialise(&[xa, xb], &[va, vb], 0.0).unwrap();
+        for (part, x, v) in [("A", xa, va), ("B", xb, vb)] {
+            sim.set_position(part, "x", x).unwrap();
+            sim.set_velocity(part, "x", v).unwrap();
+        }
         let p = m1 * va + m2 * vb;
         let cm0 = (m1 * xa + m2 * xb) / (m1 + m2);
         // Round-off of the momentum update accumulates over the run: a few ulps of the momenta per
@@ -762,7 +763,7 @@ mod tests {
         let mut worst: f64 = 0.0;
         for n in 1..=steps {
             sim.step().unwrap();
-            let (q, mom) = (sim.q(), sim.p());
+            let (q, mom) = (sim.positions(), sim.momenta());
             let drift = (mom[0] + mom[1] - p).abs();
             assert!(
                 drift < momentum_tol,

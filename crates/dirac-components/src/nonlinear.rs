@@ -367,7 +367,7 @@ mod tests {
             }
             println!(
                 "diode DC V = {v}: I = {exact:.6e} A, max deviation/(V/R) {worst:.2e}, Newton iterations {}",
-                run.sim.stats().iterations
+                run.sim.summary().newton_iterations
             );
             assert!(worst < 1e-12, "V = {v}: {worst:e}");
         }

@@ -502,13 +502,14 @@ mod tests {
     ) -> (Vec<f64>, f64) {
         let mut g = Interconnection::new();
         g.add_subsystem(part).unwrap();
-        let mut run = Run::new(&g, Representation::Monolithic, options, &[q0.to_vec()]);
-        let mut out = vec![angle(run.sim.q())];
+        let mut run =
+            Run::tracking_residual(&g, Representation::Monolithic, options, &[q0.to_vec()]);
+        let mut out = vec![angle(run.integrator().q())];
         let mut residual: f64 = 0.0;
         for _ in 0..steps {
             run.step();
-            residual = residual.max(run.sim.last_constraint_residual());
-            out.push(angle(run.sim.q()));
+            residual = residual.max(run.constraint_residual());
+            out.push(angle(run.integrator().q()));
         }
         (out, residual)
     }
