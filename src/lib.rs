@@ -97,17 +97,16 @@ doctested_pages! {
 
 #[cfg(test)]
 mod tests {
-    //! The facade's paths end to end (graph → assembler → integrator), against the exact discrete
-    //! solution. Two unit masses tied to a wall (a ground at 0) by unit springs and joined by a
-    //! spring κ have normal modes
-    //! `x₁ + x₂` (ω² = 1) and `x₁ − x₂` (ω² = 1 + 2κ). The midpoint rule maps each mode, started
+    //! The facade's path end to end (parts → graph → run layer, in every representation), against
+    //! the exact discrete solution. Two unit masses tied to a wall (a ground at 0) by unit springs
+    //! and joined by a spring κ have normal modes `x₁ + x₂` (ω² = 1) and `x₁ − x₂` (ω² = 1 + 2κ). The midpoint rule maps each mode, started
     //! at rest, to `cos(kθ)` with `tan(θ/2) = ωh/2` exactly (a Cayley rotation), so from
     //! `x = (1, 0)`: `x₁,k = ½(cos kθ₁ + cos kθ₂)`, `x₂,k = ½(cos kθ₁ − cos kθ₂)`.
 
     use crate::core::Discretisation;
-    use crate::graph::{Assembler, Interconnection, Representation};
+    use crate::graph::{Interconnection, Representation};
     use crate::parts::{Ground, Mass, Spring};
-    use crate::sim::{Integrator, IntegratorOptions};
+    use crate::sim::{IntegratorOptions, Probe, Signal, Simulation};
 
     /// Round-off over 1000 steps of order-one positions (measured 1.1e-14).
     const ROUND_OFF: f64 = 1e-12;
@@ -128,28 +127,27 @@ mod tests {
         g.coupling("B-W", b, wall, Spring::linear(1.0).unwrap());
         let theta = |w: f64| 2.0 * (0.5 * w * h).atan();
         let (t1, t2) = (theta(1.0), theta((1.0 + 2.0 * kappa).sqrt()));
-        let names = ["A".to_string(), "B".to_string(), "W".to_string()];
         for rep in [
             Representation::Monolithic,
             Representation::Constraint,
             Representation::InteractionForce,
         ] {
-            let system = Assembler::assemble(&g, rep).unwrap();
-            let q = system
-                .global_vector(&[vec![1.0], vec![0.0], vec![0.0]], &names)
-                .unwrap();
-            let mut sim = Integrator::new(
-                system.model.clone(),
-                system.constraints.clone(),
+            let signals = [
+                Signal::new("A.x", Probe::position(&g, "A", "x").unwrap()),
+                Signal::new("B.x", Probe::position(&g, "B", "x").unwrap()),
+            ];
+            let mut sim = Simulation::new(
+                g.clone(),
+                rep,
                 IntegratorOptions::new(Discretisation::midpoint(), h),
-            )
-            .unwrap();
-            sim.initialise(&q, &vec![0.0; q.len()], 0.0).unwrap();
+            );
+            sim.set_position("A", "x", 1.0).unwrap();
+            let (run, _) = sim.run(steps as f64 * h, &signals).unwrap();
+            assert_eq!(run.len(), steps + 1);
             let mut worst = 0.0_f64;
             for k in 1..=steps {
-                sim.step().unwrap();
                 let (c1, c2) = ((k as f64 * t1).cos(), (k as f64 * t2).cos());
-                let x = system.subsystem_positions(sim.q());
+                let x = run.row(k);
                 worst = worst
                     .max((x[0] - 0.5 * (c1 + c2)).abs())
                     .max((x[1] - 0.5 * (c1 - c2)).abs());
