@@ -178,6 +178,21 @@ impl Probe {
         }
     }
 
+    /// Whether evaluating this probe reads a momentum (recorded rows copy the momenta only
+    /// then).
+    #[must_use]
+    pub fn reads_momenta(&self) -> bool {
+        match self {
+            Self::Momentum { .. } => true,
+            Self::Sum(terms) => terms.iter().any(|(p, _)| p.reads_momenta()),
+            Self::Norm(terms) => terms.iter().any(Self::reads_momenta),
+            Self::Product(a, b) | Self::Atan2 { y: a, x: b } => {
+                a.reads_momenta() || b.reads_momenta()
+            }
+            _ => false,
+        }
+    }
+
     /// Calls `velocity(global subsystem coordinate)` and `multiplier(connection)` for every
     /// velocity and multiplier this probe reads.
     pub(crate) fn visit(
