@@ -18,15 +18,12 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand, ValueEnum};
-use dirac_core::{Discretisation, Model};
-use dirac_graph::{Assembler, Interconnection, Representation};
-use dirac_netlist::{Circuit, build_circuit, parse_netlist};
+use dirac_core::Model as _;
+use dirac_graph::{Assembler, Representation};
+use dirac_netlist::parse_netlist;
 use dirac_output::{CsvSink, Table};
-use dirac_scene::{BuiltScene, Scene};
-use dirac_sim::{
-    Execution, IntegratorOptions, RunError, RunSummary, Scheme, Signal, Simulation, Sink,
-    Splitting, Start, Trajectory,
-};
+use dirac_sim::{Execution, RunError, RunSummary, Start};
+use dirac_study::{Method, Model, RepresentationChoice, RunSettings, StudyError, split_list};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 const LONG_ABOUT: &str = "\
@@ -111,13 +108,24 @@ enum MethodArg {
 }
 
 impl MethodArg {
-    fn discretisation(self) -> Discretisation {
+    fn method(self) -> Method {
         match self {
-            Self::Midpoint => Discretisation::midpoint(),
-            Self::Trapezoid => Discretisation::trapezoid(),
-            Self::Gauss2 => Discretisation::gauss(2),
-            Self::Gauss3 => Discretisation::gauss(3),
-            Self::Gauss4 => Discretisation::gauss(4),
+            Self::Midpoint => Method::Midpoint,
+            Self::Trapezoid => Method::Trapezoid,
+            Self::Gauss2 => Method::Gauss2,
+            Self::Gauss3 => Method::Gauss3,
+            Self::Gauss4 => Method::Gauss4,
+        }
+    }
+}
+
+impl RepresentationArg {
+    fn choice(self) -> RepresentationChoice {
+        match self {
+            Self::Monolithic => RepresentationChoice::Monolithic,
+            Self::Constraint => RepresentationChoice::Constraint,
+            Self::Force => RepresentationChoice::Force,
+            Self::Staggered => RepresentationChoice::Staggered,
         }
     }
 }
@@ -145,6 +153,21 @@ struct ModelArgs {
     /// Run even past --max-steps or with an output that may not fit on the disk.
     #[arg(long)]
     force: bool,
+}
+
+impl ModelArgs {
+    /// The run settings these options ask for, recording `signals` (a comma-separated list)
+    /// or the file's own.
+    fn settings(&self, signals: Option<&str>) -> RunSettings {
+        RunSettings {
+            representation: self.representation.map(RepresentationArg::choice),
+            method: self.method.map(MethodArg::method),
+            scheme: None,
+            h: self.h,
+            t_end: self.t_end,
+            signals: signals.map(split_list),
+        }
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -273,6 +296,20 @@ impl Failure {
     }
 }
 
+impl From<StudyError> for Failure {
+    fn from(e: StudyError) -> Self {
+        match e {
+            // The command line names its own options.
+            StudyError::MissingSetting { file, setting } => Self::Input(format!(
+                "{file}: no .tran card and no --{}",
+                setting.replace('_', "-")
+            )),
+            e if e.is_numerical() => Self::Numerical(e.to_string()),
+            e => Self::Input(e.to_string()),
+        }
+    }
+}
+
 impl From<RunError> for Failure {
     fn from(e: RunError) -> Self {
         if e.is_numerical() {
@@ -310,218 +347,19 @@ fn main() -> ExitCode {
     }
 }
 
-/// A file read and built: a netlist's circuit or a scene.
-enum Loaded {
-    Netlist { name: String, circuit: Circuit },
-    Scene { name: String, scene: BuiltScene },
+/// Reads a netlist or scene, printing the reader's warnings.
+fn load(path: &Path) -> Result<Model, Failure> {
+    let model = Model::from_file(path)?;
+    for w in model.parse_warnings() {
+        eprintln!("warning: {w}");
+    }
+    Ok(model)
 }
 
-impl Loaded {
-    fn name(&self) -> &str {
-        match self {
-            Self::Netlist { name, .. } | Self::Scene { name, .. } => name,
-        }
-    }
-
-    fn graph(&self) -> &Interconnection {
-        match self {
-            Self::Netlist { circuit, .. } => &circuit.graph,
-            Self::Scene { scene, .. } => &scene.graph,
-        }
-    }
-
-    /// The execution asked for on the command line, else the scene's, else monolithic.
-    fn execution(&self, arg: Option<RepresentationArg>) -> Result<Execution, Failure> {
-        let scene_splitting = match self {
-            Self::Scene { scene, .. } => match scene.execution {
-                Execution::Staggered(s) => Some(s),
-                Execution::Assembled(_) => None,
-            },
-            Self::Netlist { .. } => None,
-        };
-        let execution = match arg {
-            Some(RepresentationArg::Monolithic) => Execution::Assembled(Representation::Monolithic),
-            Some(RepresentationArg::Constraint) => Execution::Assembled(Representation::Constraint),
-            Some(RepresentationArg::Force) => {
-                Execution::Assembled(Representation::InteractionForce)
-            }
-            Some(RepresentationArg::Staggered) => {
-                Execution::Staggered(scene_splitting.unwrap_or(Splitting::GaussSeidel))
-            }
-            None => match self {
-                Self::Scene { scene, .. } => scene.execution,
-                Self::Netlist { .. } => Execution::Assembled(Representation::Monolithic),
-            },
-        };
-        if matches!(execution, Execution::Staggered(_)) && matches!(self, Self::Netlist { .. }) {
-            return Err(Failure::Input(format!(
-                "{}: staggered co-simulation needs coupling elements between subsystems; a circuit's nodes are constraints",
-                self.name()
-            )));
-        }
-        Ok(execution)
-    }
-
-    /// Integrator options and end time after the command line's overrides.
-    fn settings(&self, args: &ModelArgs) -> Result<(IntegratorOptions, f64), Failure> {
-        let name = self.name();
-        let (h, t_end, discretisation, scheme) = match self {
-            Self::Netlist { circuit, .. } => {
-                let tran = circuit.tran_settings();
-                (
-                    args.h.or(tran.map(|t| t.0)),
-                    args.t_end.or(tran.map(|t| t.1)),
-                    circuit
-                        .method
-                        .clone()
-                        .unwrap_or_else(Discretisation::midpoint),
-                    Scheme::Plus,
-                )
-            }
-            Self::Scene { scene, .. } => (
-                Some(args.h.unwrap_or(scene.options.h)),
-                Some(args.t_end.unwrap_or(scene.t_end)),
-                scene.options.discretisation.clone(),
-                scene.options.scheme,
-            ),
-        };
-        let h = h.ok_or_else(|| Failure::Input(format!("{name}: no .tran card and no --h")))?;
-        let t_end =
-            t_end.ok_or_else(|| Failure::Input(format!("{name}: no .tran card and no --t-end")))?;
-        if !(h > 0.0 && h.is_finite()) {
-            return Err(Failure::Input(format!(
-                "step size must be positive and finite, got {h}"
-            )));
-        }
-        if !(t_end >= 0.0 && t_end.is_finite()) {
-            return Err(Failure::Input(format!(
-                "end time must be non-negative and finite, got {t_end}"
-            )));
-        }
-        let discretisation = args
-            .method
-            .map_or(discretisation, MethodArg::discretisation);
-        Ok((
-            IntegratorOptions::new(discretisation, h).scheme(scheme),
-            t_end,
-        ))
-    }
-
-    fn start(&self) -> Start {
-        match self {
-            Self::Netlist { circuit, .. } => circuit.start(),
-            Self::Scene { scene, .. } => scene.start,
-        }
-    }
-
-    fn simulation(
-        &self,
-        execution: Execution,
-        options: IntegratorOptions,
-        start: Start,
-    ) -> Result<Simulation, Failure> {
-        Ok(match self {
-            Self::Netlist { circuit, .. } => circuit.simulation(execution, options, start)?,
-            Self::Scene { scene, .. } => scene.simulation_with(execution, options, start)?,
-        })
-    }
-
-    /// The default signals of the file.
-    fn signals(&self) -> Vec<Signal> {
-        match self {
-            Self::Netlist { circuit, .. } => circuit.signals.clone(),
-            Self::Scene { scene, .. } => scene.signals.clone(),
-        }
-    }
-
-    /// The signals named in `list` (comma-separated; `v(a,b)` keeps its comma).
-    fn select(&self, list: &str) -> Result<Vec<Signal>, Failure> {
-        split_signal_list(list)
-            .iter()
-            .map(|name| match self {
-                Self::Netlist { circuit, .. } => circuit
-                    .signal(name)
-                    .map_err(|e| Failure::Input(e.to_string())),
-                Self::Scene { scene, .. } => scene
-                    .signal(name)
-                    .map_err(|e| Failure::Input(e.to_string())),
-            })
-            .collect()
-    }
-
-    /// Output rows begin at `.tran`'s TSTART.
-    fn first_output_time(&self) -> f64 {
-        match self {
-            Self::Netlist { circuit, .. } => circuit.tran.map_or(0.0, |t| t.tstart),
-            Self::Scene { .. } => 0.0,
-        }
-    }
-
-    fn warnings(&self) -> Vec<String> {
-        match self {
-            Self::Netlist { circuit, .. } => circuit.warnings.clone(),
-            Self::Scene { .. } => Vec::new(),
-        }
-    }
-}
-
-/// Splits `a,v(x,y),b` at the commas outside parentheses.
-fn split_signal_list(list: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let mut depth = 0usize;
-    let mut current = String::new();
-    for c in list.chars() {
-        match c {
-            '(' => depth += 1,
-            ')' => depth = depth.saturating_sub(1),
-            ',' if depth == 0 => {
-                if !current.trim().is_empty() {
-                    out.push(current.trim().to_string());
-                }
-                current.clear();
-                continue;
-            }
-            _ => {}
-        }
-        current.push(c);
-    }
-    if !current.trim().is_empty() {
-        out.push(current.trim().to_string());
-    }
-    out
-}
-
-fn load(path: &Path) -> Result<Loaded, Failure> {
-    let name = path.display().to_string();
-    let extension = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let bytes = std::fs::read(path).map_err(|e| Failure::Input(format!("{name}: {e}")))?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        Failure::Input(format!(
-            "{name}: not UTF-8 text (invalid byte at offset {})",
-            e.utf8_error().valid_up_to()
-        ))
-    })?;
-    match extension.as_deref() {
-        Some("cir" | "sp" | "net" | "spice") => {
-            let netlist = parse_netlist(&text, &name).map_err(|e| Failure::Input(e.to_string()))?;
-            for w in &netlist.warnings {
-                eprintln!("warning: {name}:{}:{}: {}", w.line, w.column, w.message);
-            }
-            let circuit =
-                build_circuit(&netlist, &name).map_err(|e| Failure::Input(e.to_string()))?;
-            Ok(Loaded::Netlist { name, circuit })
-        }
-        Some("toml") => {
-            let scene = Scene::parse(&text, &name).map_err(|e| Failure::Input(e.to_string()))?;
-            let scene = scene.build().map_err(|e| Failure::Input(e.to_string()))?;
-            Ok(Loaded::Scene { name, scene })
-        }
-        _ => Err(Failure::Input(format!(
-            "{name}: unknown file type (expected .cir, .sp, .net or .toml)"
-        ))),
+/// Prints the warnings of building a netlist into a circuit (options dirac does differently).
+fn print_circuit_warnings(model: &Model) {
+    for w in model.circuit().map_or(&[][..], |c| &c.warnings) {
+        eprintln!("warning: {w}");
     }
 }
 
@@ -579,25 +417,16 @@ impl Drop for Output {
 /// What the sink reports when a signal stopped the run.
 const INTERRUPTED: &str = "interrupted";
 
-/// A sink that skips rows before `first` (`.tran`'s TSTART) and shows progress on a terminal.
-struct Progress<'a, S: Sink> {
-    inner: &'a mut S,
-    first: f64,
+/// The progress bar on a terminal and the interrupt check, shown every row of a run.
+struct Progress {
     total: u64,
     started: Instant,
     show: bool,
     bar: Option<ProgressBar>,
 }
 
-impl<S: Sink> Sink for Progress<'_, S> {
-    fn begin(&mut self, names: &[String]) -> Result<(), String> {
-        if guard::interrupted() {
-            return Err(INTERRUPTED.into());
-        }
-        self.inner.begin(names)
-    }
-
-    fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
+impl Progress {
+    fn watch(&mut self, k: usize) -> Result<(), String> {
         if guard::interrupted() {
             return Err(INTERRUPTED.into());
         }
@@ -613,68 +442,52 @@ impl<S: Sink> Sink for Progress<'_, S> {
         if let Some(b) = &self.bar {
             b.set_position(k as u64);
         }
-        if t < self.first * (1.0 - 1e-12) {
-            return Ok(());
-        }
-        self.inner.row(k, t, values)
+        Ok(())
     }
 }
 
 fn run(args: &RunArgs) -> Result<(), Failure> {
     guard::install_interrupt_handler();
-    let loaded = load(&args.model.file)?;
-    for w in loaded.warnings() {
-        eprintln!("warning: {w}");
-    }
-    if let Loaded::Netlist { circuit, .. } = &loaded
-        && circuit.op
-        && circuit.tran.is_none()
-    {
+    let model = load(&args.model.file)?;
+    print_circuit_warnings(&model);
+    if model.operating_point_only() {
         // A netlist that asks only for `.op`: its analysis is the operating point.
         let mut out = Output::open(args.out.as_deref())?;
-        operating_point(&loaded, false, &mut out.writer)?;
+        operating_point(&model, false, &mut out.writer)?;
         return out.commit();
     }
-    let execution = loaded.execution(args.model.representation)?;
-    let (options, t_end) = loaded.settings(&args.model)?;
-    let signals = match &args.signals {
-        Some(list) => loaded.select(list)?,
-        None => loaded.signals(),
-    };
-    let h = options.h;
-    let steps = (t_end / h).round();
+    let plan = model.plan(&args.model.settings(args.signals.as_deref()))?;
     if !args.model.force {
-        guard::check_steps(steps as u64, args.model.max_steps).map_err(Failure::Input)?;
+        guard::check_steps(plan.steps(), args.model.max_steps).map_err(Failure::Input)?;
         if let Some(out) = &args.out {
-            let rows = ((t_end - loaded.first_output_time()) / h).round().max(0.0) as u64 + 1;
-            guard::check_disk(out, rows, signals.len()).map_err(Failure::Input)?;
+            guard::check_disk(out, plan.output_rows(), plan.signals.len())
+                .map_err(Failure::Input)?;
         }
     }
-    let mut sim = loaded.simulation(execution, options.clone(), loaded.start())?;
-    sim.check_signals(&signals)?;
-    sim.prepare()?;
-    for w in sim.warnings() {
+    let mut prepared = model.prepare_plan(plan)?;
+    for w in prepared.warnings() {
         eprintln!("warning: {w}");
     }
+    let execution = prepared.execution();
+    let options = prepared.options().clone();
     if matches!(execution, Execution::Assembled(_))
-        && let Ok(modes) = sim.natural_modes()
+        && let Ok(modes) = prepared.natural_modes()
     {
         for w in modes.warnings(&options) {
             eprintln!("warning: {w}");
         }
     }
+    let (h, t_end) = (prepared.h(), prepared.t_end());
     let mut out = Output::open(args.out.as_deref())?;
     let mut csv = CsvSink::new(&mut out.writer);
-    let mut sink = Progress {
-        inner: &mut csv,
-        first: loaded.first_output_time(),
+    let mut progress = Progress {
         total: (t_end / h).round() as u64 + 1,
         started: Instant::now(),
         show: !args.quiet && std::io::stderr().is_terminal(),
         bar: None,
     };
-    let result = sim.run_into(t_end, &signals, &mut sink);
-    if let Some(b) = sink.bar.take() {
+    let result = prepared.run_into_watched(&mut csv, &mut |k| progress.watch(k));
+    if let Some(b) = progress.bar.take() {
         b.finish_and_clear();
     }
     if result.is_err() && csv.reader_closed() {
@@ -697,20 +510,20 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     }
     out.commit()?;
     if args.json_summary {
-        eprintln!("{}", summary_json(&loaded, execution, h, t_end, &summary));
+        eprintln!("{}", summary_json(&model, execution, h, t_end, &summary));
     }
     Ok(())
 }
 
 fn summary_json(
-    loaded: &Loaded,
+    model: &Model,
     execution: Execution,
     h: f64,
     t_end: f64,
     summary: &RunSummary,
 ) -> serde_json::Value {
     serde_json::json!({
-        "file": loaded.name(),
+        "file": model.name(),
         "representation": execution.to_string(),
         "h": h,
         "t_end": t_end,
@@ -727,41 +540,21 @@ fn summary_json(
 }
 
 fn op(args: &OpArgs) -> Result<(), Failure> {
-    let loaded = load(&args.file)?;
-    for w in loaded.warnings() {
-        eprintln!("warning: {w}");
-    }
+    let model = load(&args.file)?;
+    print_circuit_warnings(&model);
     let mut out = Output::open(None)?;
-    operating_point(&loaded, args.json, &mut out.writer)?;
+    operating_point(&model, args.json, &mut out.writer)?;
     out.commit()
 }
 
-/// Writes the operating point of `loaded` as a `signal,value` table or one JSON object.
-fn operating_point(loaded: &Loaded, json: bool, out: &mut impl Write) -> Result<(), Failure> {
-    let model = ModelArgs {
-        file: PathBuf::new(),
-        representation: None,
-        method: None,
-        h: Some(1.0),
-        t_end: Some(0.0),
-        max_steps: guard::DEFAULT_MAX_STEPS,
-        force: false,
-    };
-    let (options, _) = loaded.settings(&model)?;
-    let execution = loaded.execution(None)?;
-    let signals = match loaded {
-        Loaded::Netlist { circuit, .. } => circuit.operating_point_signals(),
-        Loaded::Scene { scene, .. } => scene.signals.clone(),
-    };
-    let mut sim = loaded.simulation(execution, options, Start::SteadyState)?;
-    let mut trajectory = Trajectory::new();
-    sim.run_into(0.0, &signals, &mut trajectory)?;
-    let values = trajectory.row(0);
+/// Writes the operating point of `model` as a `signal,value` table or one JSON object.
+fn operating_point(model: &Model, json: bool, out: &mut impl Write) -> Result<(), Failure> {
+    let values = model.operating_point()?;
     let write = |e: std::io::Error| Failure::Input(format!("writing output: {e}"));
     if json {
         let mut map = serde_json::Map::new();
-        for (signal, value) in signals.iter().zip(values) {
-            map.insert(signal.name.clone(), (*value).into());
+        for (name, value) in values {
+            map.insert(name, value.into());
         }
         writeln!(out, "{}", serde_json::Value::Object(map)).map_err(write)?;
     } else {
@@ -773,11 +566,11 @@ fn operating_point(loaded: &Loaded, json: bool, out: &mut impl Write) -> Result<
             }
         };
         writeln!(out, "signal,value").map_err(write)?;
-        for (signal, value) in signals.iter().zip(values) {
+        for (name, value) in &values {
             writeln!(
                 out,
                 "{},{}",
-                quote(&signal.name),
+                quote(name),
                 dirac_output::format_value(*value)
             )
             .map_err(write)?;
@@ -786,28 +579,17 @@ fn operating_point(loaded: &Loaded, json: bool, out: &mut impl Write) -> Result<
     Ok(())
 }
 
-/// Runs one execution and returns all default signals, row by row.
-fn collect(
-    loaded: &Loaded,
-    execution: Execution,
-    options: &IntegratorOptions,
-    t_end: f64,
-) -> Result<Trajectory, Failure> {
-    let mut sim = loaded.simulation(execution, options.clone(), loaded.start())?;
-    let (trajectory, _) = sim.run(t_end, &loaded.signals())?;
-    Ok(trajectory)
-}
-
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
-    let loaded = load(&args.model.file)?;
-    let (options, t_end) = loaded.settings(&args.model)?;
+    let model = load(&args.model.file)?;
+    let settings = args.model.settings(None);
+    let (options, t_end) = model.options_for(&settings)?;
     if !args.model.force {
         let steps = (t_end / options.h).round() as u64;
         guard::check_steps(steps, args.model.max_steps).map_err(Failure::Input)?;
         // Two trajectories (the reference and one representation) are held in memory at once.
         let bytes = steps
             .saturating_add(1)
-            .saturating_mul(loaded.signals().len() as u64 + 1)
+            .saturating_mul(model.default_signals().len() as u64 + 1)
             .saturating_mul(16);
         if let Some(free) = guard::available_memory()
             && bytes > free
@@ -817,72 +599,33 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
             )));
         }
     }
-    let reference = collect(
-        &loaded,
-        Execution::Assembled(Representation::Monolithic),
-        &options,
-        t_end,
-    )?;
-    let mut results = Vec::new();
-    for representation in [
-        Representation::Monolithic,
-        Representation::Constraint,
-        Representation::InteractionForce,
-    ] {
-        let run = collect(
-            &loaded,
-            Execution::Assembled(representation),
-            &options,
-            t_end,
-        )?;
-        results.push((
-            representation.to_string(),
-            Some(run.max_deviation(&reference)),
-            None::<String>,
-        ));
-    }
-    for splitting in [Splitting::GaussSeidel, Splitting::Jacobi] {
-        let execution = Execution::Staggered(splitting);
-        let name = execution.to_string();
-        if matches!(loaded, Loaded::Netlist { .. }) {
-            results.push((
-                name,
-                None,
-                Some("not applicable: a circuit's nodes are constraints between parts, not coupling elements".to_string()),
-            ));
-            continue;
-        }
-        match collect(&loaded, execution, &options, t_end) {
-            Ok(run) => results.push((name, Some(run.max_deviation(&reference)), None)),
-            Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
-                results.push((name, None, Some(why)))
-            }
-        }
-    }
+    let results = model.compare(&settings)?;
     if args.json {
         let mut map = serde_json::Map::new();
-        for (name, dev, note) in &results {
+        for c in &results {
             let mut entry = serde_json::Map::new();
             entry.insert(
                 "max_abs_deviation".into(),
-                dev.map_or(serde_json::Value::Null, serde_json::Value::from),
+                c.max_abs_deviation
+                    .map_or(serde_json::Value::Null, serde_json::Value::from),
             );
-            if let Some(note) = note {
+            if let Some(note) = &c.note {
                 entry.insert("note".into(), note.clone().into());
             }
-            map.insert(name.clone(), entry.into());
+            map.insert(c.execution.clone(), entry.into());
         }
-        let json = serde_json::json!({ "file": loaded.name(), "representations": map });
+        let json = serde_json::json!({ "file": model.name(), "representations": map });
         println!("{json}");
     } else {
         println!("{:<16} {:>22}", "representation", "max |x - monolithic|");
-        for (name, dev, note) in &results {
-            match dev {
+        for c in &results {
+            let name = &c.execution;
+            match c.max_abs_deviation {
                 Some(d) => println!("{name:<16} {d:>22.3e}"),
                 None => println!(
                     "{name:<16} {:>22}  ({})",
                     "-",
-                    note.as_deref().unwrap_or("")
+                    c.note.as_deref().unwrap_or("")
                 ),
             }
         }
@@ -891,11 +634,11 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
 }
 
 fn check(args: &CheckArgs) -> Result<(), Failure> {
-    let loaded = load(&args.file)?;
-    let graph = loaded.graph();
+    let model = load(&args.file)?;
+    let graph = model.graph();
     println!(
         "{}: {} parts, {} connections",
-        loaded.name(),
+        model.name(),
         graph.subsystems().len(),
         graph.connections().len()
     );
@@ -939,54 +682,59 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
             degenerate.join(", ")
         }
     );
-    let signals: Vec<String> = loaded.signals().iter().map(|s| s.name.clone()).collect();
+    let signals: Vec<String> = model
+        .default_signals()
+        .iter()
+        .map(|s| s.name.clone())
+        .collect();
     println!("  signals: {}", signals.join(", "));
-    let start = match loaded.start() {
+    let start = match model.start() {
         Start::Given => "given values (UIC)",
         Start::SteadyState => "the operating point (steady state)",
     };
     println!("  start: {start}");
-    if let Loaded::Netlist { circuit, .. } = &loaded
-        && let Some((h, t)) = circuit.tran_settings()
+    if let Some((h, t)) = model
+        .circuit()
+        .and_then(dirac_netlist::Circuit::tran_settings)
     {
         println!("  .tran: h = {h}, t_end = {t} ({} steps)", (t / h).round());
     }
-    for line in step_size_report(&loaded, args) {
+    for line in step_size_report(&model, args) {
         println!("{line}");
     }
     Ok(())
 }
 
 /// `dirac check`'s natural modes and step-size judgement (docs/math.md §8).
-fn step_size_report(loaded: &Loaded, args: &CheckArgs) -> Vec<String> {
-    let model = ModelArgs {
-        file: args.file.clone(),
-        representation: None,
-        method: args.method,
+fn step_size_report(model: &Model, args: &CheckArgs) -> Vec<String> {
+    let settings = RunSettings {
+        method: args.method.map(MethodArg::method),
         h: args.h,
         t_end: Some(0.0),
-        max_steps: guard::DEFAULT_MAX_STEPS,
-        force: false,
+        ..RunSettings::default()
     };
-    let options = match loaded.settings(&model) {
+    let options = match model.options_for(&settings) {
         Ok((options, _)) => options,
-        Err(Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) => {
+        Err(e) => {
+            let (Failure::Input(why) | Failure::Numerical(why) | Failure::Interrupted(why)) =
+                Failure::from(e);
             return vec![format!(
                 "  natural modes: not analysed ({why}; pass --h to judge a step size)"
             )];
         }
     };
-    let start = loaded.start();
+    let start = model.start();
     let at = match start {
         Start::Given => "the initial state",
         Start::SteadyState => "the operating point",
     };
-    let modes = loaded
+    let modes = model
         .simulation(
             Execution::Assembled(Representation::Monolithic),
             options.clone(),
             start,
         )
+        .map_err(Failure::from)
         .and_then(|mut sim| sim.natural_modes().map_err(Failure::from));
     match modes {
         Ok(modes) => guidance::report(&modes, &options, at),
@@ -1008,7 +756,7 @@ fn plot(args: &PlotArgs) -> Result<(), Failure> {
     }
     let wanted: Vec<usize> = match &args.signals {
         None => (1..table.names.len()).collect(),
-        Some(list) => split_signal_list(list)
+        Some(list) => split_list(list)
             .iter()
             .map(|s| {
                 table
@@ -1134,18 +882,4 @@ fn convert(args: &ConvertArgs) -> Result<(), Failure> {
         .write_all(scene.as_bytes())
         .map_err(|e| Failure::Input(format!("{}: {e}", args.output.display())))?;
     out.commit()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Commas inside parentheses belong to the signal (`v(a,b)`).
-    #[test]
-    fn signal_lists_split_outside_parentheses() {
-        assert_eq!(
-            split_signal_list("v(1), v(a,b),i(l1)"),
-            ["v(1)", "v(a,b)", "i(l1)"]
-        );
-    }
 }

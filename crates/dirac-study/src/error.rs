@@ -51,6 +51,15 @@ pub enum StudyError {
         /// Why not.
         reason: String,
     },
+    /// A step size or end time that neither the file (a netlist without `.tran`) nor the
+    /// settings give.
+    #[error("{file}: no .tran card and no {setting}")]
+    MissingSetting {
+        /// The file.
+        file: String,
+        /// `h` or `t_end`.
+        setting: &'static str,
+    },
     /// Run settings that cannot be used (no step size, an unknown method, a staggered netlist).
     #[error("{0}")]
     Settings(String),

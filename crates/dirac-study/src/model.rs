@@ -92,7 +92,6 @@ impl Model {
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, StudyError> {
         let path = path.as_ref();
         let name = path.display().to_string();
-        let kind = kind_of(path)?;
         let bytes = std::fs::read(path).map_err(|e| StudyError::Io {
             file: name.clone(),
             message: e.to_string(),
@@ -104,7 +103,7 @@ impl Model {
                 e.utf8_error().valid_up_to()
             ),
         })?;
-        Self::restore(kind, &name, &text, &[])
+        Self::restore(kind_of(path)?, &name, &text, &[])
     }
 
     /// A netlist from its text; `name` is used in messages (`name:line:column`).
@@ -250,6 +249,12 @@ impl Model {
             out.extend(circuit.warnings.iter().cloned());
         }
         out
+    }
+
+    /// The reader's warnings alone: netlist cards accepted but ignored (`file:line:column: ...`).
+    #[must_use]
+    pub fn parse_warnings(&self) -> &[String] {
+        &self.parse_warnings
     }
 
     /// The file's own signals: `.print`/`.probe`/`.save` or the netlist contract's default; a

@@ -5,12 +5,45 @@ use dirac_core::{Discretisation, Model as _};
 use dirac_graph::{Assembler, Representation};
 use dirac_netlist::Circuit;
 use dirac_sim::{
-    Execution, IntegratorOptions, RunSummary, Scheme, Signal, Simulation, Sink, Splitting, Start,
-    Trajectory,
+    Execution, IntegratorOptions, NaturalModes, RunError, RunSummary, Scheme, Signal, Simulation,
+    Sink, Splitting, Start, Trajectory,
 };
 
 use crate::model::Built;
 use crate::{Model, RunSettings, StudyError};
+
+/// A run's settings resolved against the file, before anything is assembled: what
+/// [`Model::prepare_plan`] will set up (front ends check the run's size against it first).
+#[derive(Debug, Clone)]
+pub struct RunPlan {
+    /// The representation or splitting.
+    pub execution: Execution,
+    /// Discretisation, scheme and step size.
+    pub options: IntegratorOptions,
+    /// The end time.
+    pub t_end: f64,
+    /// The signals recorded.
+    pub signals: Vec<Signal>,
+    /// Rows before this time are not passed on (a netlist's `.tran` TSTART).
+    pub first_output: f64,
+}
+
+impl RunPlan {
+    /// Number of steps to the end time, `round(t_end/h)`.
+    #[must_use]
+    pub fn steps(&self) -> u64 {
+        (self.t_end / self.options.h).round() as u64
+    }
+
+    /// Number of rows passed on: from the first output time to the end time.
+    #[must_use]
+    pub fn output_rows(&self) -> u64 {
+        ((self.t_end - self.first_output) / self.options.h)
+            .round()
+            .max(0.0) as u64
+            + 1
+    }
+}
 
 /// A run set up and ready to step: the simulation, its signals, its end time.
 #[derive(Debug)]
@@ -52,6 +85,21 @@ impl Prepared {
         self.simulation.execution()
     }
 
+    /// The integrator options.
+    #[must_use]
+    pub fn options(&self) -> &IntegratorOptions {
+        self.simulation.options()
+    }
+
+    /// The natural modes at the prepared state (see [`Simulation::natural_modes`]); they do
+    /// not change the rows of the run.
+    ///
+    /// # Errors
+    /// A staggered execution, a model too large for the modal analysis, a failing readout.
+    pub fn natural_modes(&mut self) -> Result<NaturalModes, RunError> {
+        self.simulation.natural_modes()
+    }
+
     /// Number of output rows before the first output time is applied, `round(t_end/h) + 1`.
     #[must_use]
     pub fn rows(&self) -> usize {
@@ -64,9 +112,24 @@ impl Prepared {
     /// # Errors
     /// A step, readout or the sink failing.
     pub fn run_into(&mut self, sink: &mut dyn Sink) -> Result<RunSummary, StudyError> {
+        self.run_into_watched(sink, &mut |_| Ok(()))
+    }
+
+    /// [`Prepared::run_into`], calling `watch` with the row index before every row, passed on
+    /// or not, and with 0 before the first (the command line's progress bar and interrupt
+    /// check); an error from `watch` stops the run as a sink's does.
+    ///
+    /// # Errors
+    /// See [`Prepared::run_into`].
+    pub fn run_into_watched(
+        &mut self,
+        sink: &mut dyn Sink,
+        watch: &mut dyn FnMut(usize) -> Result<(), String>,
+    ) -> Result<RunSummary, StudyError> {
         let mut skip = FromTime {
             inner: sink,
             first: self.first_output,
+            watch,
         };
         Ok(self
             .simulation
@@ -84,18 +147,21 @@ impl Prepared {
     }
 }
 
-/// Passes on the rows at or after `first`.
+/// Passes on the rows at or after `first`, showing every row index to `watch`.
 struct FromTime<'a> {
     inner: &'a mut dyn Sink,
     first: f64,
+    watch: &'a mut dyn FnMut(usize) -> Result<(), String>,
 }
 
 impl Sink for FromTime<'_> {
     fn begin(&mut self, names: &[String]) -> Result<(), String> {
+        (self.watch)(0)?;
         self.inner.begin(names)
     }
 
     fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
+        (self.watch)(k)?;
         if t < self.first * (1.0 - 1e-12) {
             return Ok(());
         }
@@ -196,9 +262,12 @@ impl Model {
                 scene.options.scheme,
             ),
         };
-        let h = h.ok_or_else(|| StudyError::Settings(format!("{name}: no .tran card and no h")))?;
-        let t_end = t_end
-            .ok_or_else(|| StudyError::Settings(format!("{name}: no .tran card and no t_end")))?;
+        let missing = |setting| StudyError::MissingSetting {
+            file: name.to_string(),
+            setting,
+        };
+        let h = h.ok_or_else(|| missing("h"))?;
+        let t_end = t_end.ok_or_else(|| missing("t_end"))?;
         if !(h > 0.0 && h.is_finite()) {
             return Err(StudyError::Settings(format!(
                 "step size must be positive and finite, got {h}"
@@ -267,18 +336,45 @@ impl Model {
         settings: &RunSettings,
         extra: Option<Signal>,
     ) -> Result<Prepared, StudyError> {
+        let mut plan = self.plan(settings)?;
+        plan.signals.extend(extra);
+        self.prepare_plan(plan)
+    }
+
+    /// The run `settings` ask for, resolved against the file's own settings: execution,
+    /// options, end time, signals and first output time. Nothing is assembled yet.
+    ///
+    /// # Errors
+    /// Bad settings or signal names.
+    pub fn plan(&self, settings: &RunSettings) -> Result<RunPlan, StudyError> {
         let execution = self.execution_for(settings)?;
         let (options, t_end) = self.options_for(settings)?;
-        let mut signals = self.signals_for(settings)?;
-        signals.extend(extra);
-        let mut simulation = self.simulation(execution, options, self.start())?;
-        simulation.check_signals(&signals)?;
+        let signals = self.signals_for(settings)?;
+        Ok(RunPlan {
+            execution,
+            options,
+            t_end,
+            signals,
+            first_output: self.first_output_time(),
+        })
+    }
+
+    /// Sets up `plan` (from [`Model::plan`]): the simulation at the file's start, its signals
+    /// checked, the consistent initial state. This is where every front end (the command
+    /// line, the Python package, sweeps) turns a file into a run.
+    ///
+    /// # Errors
+    /// Signals the simulation cannot record, an inconsistent start, a steady state that cannot
+    /// be found.
+    pub fn prepare_plan(&self, plan: RunPlan) -> Result<Prepared, StudyError> {
+        let mut simulation = self.simulation(plan.execution, plan.options, self.start())?;
+        simulation.check_signals(&plan.signals)?;
         simulation.prepare()?;
         Ok(Prepared {
             simulation,
-            signals,
-            t_end,
-            first_output: self.first_output_time(),
+            signals: plan.signals,
+            t_end: plan.t_end,
+            first_output: plan.first_output,
         })
     }
 
