@@ -18,7 +18,6 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::{Parser, Subcommand, ValueEnum};
-use dirac_core::Model as _;
 use dirac_graph::{Assembler, Representation};
 use dirac_netlist::parse_netlist;
 use dirac_output::{CsvSink, Table};
@@ -656,24 +655,7 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
             n + m
         );
     }
-    let system = Assembler::assemble(graph, Representation::Monolithic)
-        .map_err(|e| Failure::Input(e.to_string()))?;
-    let n = system.coordinates();
-    let mut hessian = dirac_core::LagrangianHessian::default();
-    hessian.begin();
-    system
-        .model
-        .lagrangian_hessian(&vec![0.0; n], &vec![0.0; n], &mut hessian);
-    let mut regular = vec![false; n];
-    for (r, c, v) in hessian.vv.iter() {
-        if r == c && v != 0.0 {
-            regular[r] = true;
-        }
-    }
-    let degenerate: Vec<String> = (0..n)
-        .filter(|&i| !regular[i])
-        .map(|i| system.model.coordinate_name(i))
-        .collect();
+    let degenerate = model.degenerate_directions()?;
     println!(
         "  degenerate directions (no kinetic term): {}",
         if degenerate.is_empty() {

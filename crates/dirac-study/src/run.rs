@@ -464,6 +464,32 @@ impl Model {
         Ok(results)
     }
 
+    /// The coordinates of the monolithic system without a kinetic term (no diagonal entry in
+    /// the velocity Hessian of the Lagrangian at rest): algebraic or first-order directions.
+    ///
+    /// # Errors
+    /// An interconnection that cannot be assembled.
+    pub fn degenerate_directions(&self) -> Result<Vec<String>, StudyError> {
+        let system = Assembler::assemble(self.graph(), Representation::Monolithic)
+            .map_err(|e| StudyError::Run(e.into()))?;
+        let n = system.coordinates();
+        let mut hessian = dirac_core::LagrangianHessian::default();
+        hessian.begin();
+        system
+            .model
+            .lagrangian_hessian(&vec![0.0; n], &vec![0.0; n], &mut hessian);
+        let mut regular = vec![false; n];
+        for (r, c, v) in hessian.vv.iter() {
+            if r == c && v != 0.0 {
+                regular[r] = true;
+            }
+        }
+        Ok((0..n)
+            .filter(|&i| !regular[i])
+            .map(|i| system.model.coordinate_name(i))
+            .collect())
+    }
+
     /// Sizes of the assembled representations, degenerate directions, signals and start.
     ///
     /// # Errors
@@ -484,24 +510,7 @@ impl Model {
                 constraint_rows: system.constraint_rows(),
             });
         }
-        let system = Assembler::assemble(graph, Representation::Monolithic)
-            .map_err(|e| StudyError::Run(e.into()))?;
-        let n = system.coordinates();
-        let mut hessian = dirac_core::LagrangianHessian::default();
-        hessian.begin();
-        system
-            .model
-            .lagrangian_hessian(&vec![0.0; n], &vec![0.0; n], &mut hessian);
-        let mut regular = vec![false; n];
-        for (r, c, v) in hessian.vv.iter() {
-            if r == c && v != 0.0 {
-                regular[r] = true;
-            }
-        }
-        let degenerate = (0..n)
-            .filter(|&i| !regular[i])
-            .map(|i| system.model.coordinate_name(i))
-            .collect();
+        let degenerate = self.degenerate_directions()?;
         Ok(CheckReport {
             parts: graph.subsystems().len(),
             connections: graph.connections().len(),
