@@ -346,13 +346,11 @@ fn main() -> ExitCode {
     }
 }
 
-/// Reads a netlist or scene, printing the reader's warnings.
+/// Reads a netlist or scene, printing the reader's warnings as it finds them.
 fn load(path: &Path) -> Result<Model, Failure> {
-    let model = Model::from_file(path)?;
-    for w in model.parse_warnings() {
+    Ok(Model::from_file_reporting(path, &mut |w| {
         eprintln!("warning: {w}");
-    }
-    Ok(model)
+    })?)
 }
 
 /// Prints the warnings of building a netlist into a circuit (options dirac does differently).

@@ -90,6 +90,19 @@ impl Model {
     /// # Errors
     /// A file that cannot be read, or whose content is not a valid netlist or scene.
     pub fn from_file(path: impl AsRef<Path>) -> Result<Self, StudyError> {
+        Self::from_file_reporting(path, &mut |_| {})
+    }
+
+    /// [`Model::from_file`], handing each of the reader's warnings (`file:line:column: ...`) to
+    /// `report` as soon as the text is read, before a netlist is built: a netlist that reads
+    /// but cannot become a circuit still shows them (the command line prints them so).
+    ///
+    /// # Errors
+    /// See [`Model::from_file`].
+    pub fn from_file_reporting(
+        path: impl AsRef<Path>,
+        report: &mut dyn FnMut(&str),
+    ) -> Result<Self, StudyError> {
         let path = path.as_ref();
         let name = path.display().to_string();
         let bytes = std::fs::read(path).map_err(|e| StudyError::Io {
@@ -103,7 +116,7 @@ impl Model {
                 e.utf8_error().valid_up_to()
             ),
         })?;
-        Self::restore(kind_of(path)?, &name, &text, &[])
+        Self::read(kind_of(path)?, &name, &text, &[], report)
     }
 
     /// A netlist from its text; `name` is used in messages (`name:line:column`).
@@ -133,14 +146,28 @@ impl Model {
         text: &str,
         overrides: &[(String, f64)],
     ) -> Result<Self, StudyError> {
+        Self::read(kind, name, text, overrides, &mut |_| {})
+    }
+
+    /// [`Model::restore`], handing the reader's warnings to `report` before building.
+    fn read(
+        kind: SourceKind,
+        name: &str,
+        text: &str,
+        overrides: &[(String, f64)],
+        report: &mut dyn FnMut(&str),
+    ) -> Result<Self, StudyError> {
         let (built, parse_warnings) = match kind {
             SourceKind::Netlist => {
                 let netlist = parse_netlist(text, name)?;
-                let warnings = netlist
+                let warnings: Vec<String> = netlist
                     .warnings
                     .iter()
                     .map(|w| format!("{name}:{}:{}: {}", w.line, w.column, w.message))
                     .collect();
+                for w in &warnings {
+                    report(w);
+                }
                 let circuit = build_circuit(&netlist, name)?;
                 (
                     Built::Netlist {
@@ -249,12 +276,6 @@ impl Model {
             out.extend(circuit.warnings.iter().cloned());
         }
         out
-    }
-
-    /// The reader's warnings alone: netlist cards accepted but ignored (`file:line:column: ...`).
-    #[must_use]
-    pub fn parse_warnings(&self) -> &[String] {
-        &self.parse_warnings
     }
 
     /// The file's own signals: `.print`/`.probe`/`.save` or the netlist contract's default; a
