@@ -222,8 +222,8 @@ fn run_text(name: &str, text: &str) -> (Option<i32>, String, bool) {
 /// voltage sources in parallel matches only 3 of its 4 equations to unknowns (Dulmage–Mendelsohn:
 /// the sources' charges are under-determined, their momentum balances over-determined). The
 /// model is refused at set-up with exit 2 (a bad model), naming both sources' charges, and no
-/// output is written. Mutation: deleting the `integrator.check_structure()?` call in
-/// `Simulation::build_assembled` lets the run start; it fails in step 0 (t = 0) on a numerically
+/// output is written. Mutation: replacing the `integrator.check_structure()` finding in
+/// `Simulation::build_assembled` by `None` lets the run start; it fails in step 0 (t = 0) on a numerically
 /// singular pivot after cutting the step 10 times, exit 1 ("singular model: the Newton matrix
 /// is singular near coordinate `v2.q`").
 #[test]
