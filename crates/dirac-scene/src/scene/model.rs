@@ -457,7 +457,7 @@ pub enum PartKind {
     CurrentSource(SourceParams),
     /// `type = "coupled_inductors"`: coordinates `q1`, `q2`, ports `i1`, `i2`.
     CoupledInductors(CoupledInductorsParams),
-    /// `type = "diode"`: coordinates `q`, `u`, port `i` (anode to cathode).
+    /// `type = "diode"`: coordinates `q`, `phi` (junction flux), port `i` (anode to cathode).
     Diode(DiodeParams),
     /// `type = "saturating_inductor"`: coordinate `q`, port `i`.
     SaturatingInductor(SaturatingInductorParams),
@@ -603,11 +603,12 @@ fn default_emission() -> f64 {
     1.0
 }
 
-fn default_vt() -> f64 {
-    dirac_components::Diode::VT_300K
+fn default_temp() -> f64 {
+    27.0
 }
 
-/// `diode`: `is` (A, > 0), `n` (default 1), `vt` (V, default kT/q at 300 K), `rs` (Ω, default 0).
+/// `diode`: `is` (A, > 0), `n` (default 1), `temp` (°C, default 27: the thermal voltage is
+/// `k·temp/q`), `rs` (Ω, default 0).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DiodeParams {
@@ -616,9 +617,9 @@ pub struct DiodeParams {
     /// Emission coefficient.
     #[serde(default = "default_emission")]
     pub n: f64,
-    /// Thermal voltage.
-    #[serde(default = "default_vt")]
-    pub vt: f64,
+    /// Junction temperature (°C); the parameters are taken as measured at it.
+    #[serde(default = "default_temp")]
+    pub temp: f64,
     /// Series resistance.
     #[serde(default)]
     pub rs: f64,
