@@ -90,6 +90,7 @@ mod mechanical;
 mod nonlinear;
 mod planar;
 mod rolling;
+mod serde_defaults;
 #[cfg(test)]
 mod testing;
 #[cfg(test)]

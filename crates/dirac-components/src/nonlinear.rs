@@ -2,6 +2,7 @@
 
 use dirac_core::{LagrangianHessian, Model};
 use dirac_graph::Subsystem;
+use serde::{Deserialize, Serialize};
 
 /// `ln cosh x` without overflow.
 fn ln_cosh(x: f64) -> f64 {
@@ -28,7 +29,8 @@ fn ln_cosh(x: f64) -> f64 {
 /// in finite time.
 ///
 /// Port `i` (coordinate 0).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct SaturatingInductor {
     /// Small-signal inductance `L₀` at zero current.

@@ -72,13 +72,13 @@ fn joint_gaps(run: &Run, chain: &SphericalChain) -> (f64, f64) {
 /// `E = v·∂L/∂v − L` at `(q_k, p_k)`, with `v` the `M`-orthogonal projection of `M⁻¹p_k` onto the
 /// constraints' tangent space: `[M Aᵀ; A 0][v; μ] = [p; 0]` (as the chain bench does).
 fn energy(run: &Run) -> f64 {
-    let (q, p) = (run.sim.q(), run.sim.p());
+    let (q, p) = (run.integrator().q(), run.integrator().p());
     let n = q.len();
-    let model = run.sim.model();
+    let model = run.integrator().model();
     let mut hessian = LagrangianHessian::default();
     hessian.begin();
     model.lagrangian_hessian(q, &vec![0.0; n], &mut hessian);
-    let c = run.sim.active_constraints();
+    let c = run.integrator().active_constraints();
     let m = c.count();
     let mut kkt = DMatrix::zeros(n + m, n + m);
     for (r, col, val) in hessian.vv.iter() {

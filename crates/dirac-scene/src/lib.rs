@@ -165,14 +165,11 @@ pub use convert::{ConvertError, netlist_to_scene};
 pub use scene::build::{BuiltScene, MAX_ORDER};
 pub use scene::error::{Location, Origin, SceneError};
 pub use scene::model::{
-    ActuatorElement, BodySpec, CapacitorParams, Connection, ConnectionKind, CoupledInductorsParams,
-    DamperElement, DamperParams, DcMotorParams, DiodeParams, DiscretisationSpec, ELEMENT_TYPES,
-    ElementSpec, ForceSourceParams, GroundParams, IdealGearParams, IdealTransformerParams,
-    InductorParams, InertiaParams, InertiaSpec, Initial, InitialSpec, MassParams, NodePort,
-    PART_TYPES, Part, PartKind, PendulumParams, PinSpec, PlanarLinkageParams, RIGID_JOINT_TYPES,
-    Record, RepresentationSpec, ResistorParams, RigidBodyParams, RigidJointSpec, RotationSpec,
-    SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec,
-    SpringElement, SpringParams, WaveformSpec,
+    ActuatorElement, BodySpec, Connection, ConnectionKind, DamperParams, DiodeParams,
+    DiscretisationSpec, ELEMENT_TYPES, ElementSpec, ForceSourceParams, GroundParams, InertiaSpec,
+    Initial, InitialSpec, NodePort, PART_TYPES, Part, PartKind, PinSpec, PlanarLinkageParams,
+    RIGID_JOINT_TYPES, Record, RepresentationSpec, RigidBodyParams, RigidJointSpec, RotationSpec,
+    Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec, SpringParams, WaveformSpec,
 };
 
 impl Scene {

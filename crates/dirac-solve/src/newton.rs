@@ -1049,4 +1049,45 @@ mod tests {
             );
         }
     }
+
+    /// `F_0 = x_0 + g·x_1 − 1` with `g = 1e-12` (a GMIN-like coupling) and `F_1 = x_1 − 2`, each
+    /// with its constant reported: at the root (`x_0 = 1 − 2g`) `m_0 = 1 + (1 − 2g) + 2g = 2` and
+    /// `m_1 = 2 + 2`. The scale of `x_0` is `m_0/1 = 2`; `x_1` enters row 0 only through `g` (below `√ε` of the row),
+    /// so its scale is `m_1/1 = 4`, not `m_0/g = 2e12`, which would accept any update of `x_1`.
+    ///
+    /// Mutation: dropping the coefficient filter gives `s_1 = 2e12`.
+    struct Weak;
+    impl NonlinearSystem for Weak {
+        fn len(&self) -> usize {
+            2
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            r[0] = x[0] + 1e-12 * x[1] - 1.0;
+            r[1] = x[1] - 2.0;
+        }
+        fn jacobian(&mut self, _x: &[f64], jac: &mut Triplets) {
+            jac.add(0, 0, 1.0);
+            jac.add(0, 1, 1e-12);
+            jac.add(1, 1, 1.0);
+        }
+        fn constant_magnitudes(&mut self, out: &mut [f64]) {
+            out[0] = 1.0;
+            out[1] = 2.0;
+        }
+    }
+
+    #[test]
+    fn unknown_scales_come_from_the_equations_they_weigh_in() {
+        let mut newton = Newton::new(DenseLu::new(), exact_newton());
+        let mut x = [0.0; 2];
+        newton.solve(&mut Weak, &mut x).unwrap();
+        newton.unknown_scales(&mut Weak, &x);
+        let expected = [2.0, 4.0];
+        for (j, (s, e)) in newton.unknown_scale.iter().zip(expected).enumerate() {
+            assert!(
+                (s - e).abs() <= 4.0 * f64::EPSILON * e,
+                "s_{j} = {s:e}, expected {e:e}"
+            );
+        }
+    }
 }
