@@ -153,6 +153,8 @@ struct Branch {
     subsystem: usize,
     port: &'static str,
     coordinate: usize,
+    /// Whether the element is a capacitor (it has a charge signal `q(name)`).
+    capacitor: bool,
 }
 
 impl Circuit {
@@ -247,7 +249,7 @@ impl Circuit {
                 Probe::Flow(self.port_of(b)?)
             }
             ("q", element) => {
-                if !self.capacitors.iter().any(|c| c == element) {
+                if !self.branches.get(element).is_some_and(|b| b.capacitor) {
                     return Err(unknown(format!(
                         "`{element}` is not a capacitor; capacitors: {}",
                         self.capacitors.join(", ")
@@ -440,6 +442,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                             subsystem: *subsystem,
                             port,
                             coordinate: winding,
+                            capacitor: false,
                         },
                     );
                     continue;
@@ -504,6 +507,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 subsystem: s,
                 port: "i",
                 coordinate: 0,
+                capacitor: matches!(element, Element::C { .. }),
             },
         );
     }

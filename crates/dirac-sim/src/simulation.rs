@@ -505,9 +505,14 @@ impl Simulation {
         system: &AssembledSystem,
         integrator: &Integrator<AssembledModel, AssembledConstraints>,
     ) {
-        let kept = integrator.active_constraints().kept();
         let all = integrator.constraints().count();
-        let dropped: Vec<usize> = (0..all).filter(|r| !kept.contains(r)).collect();
+        let mut is_kept = vec![false; all];
+        for &r in integrator.active_constraints().kept() {
+            if let Some(k) = is_kept.get_mut(r) {
+                *k = true;
+            }
+        }
+        let dropped: Vec<usize> = (0..all).filter(|&r| !is_kept[r]).collect();
         if dropped.is_empty() {
             return;
         }
@@ -1182,12 +1187,19 @@ fn connection_active_rows<C: Constraints>(
     system: &AssembledSystem,
     active: &RowSubset<C>,
 ) -> Vec<Option<usize>> {
-    let kept = active.kept();
+    // Active index of each full row (a table: a search per connection is quadratic on a
+    // 10⁵-node circuit).
+    let mut active_of = vec![None; system.constraint_rows()];
+    for (k, &row) in active.kept().iter().enumerate() {
+        if let Some(slot) = active_of.get_mut(row) {
+            *slot = Some(k);
+        }
+    }
     (0..system.connection_count())
         .map(|c| {
             system
                 .connection_row(c)
-                .and_then(|row| kept.iter().position(|&k| k == row))
+                .and_then(|row| active_of.get(row).copied().flatten())
         })
         .collect()
 }
