@@ -8,8 +8,8 @@ rlc_ladder`, the section-model graph of scene C).
 
 For each ladder size N (the netlist of examples/gen_ladder.rs: series R = 0.1, L = 1, shunt C = 1,
 1 V DC source, h = 0.01) and each binary, `dirac run --signals q(cN)` (a charge: no readout at the
-rows, so a row costs its step alone) for S1 and S2 steps (1000 and 2000 at N < 10^4, 20 and 60
-above). Runs alternate before/after over ROUNDS rounds (environment, default 3); for each binary
+rows, so a row costs its step alone) for S1 and S2 steps (1000 and 2000 at N < 10^4, 20 and
+220 above). Runs alternate before/after over ROUNDS rounds (environment, default 3); for each binary
 and step count the least CPU time of the process (user + system, from wait4) is kept, and the cost
 per step and section is (cpu(S2) - cpu(S1)) / ((S2 - S1) N), so parsing, building and set-up
 cancel. CPU time rather than wall time: on a shared machine (and under nice) a process's wall time
@@ -75,7 +75,7 @@ def main(argv: list[str]) -> int:
             cir = os.path.join(tmp, "ladder.cir")
             with open(cir, "w") as fh:
                 fh.write(netlist(n))
-            s1, s2 = (1000, 2000) if n < 10_000 else (20, 60)
+            s1, s2 = (1000, 2000) if n < 10_000 else (20, 220)
             best: dict[tuple[str, int], float] = {}
             peak: dict[str, int] = {}
             for _ in range(rounds):
