@@ -476,8 +476,10 @@ impl Simulation {
             // The start can violate an algebraic relation only where the readout system has a
             // redundant equation (one that restates others); without one there is nothing to
             // check, and the readout is built when a signal first needs it.
-            let plan = engine.plan();
-            if plan.has_consistency_conditions() {
+            let plan = (!engine.fully_kinetic())
+                .then(|| engine.plan())
+                .filter(|plan| plan.has_consistency_conditions());
+            if let Some(plan) = plan {
                 let given = self.given_global(&engine.system);
                 let e = &mut engine;
                 let readout = e.readout.insert(Readout::with_plan(
@@ -1275,6 +1277,30 @@ struct MemoPlan {
 }
 
 impl AssembledEngine {
+    /// Whether the model is unconstrained with a kinetic term in every coordinate (the pattern
+    /// of `∂²L/∂v²` holds its whole diagonal): the readout equations then match one to one
+    /// (momentum `i` to velocity `i`, force balance `i` to acceleration `i`), so none is redundant
+    /// and a start has nothing to check, which is known without the structural analysis.
+    fn fully_kinetic(&self) -> bool {
+        if self.integrator.active_constraints().count() > 0 {
+            return false;
+        }
+        let n = self.integrator.model().dim();
+        let mut hessian = dirac_core::LagrangianHessian::default();
+        hessian.begin();
+        self.integrator
+            .model()
+            .lagrangian_hessian(&self.start_q, &self.start_v, &mut hessian);
+        hessian.freeze();
+        let mut diagonal = vec![false; n];
+        for (i, j, _) in hessian.vv.iter() {
+            if i == j && i < n {
+                diagonal[i] = true;
+            }
+        }
+        diagonal.iter().all(|&d| d)
+    }
+
     /// The readout's structural analysis: the readout's own, the graph's memo's (same
     /// representation and kept rows), or analysed now and stored there.
     fn plan(&mut self) -> Arc<ReadoutPlan> {
