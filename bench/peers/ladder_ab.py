@@ -16,7 +16,8 @@ cancel. CPU time rather than wall time: on a shared machine (and under nice) a p
 measures the scheduler as much as the process. Peak RSS (ru_maxrss) of the S2 run. The
 section-model graph of the same size (examples/rlc_ladder.rs: one shared section model per
 section, driven through the integrator) is measured the same way in the same rounds. Prints a
-Markdown table. Not part of CI (timings).
+Markdown table. With SIGNAL='v(n{n})' the netlist runs record the last node's potential
+instead (a readout at every row, as `dirac run --signals 'v(nN)'`). Not part of CI (timings).
 """
 
 import json
@@ -24,6 +25,11 @@ import os
 import subprocess
 import sys
 import tempfile
+
+
+# The recorded signal (environment SIGNAL, `{n}` the size): a charge by default; `v(n{n})`, a
+# node potential, makes every row solve the readout.
+SIGNAL = os.environ.get("SIGNAL", "q(c{n})")
 
 
 def netlist(n: int) -> str:
@@ -49,7 +55,7 @@ def timed(cmd: list[str]) -> tuple[str, float, int]:
 
 def run(binary: str, cir: str, n: int, steps: int, tmp: str) -> tuple[float, int]:
     err, cpu, rss = timed(
-        [binary, "run", cir, "--quiet", "--signals", f"q(c{n})", "--t-end", repr(steps * 0.01),
+        [binary, "run", cir, "--quiet", "--signals", SIGNAL.format(n=n), "--t-end", repr(steps * 0.01),
          "--json-summary", "--out", os.path.join(tmp, "out.csv")]
     )
     summary = json.loads(err.strip().splitlines()[-1])
