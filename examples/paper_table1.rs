@@ -60,9 +60,7 @@ fn main() -> Result<(), Box<dyn Error>> {
             let h = period / n as f64;
             let mut sim = ShootingIntegrator::new(model, discretisation.clone(), h)?;
             sim.set_state([1.0], [0.0], 0.0);
-            for _ in 0..PERIODS * n {
-                sim.step()?;
-            }
+            sim.run(PERIODS * n, |_, _, _, _| {})?;
             let (qe, pe) = model.exact(1.0, 0.0, sim.t());
             let (dq, dp) = (sim.q()[0] - qe, sim.p()[0] - pe);
             let error = dq.hypot(dp);

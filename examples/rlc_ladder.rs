@@ -3,16 +3,15 @@
 //! `cargo run --release --example rlc_ladder -- --sections N --steps 1000`
 //!
 //! Each section: series R = 0.1 and L = 1, then a shunt C = 1 to ground; KCL at every internal
-//! node; h = 0.01, midpoint, (+) flavour, monolithic representation. Prints
-//! `sections,steps,wall_s,v1_end` (`wall_s`: assembly, initialisation and stepping; `v1_end`: the
-//! first shunt capacitor's voltage at t_end) and, on stderr, the unknown count and solver counters.
+//! node; h = 0.01, midpoint, (+) flavour, monolithic representation, run through `Simulation`.
+//! Prints `sections,steps,wall_s,v1_end` (`wall_s`: assembly, initialisation and stepping;
+//! `v1_end`: the first shunt capacitor's voltage at t_end) and, on stderr, the unknown count and
+//! solver counters.
 
 use std::error::Error;
 use std::time::Instant;
 
-use dirac::core::Discretisation;
-use dirac::graph::{Assembler, Representation};
-use dirac::sim::{Integrator, IntegratorOptions};
+use dirac::prelude::*;
 use dirac_problems::{LadderSection, rlc_ladder};
 
 fn arg(name: &str, default: usize) -> Result<usize, String> {
@@ -39,25 +38,35 @@ fn main() -> Result<(), Box<dyn Error>> {
         c: 1.0,
     };
     let g = rlc_ladder(sections, section)?;
-    let system = Assembler::assemble(&g, Representation::Monolithic)?;
-    let n = system.coordinates();
-    let options = IntegratorOptions::new(Discretisation::midpoint(), 0.01);
-    let mut sim = Integrator::new(system.model.clone(), system.constraints.clone(), options)?;
-    sim.initialise(&vec![0.0; n], &vec![0.0; n], 0.0)?;
+    // First shunt capacitor's charge: part S1, coordinate qc.
+    let q1 = Signal::new("S1.qc", Probe::position(&g, "S1", "qc")?);
+    let h = 0.01;
+    let mut sim = Simulation::new(
+        g,
+        Representation::Monolithic,
+        IntegratorOptions::new(Discretisation::midpoint(), h),
+    );
+    sim.prepare()?;
     let setup = start.elapsed().as_secs_f64();
-    for _ in 0..steps {
-        sim.step()?;
-    }
+    let mut q1_end = f64::NAN;
+    let summary = sim.run_into(
+        steps as f64 * h,
+        &[q1],
+        &mut |_: usize, _: f64, q: &[f64]| {
+            q1_end = q[0];
+            Ok(())
+        },
+    )?;
     let wall = start.elapsed().as_secs_f64();
-    // First shunt capacitor: S1.qc, global index 1 + 1.
-    let v1 = sim.q()[system.global_index(dirac::graph::SubsystemId(1), 1)] / section.c;
-    let stats = sim.stats();
+    let v1 = q1_end / section.c;
+    let (n, rows) = sim.assembled().map_or((0, 0), |(system, _)| {
+        (system.coordinates(), system.constraint_rows())
+    });
     eprintln!(
-        "coordinates {n}, constraints {}, setup {setup:.3} s, {:.3} us/step/section, Newton iterations/step {:.2}, factorisations {}",
-        system.constraint_rows(),
+        "coordinates {n}, constraints {rows}, setup {setup:.3} s, {:.3} us/step/section, Newton iterations/step {:.2}, factorisations {}",
         (wall - setup) / steps as f64 / sections as f64 * 1e6,
-        stats.iterations as f64 / steps as f64,
-        stats.factorisations
+        summary.newton_iterations_per_step(),
+        summary.factorisations
     );
     println!("sections,steps,wall_s,v1_end");
     println!("{sections},{steps},{wall:.3},{v1}");

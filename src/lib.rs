@@ -63,24 +63,50 @@ pub mod prelude {
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
 
-/// The user guide's Rust examples, compiled and run as doctests.
-#[cfg(doctest)]
-#[doc = include_str!("../docs/guide.md")]
-pub struct GuideDoctests;
+/// Includes each page of docs/ as the documentation of an item, so that its Rust code blocks are
+/// compiled and run as doctests, and lists the pages for `docs_checked` (one list for both).
+macro_rules! doctested_pages {
+    ($($item:ident = $page:literal),* $(,)?) => {
+        /// The Rust code blocks of every page in docs/, compiled and run as doctests.
+        #[cfg(doctest)]
+        mod docs {
+            $(
+                #[doc = include_str!(concat!("../docs/", $page))]
+                pub struct $item;
+            )*
+        }
+
+        /// The pages of docs/ included as doctests.
+        #[cfg(test)]
+        const DOCTESTED_PAGES: &[&str] = &[$($page),*];
+    };
+}
+
+doctested_pages! {
+    Audit = "audit.md",
+    Guide = "guide.md",
+    Hardening = "hardening.md",
+    Math = "math.md",
+    Paper = "paper.md",
+    Performance = "performance.md",
+    Python = "python.md",
+    Results = "results.md",
+    Rigid = "rigid.md",
+    Speed = "speed.md",
+}
 
 #[cfg(test)]
 mod tests {
-    //! The facade's paths end to end (graph → assembler → integrator), against the exact discrete
-    //! solution. Two unit masses tied to a wall (a ground at 0) by unit springs and joined by a
-    //! spring κ have normal modes
-    //! `x₁ + x₂` (ω² = 1) and `x₁ − x₂` (ω² = 1 + 2κ). The midpoint rule maps each mode, started
+    //! The facade's path end to end (parts → graph → run layer, in every representation), against
+    //! the exact discrete solution. Two unit masses tied to a wall (a ground at 0) by unit springs
+    //! and joined by a spring κ have normal modes `x₁ + x₂` (ω² = 1) and `x₁ − x₂` (ω² = 1 + 2κ). The midpoint rule maps each mode, started
     //! at rest, to `cos(kθ)` with `tan(θ/2) = ωh/2` exactly (a Cayley rotation), so from
     //! `x = (1, 0)`: `x₁,k = ½(cos kθ₁ + cos kθ₂)`, `x₂,k = ½(cos kθ₁ − cos kθ₂)`.
 
     use crate::core::Discretisation;
-    use crate::graph::{Assembler, Interconnection, Representation};
+    use crate::graph::{Interconnection, Representation};
     use crate::parts::{Ground, Mass, Spring};
-    use crate::sim::{Integrator, IntegratorOptions};
+    use crate::sim::{IntegratorOptions, Probe, Signal, Simulation};
 
     /// Round-off over 1000 steps of order-one positions (measured 1.1e-14).
     const ROUND_OFF: f64 = 1e-12;
@@ -101,28 +127,27 @@ mod tests {
         g.coupling("B-W", b, wall, Spring::linear(1.0).unwrap());
         let theta = |w: f64| 2.0 * (0.5 * w * h).atan();
         let (t1, t2) = (theta(1.0), theta((1.0 + 2.0 * kappa).sqrt()));
-        let names = ["A".to_string(), "B".to_string(), "W".to_string()];
         for rep in [
             Representation::Monolithic,
             Representation::Constraint,
             Representation::InteractionForce,
         ] {
-            let system = Assembler::assemble(&g, rep).unwrap();
-            let q = system
-                .global_vector(&[vec![1.0], vec![0.0], vec![0.0]], &names)
-                .unwrap();
-            let mut sim = Integrator::new(
-                system.model.clone(),
-                system.constraints.clone(),
+            let signals = [
+                Signal::new("A.x", Probe::position(&g, "A", "x").unwrap()),
+                Signal::new("B.x", Probe::position(&g, "B", "x").unwrap()),
+            ];
+            let mut sim = Simulation::new(
+                g.clone(),
+                rep,
                 IntegratorOptions::new(Discretisation::midpoint(), h),
-            )
-            .unwrap();
-            sim.initialise(&q, &vec![0.0; q.len()], 0.0).unwrap();
+            );
+            sim.set_position("A", "x", 1.0).unwrap();
+            let (run, _) = sim.run(steps as f64 * h, &signals).unwrap();
+            assert_eq!(run.len(), steps + 1);
             let mut worst = 0.0_f64;
             for k in 1..=steps {
-                sim.step().unwrap();
                 let (c1, c2) = ((k as f64 * t1).cos(), (k as f64 * t2).cos());
-                let x = system.subsystem_positions(sim.q());
+                let x = run.row(k);
                 worst = worst
                     .max((x[0] - 0.5 * (c1 + c2)).abs())
                     .max((x[1] - 0.5 * (c1 - c2)).abs());
@@ -130,5 +155,42 @@ mod tests {
             println!("{rep}: largest deviation from the exact midpoint solution {worst:.2e}");
             assert!(worst <= ROUND_OFF, "{rep}: {worst:e}");
         }
+    }
+}
+
+#[cfg(test)]
+mod docs_checked {
+    //! Every page of docs/ is included as doctests, so a Rust code block added to any of them is
+    //! compiled and run by `cargo test --doc -p dirac` (a page left out of `mod docs` would let its
+    //! code rot unseen: issue 14).
+
+    use super::DOCTESTED_PAGES;
+
+    /// The doctested pages are exactly the Markdown files of docs/.
+    ///
+    /// Mutation: removing `Math = "math.md"` from `doctested_pages!` fails with
+    /// `["math.md"]` listed as missing.
+    #[test]
+    fn every_docs_page_is_doctested() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs");
+        let mut pages: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+            .filter_map(Result::ok)
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|name| name.ends_with(".md"))
+            .collect();
+        pages.sort();
+        let missing: Vec<&String> = pages
+            .iter()
+            .filter(|p| !DOCTESTED_PAGES.contains(&p.as_str()))
+            .collect();
+        assert!(
+            missing.is_empty(),
+            "docs pages not included as doctests in src/lib.rs `mod docs`: {missing:?}"
+        );
+        assert_eq!(
+            pages, DOCTESTED_PAGES,
+            "src/lib.rs lists a page that is not in docs/"
+        );
     }
 }

@@ -74,6 +74,9 @@ struct Case {
     /// the same scheme on it, so every error must equal ngspice's within its [`Kind`]'s factor;
     /// otherwise within [`DIFFERENT_SCHEME`].
     same_scheme: bool,
+    /// A circuit with diodes: judged with [`DIODE_FACTOR`], upper bound only (ngspice's error there
+    /// includes its Newton tolerance, `RELTOL` = 1e-3 of each node, which ours does not).
+    diodes: bool,
     /// The C card whose value the 0.3 % negative control changes (its fourth word).
     mutated_card: &'static str,
 }
@@ -84,6 +87,7 @@ const CASES: &[Case] = &[
         // C1 out 0 {c0} IC=0, c0 = 1u
         caps: &[("q(c1)", "out", "0", 1e-6)],
         same_scheme: true,
+        diodes: false,
         mutated_card: "C1",
     },
     Case {
@@ -91,6 +95,7 @@ const CASES: &[Case] = &[
         // C1 m 0 1uF IC=0; C2 out 0 0.47u IC=0
         caps: &[("q(c1)", "m", "0", 1e-6), ("q(c2)", "out", "0", 0.47e-6)],
         same_scheme: true,
+        diodes: false,
         mutated_card: "C2",
     },
     Case {
@@ -98,6 +103,7 @@ const CASES: &[Case] = &[
         // C1 top 0 2u IC=0
         caps: &[("q(c1)", "top", "0", 2e-6)],
         same_scheme: true,
+        diodes: false,
         mutated_card: "C1",
     },
     Case {
@@ -105,6 +111,7 @@ const CASES: &[Case] = &[
         // C1 b 0 {cval} IC=0, cval = 10u
         caps: &[("q(c1)", "b", "0", 10e-6)],
         same_scheme: false,
+        diodes: false,
         mutated_card: "C1",
     },
     Case {
@@ -112,6 +119,7 @@ const CASES: &[Case] = &[
         // C1 1 0 3 IC=1
         caps: &[("q(c1)", "1", "0", 3.0)],
         same_scheme: true,
+        diodes: false,
         mutated_card: "C1",
     },
     Case {
@@ -119,6 +127,7 @@ const CASES: &[Case] = &[
         // C1 p 0 1u IC=1; C2 s 0 1u IC=0
         caps: &[("q(c1)", "p", "0", 1e-6), ("q(c2)", "s", "0", 1e-6)],
         same_scheme: true,
+        diodes: false,
         mutated_card: "C2",
     },
     Case {
@@ -130,6 +139,7 @@ const CASES: &[Case] = &[
             ("q(x3.c1)", "n4", "0", 0.5e-6),
         ],
         same_scheme: true,
+        diodes: false,
         // The subcircuit's C1: all three sections change.
         mutated_card: "C1",
     },
@@ -144,6 +154,7 @@ const CASES: &[Case] = &[
             ("q(x2.x2.c1)", "b", "0", 1e-6),
         ],
         same_scheme: true,
+        diodes: false,
         mutated_card: "C1",
     },
     Case {
@@ -151,6 +162,7 @@ const CASES: &[Case] = &[
         // No UIC (the operating point is 0 V). C1 out 0 100n
         caps: &[("q(c1)", "out", "0", 100e-9)],
         same_scheme: false,
+        diodes: false,
         mutated_card: "C1",
     },
     Case {
@@ -158,6 +170,7 @@ const CASES: &[Case] = &[
         // PULSE edges of 1 ns between the 10 ns grid points. C1 b 0 10n
         caps: &[("q(c1)", "b", "0", 10e-9)],
         same_scheme: true,
+        diodes: false,
         mutated_card: "C1",
     },
     Case {
@@ -165,6 +178,80 @@ const CASES: &[Case] = &[
         // UIC with a source across C1 a 0 1u: the start is made consistent.
         caps: &[("q(c1)", "a", "0", 1e-6)],
         same_scheme: true,
+        diodes: false,
+        mutated_card: "C1",
+    },
+];
+
+/// The bundled diode netlists (issue 13), textbook topologies with SPICE level-1 diodes: judged
+/// like [`CASES`] with the [`DIFFERENT_SCHEME`] factor (nonlinear circuits: trapezoid and
+/// midpoint are different schemes on them).
+const DIODE_CASES: &[Case] = &[
+    Case {
+        file: "diode_halfwave.cir",
+        caps: &[("q(c1)", "out", "0", 100e-6)],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "C1",
+    },
+    Case {
+        file: "diode_bridge.cir",
+        caps: &[("q(c1)", "out", "0", 47e-6)],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "C1",
+    },
+    Case {
+        file: "diode_clamp.cir",
+        caps: &[("q(c1)", "in", "out", 10e-6)],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "C1",
+    },
+    Case {
+        file: "diode_peak.cir",
+        caps: &[("q(c1)", "out", "0", 1e-6)],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "C1",
+    },
+    Case {
+        file: "diode_clippers.cir",
+        caps: &[],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "R1",
+    },
+    Case {
+        file: "diode_doubler.cir",
+        caps: &[("q(c1)", "in", "a", 10e-6), ("q(c2)", "out", "0", 10e-6)],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "C2",
+    },
+    Case {
+        file: "diode_tripler.cir",
+        caps: &[
+            ("q(c1)", "in", "a", 10e-6),
+            ("q(c2)", "b", "0", 10e-6),
+            ("q(c3)", "a", "c", 10e-6),
+        ],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "C3",
+    },
+    Case {
+        file: "diode_pulse_charge.cir",
+        caps: &[],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "R1",
+    },
+    Case {
+        file: "diode_500v.cir",
+        caps: &[("q(c1)", "a", "0", 1e-9)],
+        same_scheme: false,
+        diodes: true,
         mutated_card: "C1",
     },
 ];
@@ -206,6 +293,17 @@ const CHARGE_FACTOR: f64 = 1.25;
 /// second-order errors are of the same size, both ways within this factor. Measured 1.06 … 1.07
 /// on `rlc_sin.cir` and 1.48 on `rc_lowpass_sine.cir`.
 const DIFFERENT_SCHEME: f64 = 2.0;
+/// Diode circuits: our error at most this multiple of ngspice's at the same step. Midpoint and
+/// trapezoid are different second-order schemes on a nonlinear circuit (the junction current at
+/// the mean voltage against the mean of the currents at the ends), so their errors differ by an
+/// O(1) factor that depends on how sharply the diode switches; ngspice takes only 0.3 to 1 %
+/// more time points than we take steps (its start-up steps and a few at switching instants:
+/// 2008 for our 2000 on the bridge, 2021 on the tripler, with TMAX = TSTEP), so its extra steps
+/// do not explain the factor. Measured 0.004 (the resistive clippers, where ngspice's error is its
+/// Newton tolerance) to 2.50 (`i(v1)` of the bridge), 2.47 (`i(v1)` of the clamp), 2.17 (`v(a)` of
+/// the tripler); the bound leaves 20 % above the worst. No lower bound: ngspice's error on these
+/// includes its `RELTOL` = 1e-3 Newton tolerance.
+const DIODE_FACTOR: f64 = 3.0;
 /// The reference's estimated error must be at most this share of ngspice's error at h: it then
 /// moves a ratio by at most 5 %, small against the factors. Expected about 1/(4/3 · 20²) ≈ 0.002
 /// for a second-order method refined 20 times; measured 2.5e-3 … 2.9e-3, and 1.5e-2 on
@@ -884,7 +982,9 @@ fn judge(case: &Case, runs: &Runs) -> Verdict {
 
     let rows = measure(case, runs);
     let factor = |kind: Kind| {
-        if case.same_scheme {
+        if case.diodes {
+            DIODE_FACTOR
+        } else if case.same_scheme {
             kind.factor()
         } else {
             DIFFERENT_SCHEME
@@ -939,7 +1039,7 @@ fn judge(case: &Case, runs: &Runs) -> Verdict {
                 ),
             ));
         }
-        if exceeds(r.e_ng / f, r.e_dirac) {
+        if !case.diodes && exceeds(r.e_ng / f, r.e_dirac) {
             failures.push((
                 Check::SameScheme,
                 format!(
@@ -999,6 +1099,30 @@ fn bundled_netlists_are_as_accurate_as_ngspice() {
     let verdicts: Vec<Verdict> = CASES
         .iter()
         .zip(baseline())
+        .map(|(case, runs)| judge(case, runs))
+        .collect();
+    let text = report(&verdicts);
+    println!("{text}");
+    assert!(verdicts.iter().all(|v| v.failures.is_empty()), "{text}");
+}
+
+/// Every bundled diode netlist against ngspice at the same step, judged as [`CASES`] are.
+#[test]
+fn diode_netlists_are_as_accurate_as_ngspice() {
+    require_ngspice();
+    let runs: Vec<Runs> = std::thread::scope(|s| {
+        let handles: Vec<_> = DIODE_CASES
+            .iter()
+            .map(|c| s.spawn(move || run_case(c)))
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    let verdicts: Vec<Verdict> = DIODE_CASES
+        .iter()
+        .zip(&runs)
         .map(|(case, runs)| judge(case, runs))
         .collect();
     let text = report(&verdicts);

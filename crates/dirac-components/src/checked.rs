@@ -1,26 +1,9 @@
-//! Checked constructors of the nonlinear parts ([`Diode`], [`SaturatingInductor`]), kept apart
-//! from their models in `nonlinear.rs`.
+//! Checked constructor of the saturating inductor ([`SaturatingInductor`]), kept apart from its
+//! model in `nonlinear.rs` (the diode checks its card in `Diode::at_temperature`).
 
 use dirac_graph::{Check, PartError};
 
-use crate::nonlinear::{Diode, SaturatingInductor};
-
-impl Diode {
-    /// A diode of saturation current `is`, emission coefficient `n` and thermal voltage `vt`
-    /// (each positive and finite) with series resistance `rs` (non-negative and finite).
-    ///
-    /// # Errors
-    /// [`PartError::Parameter`] naming the parameter out of range.
-    pub fn new(is: f64, n: f64, vt: f64, rs: f64) -> Result<Self, PartError> {
-        let c = Check::new("diode");
-        Ok(Self {
-            is: c.positive("is", is)?,
-            n: c.positive("n", n)?,
-            vt: c.positive("vt", vt)?,
-            rs: c.non_negative("rs", rs)?,
-        })
-    }
-}
+use crate::nonlinear::SaturatingInductor;
 
 impl SaturatingInductor {
     /// An inductor of small-signal inductance `l0` (positive and finite) saturating to `l_inf`

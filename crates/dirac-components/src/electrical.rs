@@ -9,11 +9,13 @@
 
 use dirac_core::{ForceJacobian, LagrangianHessian, Model};
 use dirac_graph::{Check, PartError, Subsystem};
+use serde::{Deserialize, Serialize};
 
 use crate::waveform::Waveform;
 
 /// Inductor: `L = ½ L q̇²` (flux linkage `p = L q̇`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Inductor {
     /// Inductance.
@@ -33,7 +35,8 @@ impl Inductor {
 }
 
 /// Resistor: no Lagrangian, force `−R q̇` (degenerate: its charge is fixed by KCL).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Resistor {
     /// Resistance.
@@ -53,7 +56,8 @@ impl Resistor {
 }
 
 /// Capacitor: `L = −q²/(2C)` (degenerate: no kinetic term; voltage `q/C`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Capacitor {
     /// Capacitance.
@@ -382,7 +386,8 @@ impl Model for CurrentSource {
 /// Ports: `i1` (coordinate 0, winding 1's current), `i2` (coordinate 1, winding 2's current).
 /// An unconnected winding is a superconducting short (its flux linkage is conserved), not an open
 /// circuit.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct CoupledInductors {
     /// Self-inductance of winding 1.

@@ -2,6 +2,7 @@
 
 use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
 use dirac_graph::{Check, PartError, Subsystem};
+use serde::{Deserialize, Serialize};
 
 /// Permanent-magnet DC motor: armature (resistance `R`, inductance `L`) on charge `q`, rotor
 /// (inertia `J`, viscous friction `b`) on angle `θ`, coupled by one motor constant `k`:
@@ -22,7 +23,8 @@ use dirac_graph::{Check, PartError, Subsystem};
 ///
 /// `L` or `J` may be zero when the circuit or the load supplies the dynamics (the coordinate is
 /// then degenerate). Ports: `i` (coordinate 0, armature current), `theta` (coordinate 1, shaft).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct DcMotor {
     /// Motor constant `k` (V·s/rad = N·m/A).
@@ -34,6 +36,7 @@ pub struct DcMotor {
     /// Rotor inertia.
     pub j: f64,
     /// Viscous friction.
+    #[serde(default, skip_serializing_if = "crate::serde_defaults::is_zero")]
     pub b: f64,
 }
 
@@ -118,7 +121,8 @@ impl Model for DcMotor {
 /// DC; use [`crate::CoupledInductors`] for a physical transformer.
 ///
 /// Ports: `i1` (coordinate 0, primary), `i2` (coordinate 1, secondary).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct IdealTransformer {
     /// Turns ratio `n = N₂/N₁` (`v₂ = n v₁`).
@@ -197,7 +201,8 @@ impl Constraints for IdealTransformer {
 /// step, with no round-off drift of the alignment. Start with `θ₂ = r θ₁`.
 ///
 /// Ports: `theta1` (coordinate 0, input), `theta2` (coordinate 1, output).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct IdealGear {
     /// Ratio `r = θ₂/θ₁` (negative for an external mesh that reverses direction).
@@ -366,7 +371,7 @@ mod tests {
         }
         // Mean rates of the last step from the solved increments (differences of the accumulated
         // positions would lose digits: θ ≈ 600 rad while Δθ ≈ 0.06).
-        let z = run.sim.last_unknowns();
+        let z = run.integrator().last_unknowns();
         let (i, om) = (z[run.index(1, 0)] / h, z[run.index(1, 1)] / h);
         println!("no-load: ω = {om:.15} (V/k = {}), i = {i:.2e}", v / MOTOR.k);
         assert!(rel(om, v / MOTOR.k, 1e-300) < 1e-12 && i.abs() < 1e-12 * v / MOTOR.r);
@@ -443,7 +448,7 @@ mod tests {
         }
         let alpha = run.q(3, 2) - hanging;
         let exact = (motor.k * v / (motor.r * ratio * m * grav * len / 2.0)).asin();
-        let z = run.sim.last_unknowns();
+        let z = run.integrator().last_unknowns();
         let i = z[run.index(1, 0)] / h;
         println!("motor-gear-rod: α = {alpha:.15} (closed form {exact:.15}), i = {i:.15}");
         assert!((alpha - exact).abs() < 1e-10 && (i - v / motor.r).abs() < 1e-10);

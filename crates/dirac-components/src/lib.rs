@@ -34,7 +34,7 @@
 //! | [`VoltageSource`] (DC, SIN, PULSE, PWL: [`Waveform`]) | `q` | `i` |
 //! | [`CurrentSource`] | `q`, flux `φ` | `i` |
 //! | [`CoupledInductors`] | `q₁`, `q₂` | `i1`, `i2` |
-//! | [`Diode`] | `q`, curve parameter `u` | `i` |
+//! | [`Diode`] (SPICE level 1: [`DiodeParameters`]) | `q`, junction flux `φ` | `i` |
 //! | [`SaturatingInductor`] | `q` | `i` |
 //! | [`Mass`] / [`Inertia`] (no spring or damper of their own) | `x` / `θ` | `x` / `theta` |
 //! | [`Spring`] (linear + cubic), [`Damper`], [`ForceSource`] | `x` (to ground) | `x` or `theta` |
@@ -83,12 +83,14 @@
 
 mod checked;
 mod circuit;
+mod diode;
 mod electrical;
 mod electromechanical;
 mod mechanical;
 mod nonlinear;
 mod planar;
 mod rolling;
+mod serde_defaults;
 #[cfg(test)]
 mod testing;
 #[cfg(test)]
@@ -96,13 +98,14 @@ mod user_part;
 mod waveform;
 
 pub use circuit::CircuitBuilder;
+pub use diode::{Diode, DiodeBuild, DiodeError, DiodeParameters};
 pub use dirac_graph::PartError;
 pub use electrical::{
     Capacitor, CoupledInductors, CurrentSource, Inductor, Resistor, VoltageSource,
 };
 pub use electromechanical::{DcMotor, IdealGear, IdealTransformer};
 pub use mechanical::{Damper, ForceSource, Ground, Inertia, Mass, Spring};
-pub use nonlinear::{Diode, SaturatingInductor};
+pub use nonlinear::SaturatingInductor;
 pub use planar::{Anchor, Pendulum, Pin, PlanarBody, PlanarLinkage};
 pub use rolling::{RollingConstraint, RollingDisk};
 pub use waveform::Waveform;

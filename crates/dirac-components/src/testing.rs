@@ -4,15 +4,15 @@ use dirac_core::{
     ConstraintKind, Constraints, Discretisation, ForceJacobian, LagrangianHessian, Model, Triplets,
 };
 use dirac_graph::{
-    AssembledConstraints, AssembledModel, AssembledSystem, Assembler, Interconnection,
-    Representation, SubsystemId,
+    AssembledConstraints, AssembledModel, AssembledSystem, Interconnection, Representation,
+    SubsystemId,
 };
-use dirac_sim::{Integrator, IntegratorOptions};
+use dirac_sim::{Integrator, IntegratorOptions, Simulation};
 
-/// An assembled interconnection with its integrator.
+/// An interconnection run through the run layer ([`Simulation`]), with the assembled system's
+/// state at hand for the tests (global `q`, `p`, the step's unknowns).
 pub(crate) struct Run {
-    pub system: AssembledSystem,
-    pub sim: Integrator<AssembledModel, AssembledConstraints>,
+    pub sim: Simulation,
 }
 
 impl Run {
@@ -27,41 +27,76 @@ impl Run {
         )
     }
 
-    /// As [`Run::midpoint`] with a chosen representation and options.
+    /// As [`Run::midpoint`] with a chosen representation and options. The positions count as
+    /// given; the zero velocities do not (the run layer may make them consistent, as the
+    /// integrator's own start projects them).
     pub fn new(
         graph: &Interconnection,
         representation: Representation,
         options: IntegratorOptions,
         q0: &[Vec<f64>],
     ) -> Self {
-        let system = Assembler::assemble(graph, representation).expect("assembles");
-        let names: Vec<String> = graph
-            .subsystems()
-            .iter()
-            .map(|s| s.name().to_string())
-            .collect();
-        let q = system.global_vector(q0, &names).expect("initial positions");
-        let mut sim = Integrator::new(system.model.clone(), system.constraints.clone(), options)
-            .expect("options");
-        let n = q.len();
-        sim.initialise(&q, &vec![0.0; n], 0.0)
-            .expect("consistent initial state");
-        Self { system, sim }
+        Self::build(graph, representation, options, q0, false)
+    }
+
+    /// As [`Run::new`], evaluating every step's discrete constraint residual
+    /// ([`Run::constraint_residual`]).
+    pub fn tracking_residual(
+        graph: &Interconnection,
+        representation: Representation,
+        options: IntegratorOptions,
+        q0: &[Vec<f64>],
+    ) -> Self {
+        Self::build(graph, representation, options, q0, true)
+    }
+
+    fn build(
+        graph: &Interconnection,
+        representation: Representation,
+        options: IntegratorOptions,
+        q0: &[Vec<f64>],
+        track_residual: bool,
+    ) -> Self {
+        let mut sim =
+            Simulation::new(graph.clone(), representation, options).track_residual(track_residual);
+        let v0: Vec<Vec<f64>> = q0.iter().map(|q| vec![0.0; q.len()]).collect();
+        let given_q: Vec<Vec<bool>> = q0.iter().map(|q| vec![true; q.len()]).collect();
+        let given_v: Vec<Vec<bool>> = q0.iter().map(|q| vec![false; q.len()]).collect();
+        sim.set_initial(q0, &v0, &given_q, &given_v)
+            .expect("initial positions");
+        sim.prepare().expect("consistent initial state");
+        Self { sim }
+    }
+
+    /// The assembled system.
+    pub fn system(&self) -> &AssembledSystem {
+        self.sim.assembled().expect("assembled and prepared").0
+    }
+
+    /// The integrator the run layer steps (its global state, counters and last step).
+    pub fn integrator(&self) -> &Integrator<AssembledModel, AssembledConstraints> {
+        self.sim.assembled().expect("assembled and prepared").1
     }
 
     /// Global index of local coordinate `local` of subsystem number `s`.
     pub fn index(&self, s: usize, local: usize) -> usize {
-        self.system.global_index(SubsystemId(s), local)
+        self.system().global_index(SubsystemId(s), local)
     }
 
     /// `q` of local coordinate `local` of subsystem number `s`.
     pub fn q(&self, s: usize, local: usize) -> f64 {
-        self.sim.q()[self.index(s, local)]
+        self.integrator().q()[self.index(s, local)]
     }
 
     /// `p` of local coordinate `local` of subsystem number `s`.
     pub fn p(&self, s: usize, local: usize) -> f64 {
-        self.sim.p()[self.index(s, local)]
+        self.integrator().p()[self.index(s, local)]
+    }
+
+    /// The largest discrete constraint residual of the last step (built with
+    /// [`Run::tracking_residual`]; 0 otherwise).
+    pub fn constraint_residual(&mut self) -> f64 {
+        self.sim.snapshot().expect("readout").residual
     }
 
     /// One step.

@@ -117,7 +117,7 @@ fn autodiff_part_matches_stock_equivalent() {
         let (mut dq, mut dp): (f64, f64) = (0.0, 0.0);
         for r in &reference_states {
             run.step();
-            let momenta = run.system.subsystem_momenta(run.sim.p());
+            let momenta = run.system().subsystem_momenta(run.integrator().p());
             dq = dq
                 .max((run.q(0, 0) - r[0]).abs())
                 .max((run.q(1, 0) - r[1]).abs());

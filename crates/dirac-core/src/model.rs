@@ -159,6 +159,20 @@ pub trait Model {
         None
     }
 
+    /// Whether [`Model::update_fraction`] may return less than 1 (solvers skip the call when not).
+    fn has_update_limit(&self) -> bool {
+        false
+    }
+
+    /// The largest fraction `α ∈ (0, 1]` of a Newton update from `(q, v)` to `(q + dq, v + dv)`
+    /// that the model accepts. Exponential devices use it to keep an iterate from jumping into
+    /// overflow or far past the solution (SPICE's junction limiting `pnjlim`, as a fraction);
+    /// Newton moves every unknown by `α` times its update, so the direction stays Newton's.
+    /// Only consulted when [`Model::has_update_limit`] is true.
+    fn update_fraction(&self, _q: &[f64], _v: &[f64], _dq: &[f64], _dv: &[f64]) -> f64 {
+        1.0
+    }
+
     /// Name of coordinate `i`, for diagnostics and output headers.
     fn coordinate_name(&self, i: usize) -> String {
         format!("q{i}")
@@ -223,6 +237,12 @@ impl<M: Model + ?Sized> Model for &M {
     }
     fn next_breakpoint(&self, t: f64) -> Option<f64> {
         (**self).next_breakpoint(t)
+    }
+    fn has_update_limit(&self) -> bool {
+        (**self).has_update_limit()
+    }
+    fn update_fraction(&self, q: &[f64], v: &[f64], dq: &[f64], dv: &[f64]) -> f64 {
+        (**self).update_fraction(q, v, dq, dv)
     }
     fn coordinate_name(&self, i: usize) -> String {
         (**self).coordinate_name(i)

@@ -719,6 +719,77 @@ impl ForcedDiracStep {
         }
     }
 
+    /// The size of each equation's terms that do not depend on the unknowns: the carried momentum
+    /// in `E₀`, and `Σ_j |Aᵃ_j(q_k) q_k,j|` (the positions a holonomic constraint compares) in
+    /// its rows `C_l`; zero elsewhere. For Newton's residual test.
+    pub fn constant_magnitudes<C: Constraints + ?Sized>(
+        &mut self,
+        constraints: &C,
+        out: &mut [f64],
+    ) {
+        let (n, m, s) = (self.n, self.m, self.s);
+        out.fill(0.0);
+        for (o, p) in out[..n].iter_mut().zip(&self.p0) {
+            *o = p.abs();
+        }
+        if !self.has_holonomic {
+            return;
+        }
+        // The covectors at the start point need no unknowns.
+        self.eval_forms(constraints, &[], Point::Start);
+        for (a, col, val) in self.forms.iter() {
+            if self.kinds[a] == ConstraintKind::Holonomic {
+                let size = (val * self.q0[col]).abs();
+                for l in 1..=s {
+                    out[s * n + (l - 1) * m + a] += size;
+                }
+            }
+        }
+    }
+
+    /// The largest fraction `α ∈ (0, 1]` of the Newton update from `x` to `x − update` that the
+    /// model accepts ([`Model::update_fraction`]) at every quadrature node of the step: the path
+    /// and its velocity are linear in the increments, so each node moves by the same fraction of
+    /// its own update.
+    pub fn update_fraction<M: Model + ?Sized>(
+        &mut self,
+        model: &M,
+        x: &[f64],
+        update: &[f64],
+    ) -> f64 {
+        let (n, h) = (self.n, self.h);
+        let mut alpha: f64 = 1.0;
+        let tables = if self.shared_nodes || !model.has_force() {
+            1
+        } else {
+            2
+        };
+        for table in 0..tables {
+            let nodes = if table == 0 {
+                &self.lagrangian_nodes
+            } else {
+                &self.force_nodes
+            };
+            for i in 0..nodes.len() {
+                let (phi, dphi) = nodes.row(i);
+                eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
+                // `dq` and `lq` serve as scratch for the node's position and velocity updates.
+                self.dq.fill(0.0);
+                self.lq.fill(0.0);
+                for l in 1..phi.len() {
+                    let (a, b) = (phi[l], dphi[l] / h);
+                    let u = &update[(l - 1) * n..l * n];
+                    for ((dy, dw), u) in self.dq.iter_mut().zip(self.lq.iter_mut()).zip(u) {
+                        *dy -= a * u;
+                        *dw -= b * u;
+                    }
+                }
+                alpha = alpha.min(model.update_fraction(&self.y, &self.w, &self.dq, &self.lq));
+            }
+        }
+        alpha
+    }
+
     /// Max-norm of the constraint equations `C_l` at `x` (uses `scratch`, of length
     /// [`ForcedDiracStep::unknowns`]).
     pub fn constraint_residual<M: Model + ?Sized, C: Constraints + ?Sized>(

@@ -75,6 +75,7 @@ struct HotPart {
     offset: usize,
     dim: usize,
     has_force: bool,
+    has_update_limit: bool,
 }
 
 /// The parts that share one model object (instances of one definition, a netlist's elements of
@@ -130,6 +131,7 @@ pub struct AssembledModel {
     has_force: bool,
     linear: bool,
     autonomous: bool,
+    has_update_limit: bool,
 }
 
 impl AssembledModel {
@@ -348,6 +350,24 @@ impl Model for AssembledModel {
             .iter()
             .filter_map(|c| c.element.next_breakpoint(t));
         parts.chain(couplings).reduce(f64::min)
+    }
+
+    fn has_update_limit(&self) -> bool {
+        self.has_update_limit
+    }
+
+    fn update_fraction(&self, q: &[f64], v: &[f64], dq: &[f64], dv: &[f64]) -> f64 {
+        let mut alpha: f64 = 1.0;
+        for p in self.parts.iter().filter(|p| p.has_update_limit) {
+            let r = p.offset..p.offset + p.dim;
+            alpha = alpha.min(p.model.update_fraction(
+                &q[r.clone()],
+                &v[r.clone()],
+                &dq[r.clone()],
+                &dv[r],
+            ));
+        }
+        alpha
     }
 
     fn coordinate_name(&self, i: usize) -> String {
@@ -895,6 +915,7 @@ impl Assembler {
                 offset: p.offset,
                 dim: p.dim,
                 has_force: p.model.has_force(),
+                has_update_limit: p.model.has_update_limit(),
             })
             .collect();
         let model = AssembledModel {
@@ -906,6 +927,7 @@ impl Assembler {
             has_force,
             linear,
             autonomous,
+            has_update_limit: parts.iter().any(|p| p.model.has_update_limit()),
         };
         let constraints = AssembledConstraints {
             parts,
@@ -1097,6 +1119,12 @@ impl Model for FrozenCouplingModel {
             .into_iter()
             .chain(links)
             .reduce(f64::min)
+    }
+    fn has_update_limit(&self) -> bool {
+        self.inner.has_update_limit()
+    }
+    fn update_fraction(&self, q: &[f64], v: &[f64], dq: &[f64], dv: &[f64]) -> f64 {
+        self.inner.update_fraction(q, v, dq, dv)
     }
     fn coordinate_name(&self, i: usize) -> String {
         self.inner.coordinate_name(i)

@@ -3,8 +3,8 @@
 use std::collections::HashMap;
 
 use dirac_components::{
-    Capacitor, CircuitBuilder, CoupledInductors, CurrentSource, Diode, Inductor, PartError,
-    Resistor, VoltageSource, Waveform,
+    Capacitor, CircuitBuilder, CoupledInductors, CurrentSource, Diode, DiodeParameters, Inductor,
+    PartError, Resistor, VoltageSource, Waveform,
 };
 use dirac_graph::{ConnectionId, GraphError, Interconnection, PortRef, Subsystem};
 use dirac_sim::{
@@ -66,9 +66,83 @@ pub enum CircuitError {
         /// What the part's constructor refused.
         source: Box<PartError>,
     },
+    /// A diode's model parameters cannot be used.
+    #[error("diode `{element}`: {source}")]
+    Diode {
+        /// The diode.
+        element: String,
+        /// What is wrong with its model.
+        source: dirac_components::DiodeError,
+    },
+    /// An `.options`/`.temp` value that is not a number or is out of range.
+    #[error("{file}:{line}:{column}: {message}")]
+    BadOption {
+        /// File name.
+        file: String,
+        /// Line.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
     /// Assembling the graph failed.
     #[error(transparent)]
     Graph(#[from] GraphError),
+}
+
+/// The device conditions `.temp` and `.options temp= tnom= gmin=` set (ngspice's defaults:
+/// 27 °C, 27 °C, 1e-12 S).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DeviceConditions {
+    /// Circuit temperature (°C).
+    pub temp: f64,
+    /// Nominal temperature of models that do not give `TNOM` (°C).
+    pub tnom: f64,
+    /// Conductance across every junction (S).
+    pub gmin: f64,
+}
+
+impl DeviceConditions {
+    /// Reads `temp`, `tnom` and `gmin` from the netlist's options (a `.temp` card is the option
+    /// `temp`; the last value given counts).
+    ///
+    /// # Errors
+    /// A value that is not a number, a temperature below absolute zero or a negative `gmin`.
+    pub fn read(netlist: &Netlist, file: &str) -> Result<Self, CircuitError> {
+        let mut out = Self {
+            temp: 27.0,
+            tnom: 27.0,
+            gmin: Diode::GMIN,
+        };
+        for option in &netlist.options {
+            let key = option.key.as_str();
+            if !matches!(key, "temp" | "tnom" | "gmin") {
+                continue;
+            }
+            let fail = |message: String| CircuitError::BadOption {
+                file: file.to_string(),
+                line: option.pos.line,
+                column: option.pos.column,
+                message,
+            };
+            let text = option.value.as_deref().unwrap_or("");
+            let value = crate::parse_spice_number(text)
+                .ok_or_else(|| fail(format!("`{key}` needs a number, got `{text}`")))?;
+            match key {
+                "gmin" if value >= 0.0 => out.gmin = value,
+                "gmin" => return Err(fail(format!("gmin = {value} must not be negative"))),
+                _ if value <= -273.15 => {
+                    return Err(fail(format!(
+                        "{key} = {value} °C is at or below absolute zero"
+                    )));
+                }
+                "temp" => out.temp = value,
+                _ => out.tnom = value,
+            }
+        }
+        Ok(out)
+    }
 }
 
 /// A circuit built from a netlist: the parts joined at their nodes, the initial state, the signals
@@ -98,7 +172,10 @@ pub struct Circuit {
     pub holds: Vec<(ConnectionId, f64)>,
     /// The discretisation `.options method=` maps to, if any.
     pub method: Option<Discretisation>,
-    /// Notes on what the netlist asks that dirac does differently (`.options` it does not use).
+    /// Temperature and `GMIN` of the diodes.
+    pub conditions: DeviceConditions,
+    /// Notes on what the netlist asks that dirac does differently (`.options` it does not use,
+    /// diode parameters limited at the circuit temperature).
     pub warnings: Vec<String>,
     defaults: Vec<Signal>,
     nodes: HashMap<String, ConnectionId>,
@@ -193,14 +270,22 @@ impl Circuit {
     }
 
     /// The signals of the operating point: `v(<node>)` for every non-ground node, `i(<name>)`
-    /// for every inductor and voltage source (as SPICE's `.op` prints them).
+    /// for every inductor and voltage source (as SPICE's `.op` prints them), then those of
+    /// `.print`/`.probe`/`.save` not among them (`i(d1)`, `v(a,b)`).
     #[must_use]
     pub fn operating_point_signals(&self) -> Vec<Signal> {
-        self.defaults
+        let mut out: Vec<Signal> = self
+            .defaults
             .iter()
             .filter(|s| !s.name.starts_with("q("))
             .cloned()
-            .collect()
+            .collect();
+        for signal in &self.signals {
+            if !out.iter().any(|s| s.name == signal.name) {
+                out.push(signal.clone());
+            }
+        }
+        out
     }
 
     /// The contract's default signals (whatever `.print`/`.probe`/`.save` chose instead).
@@ -357,6 +442,8 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             }
         }
     }
+    let conditions = DeviceConditions::read(netlist, file)?;
+    let mut notes = Vec::new();
     let mut circuit = CircuitBuilder::new();
     let mut q0 = Vec::new();
     let mut v0 = Vec::new();
@@ -486,15 +573,30 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 none(2),
                 none(2),
             ),
-            Element::D { name, model, .. } => (
-                name,
-                check(
-                    Diode::new(model.is, model.n, Diode::VT_300K, model.rs)
-                        .map(|p| p.subsystem(name.clone())),
-                )?,
-                none(2),
-                none(2),
-            ),
+            Element::D { name, model, .. } => {
+                let card = DiodeParameters {
+                    tnom: if model.tnom_given {
+                        model.card.tnom
+                    } else {
+                        conditions.tnom
+                    },
+                    ..model.card
+                };
+                let built = Diode::at_temperature(&card, conditions.temp).map_err(|e| {
+                    CircuitError::Diode {
+                        element: name.clone(),
+                        source: e,
+                    }
+                })?;
+                notes.extend(
+                    built
+                        .warnings
+                        .into_iter()
+                        .map(|w| format!("diode `{name}`: {w}")),
+                );
+                let diode = built.diode.with_gmin(conditions.gmin);
+                (name, diode.subsystem(name.clone()), none(2), none(2))
+            }
             Element::K { .. } => continue,
         };
         let s = add(&mut circuit, part, q, v)?;
@@ -510,6 +612,37 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 capacitor: matches!(element, Element::C { .. }),
             },
         );
+    }
+    // A node on a single element (ngspice warns and solves it): KCL says that element carries no
+    // current. A 0 A source from the node to ground keeps that row and gives the node its
+    // potential (the source's voltage, a multiplier of the row).
+    let mut terminals: HashMap<&str, Vec<usize>> = HashMap::new();
+    for (e, element) in netlist.elements.iter().enumerate() {
+        if let Some((a, b)) = element.terminals() {
+            terminals.entry(a).or_default().push(e);
+            terminals.entry(b).or_default().push(e);
+        }
+    }
+    for node in netlist.nodes() {
+        let Some(&[only]) = terminals.get(node.as_str()).map(Vec::as_slice) else {
+            continue;
+        };
+        if CircuitBuilder::is_ground(&node) {
+            continue;
+        }
+        let name = format!("open({node})");
+        notes.push(format!(
+            "node `{node}` connects to a single element ({}), which therefore carries no current",
+            netlist.elements[only].name()
+        ));
+        let source = CurrentSource::new(Waveform::Dc(0.0)).map_err(|err| located(only, err))?;
+        add(
+            &mut circuit,
+            source.subsystem(name.clone()),
+            none(2),
+            none(2),
+        )?;
+        circuit.connect(&name, "i", &node, "0")?;
     }
     // KCL at every non-ground node, in order of first appearance (`Netlist::nodes`' order).
     let graph = circuit.build()?;
@@ -537,7 +670,8 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         op: netlist.op,
         holds,
         method: None,
-        warnings: Vec::new(),
+        conditions,
+        warnings: notes,
         defaults: Vec::new(),
         nodes,
         branches,
@@ -591,6 +725,7 @@ impl Circuit {
                 ("method", Some(other)) => self.warnings.push(format!(
                     "{at}: `.options method={other}` has no equivalent (dirac has no BDF/Gear method, which damps ringing that the midpoint rule keeps); using the midpoint rule; choose another with --method"
                 )),
+                ("temp" | "tnom" | "gmin", _) => {}
                 (key, _) => self.warnings.push(format!(
                     "{at}: `.options {key}` ignored (dirac steps at the fixed .tran TSTEP with its own Newton tolerances)"
                 )),

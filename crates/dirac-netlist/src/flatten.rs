@@ -16,6 +16,7 @@ use super::expr::{self, ExprTok};
 use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef};
 use super::source::SourceSpec;
 use super::{DiodeModel, Element, Netlist, Origin, Tran};
+use dirac_components::{Diode, DiodeParameters};
 
 enum Slot {
     Value(f64),
@@ -136,6 +137,8 @@ struct Ctx<'a, 'p> {
     /// Port name → caller's node.
     ports: HashMap<String, String>,
     def: Option<&'a SubcktDef>,
+    /// Nodes named on `.global` cards: the same node inside every subcircuit.
+    globals: &'a HashSet<String>,
 }
 
 impl Ctx<'_, '_> {
@@ -153,6 +156,7 @@ impl Ctx<'_, '_> {
         }
         match self.ports.get(&n.norm) {
             Some(mapped) => mapped.clone(),
+            None if self.globals.contains(&n.norm) => n.norm.clone(),
             None => Self::join(&self.prefix, &n.norm),
         }
     }
@@ -300,11 +304,11 @@ fn diode_model(
 ) -> Result<DiodeModel, NetlistError> {
     let mut m = DiodeModel {
         name: model.name.norm.clone(),
-        is: 1e-14,
-        n: 1.0,
-        rs: 0.0,
+        card: DiodeParameters::default(),
+        tnom_given: false,
         ignored: Vec::new(),
     };
+    let c = &mut m.card;
     for (name, e) in &model.params {
         let v = scope.eval(e)?;
         let bad = |what: &str| {
@@ -317,39 +321,97 @@ fn diode_model(
                 ),
             )
         };
+        let positive = |v: f64| if v > 0.0 { Ok(v) } else { Err(bad("positive")) };
+        let non_negative = |v: f64| {
+            if v >= 0.0 {
+                Ok(v)
+            } else {
+                Err(bad("non-negative"))
+            }
+        };
         match name.norm.as_str() {
-            "is" => {
-                if v <= 0.0 {
-                    return Err(bad("positive"));
-                }
-                m.is = v;
+            "is" | "js" => c.is = positive(v)?,
+            "n" => c.n = positive(v)?,
+            "rs" => c.rs = non_negative(v)?,
+            "cjo" | "cj0" | "cj" => c.cjo = non_negative(v)?,
+            "vj" | "pb" => c.vj = positive(v)?,
+            "m" | "mj" => c.m = non_negative(v)?,
+            "fc" => c.fc = non_negative(v)?,
+            "tt" => c.tt = non_negative(v)?,
+            "bv" => c.bv = Some(positive(v)?),
+            "ibv" | "ib" => c.ibv = positive(v)?,
+            "nbv" => c.nbv = Some(positive(v)?),
+            "eg" => c.eg = positive(v)?,
+            "xti" => c.xti = v,
+            "tnom" | "tref" => {
+                c.tnom = v;
+                m.tnom_given = true;
             }
-            "n" => {
-                if v <= 0.0 {
-                    return Err(bad("positive"));
-                }
-                m.n = v;
-            }
-            "rs" => {
-                if v < 0.0 {
-                    return Err(bad("non-negative"));
-                }
-                m.rs = v;
-            }
+            "tcv" => c.tcv = v,
+            "trs" | "trs1" => c.trs[0] = v,
+            "trs2" => c.trs[1] = v,
+            "ttt1" => c.ttt[0] = v,
+            "ttt2" => c.ttt[1] = v,
+            "tm1" => c.tm[0] = v,
+            "tm2" => c.tm[1] = v,
+            "level" if v == 1.0 => {}
             other => {
                 out.warnings.push(Warning::new(
                     name.pos,
                     name.orig.clone(),
                     format!(
-                        "diode model `{}`: parameter `{}` ignored (only IS, N and RS are used)",
-                        model.name.orig, name.orig
+                        "diode model `{}`: parameter `{}` ignored: {}",
+                        model.name.orig,
+                        name.orig,
+                        unsupported_diode_parameter(other)
                     ),
                 ));
                 m.ignored.push((other.to_owned(), v));
             }
         }
     }
+    // The card's own consistency (FC < 1, ...), checked at its nominal temperature.
+    Diode::at_temperature(&m.card, m.card.tnom).map_err(|err| {
+        NetlistError::bad_value(
+            model.name.pos,
+            model.name.orig.clone(),
+            format!("diode model `{}`: {err}", model.name.orig),
+        )
+    })?;
     Ok(m)
+}
+
+/// What an ignored `.model D` parameter would change (ngspice's level-1 diode and its
+/// extensions).
+fn unsupported_diode_parameter(name: &str) -> &'static str {
+    match name {
+        "level" => "only level 1 (the SPICE junction diode) is modelled",
+        "kf" | "af" => "flicker noise: no effect on a transient or an operating point",
+        "ikf" | "ik" | "ikr" => {
+            "high-injection knee current: the forward (or reverse) current above it would grow \
+             more slowly than exp(v/(N Vt)); here it does not"
+        }
+        "isr" | "nr" => {
+            "recombination current: would add current at low forward bias (below about 0.4 V)"
+        }
+        "jsw" | "cjsw" | "cjp" | "vjsw" | "php" | "mjsw" | "fcs" | "pj" => {
+            "sidewall (perimeter) current and capacitance: would add to IS and CJO"
+        }
+        "ibvl" | "nbvl" => "low-level breakdown current: would soften the breakdown knee",
+        "area" => "AREA is an instance parameter in ngspice, not a model parameter",
+        "tlev" | "tlevc" | "cta" | "ctp" | "tpb" | "tphp" | "xti_n" | "tbv1" | "tbv2" => {
+            "an alternative temperature model (TLEV/TLEVC > 0): only the default (TLEV = 0) \
+             temperature adjustment is modelled, so results away from TNOM may differ"
+        }
+        "rsw" | "jtun" | "jtunsw" | "ntun" | "xtitun" | "keg" => {
+            "tunnelling or sidewall series resistance: would add reverse current or resistance"
+        }
+        "fv_max" | "bv_max" | "id_max" | "pd_max" | "te_max" => {
+            "a safe-operating-area limit: ngspice only warns when it is exceeded"
+        }
+        "d" | "cond" | "dres" => "not a level-1 parameter",
+        _ => "not a SPICE level-1 diode parameter; the simulation does not use it",
+    }
 }
 
 fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
@@ -607,6 +669,7 @@ fn instantiate(
         orig_prefix: orig,
         ports,
         def: Some(def),
+        globals: ctx.globals,
     };
     expand(&inner, out)
 }
@@ -665,6 +728,7 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         warnings: parsed.warnings.clone(),
         ..Out::default()
     };
+    let globals: HashSet<String> = parsed.globals.iter().cloned().collect();
     let root = Ctx {
         block: &parsed.top,
         scope: &global,
@@ -673,6 +737,7 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         orig_prefix: String::new(),
         ports: HashMap::new(),
         def: None,
+        globals: &globals,
     };
     expand(&root, &mut out)?;
     // Evaluate the top-level parameters nobody used, so their errors are not hidden.

@@ -15,7 +15,7 @@
 //! | `Vname n+ n- [[DC] v] [SIN(..)\|PULSE(..)\|PWL(..)] [AC ..]` | voltage source |
 //! | `Iname n+ n- ...` | current source, same forms as `V` |
 //! | `Kname L1 L2 k` | coupling of two inductors, `-1 ≤ k ≤ 1` |
-//! | `Dname anode cathode model` | diode; `model` names a `.model NAME D(IS=.. N=.. RS=..)` |
+//! | `Dname anode cathode model` | diode; `model` names a `.model NAME D(...)` |
 //! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
 //!
 //! Source functions: `SIN(VO VA [FREQ [TD [THETA [PHASE]]]])`, `PULSE(V1 V2 [TD [TR [TF [PW
@@ -29,8 +29,15 @@
 //! - `.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]` (at most one);
 //! - `.ic V(node)=value ...`;
 //! - `.param name=expr ...`, see below;
-//! - `.model NAME D(IS=.. N=.. RS=..)` (parentheses optional; other diode parameters such as `CJO`
-//!   are kept in [`DiodeModel::ignored`] with a warning);
+//! - `.model NAME D(IS=.. N=.. RS=.. ...)`: the SPICE level-1 junction diode with ngspice's names
+//!   and aliases (`IS`/`JS`, `N`, `RS`, `CJO`/`CJ0`/`CJ`, `VJ`/`PB`, `M`/`MJ`, `FC`, `TT`, `BV`,
+//!   `IBV`/`IB`, `NBV`, `EG`, `XTI`, `TNOM`/`TREF`, `TCV`, `TRS1`/`TRS`, `TRS2`, `TTT1`, `TTT2`,
+//!   `TM1`, `TM2`, `LEVEL=1`), parentheses optional, parameters separated by blanks or commas;
+//!   any other parameter is kept in [`DiodeModel::ignored`] with a warning saying what it would
+//!   change;
+//! - `.global n1 ...` (nodes that keep their name inside subcircuits; `gnd` is ground anyway);
+//! - `.temp T` and `.options temp=T tnom=T gmin=G` (circuit temperature, the default `TNOM` and
+//!   the junction conductance, see [`DeviceConditions`]);
 //! - `.subckt NAME n1 n2 ... [params:] [a=1 ...]` ... `.ends [NAME]`, nestable;
 //! - `.end` (anything after it is ignored).
 //!
@@ -45,7 +52,7 @@
 //!
 //! Everything else is an error of kind [`ErrorKind::Unsupported`] whose message contains "not
 //! supported": other element types (`M Q J E F G H B T S W A U O Z`, ...), other dot-cards (`.ac`,
-//! `.dc`, `.include`, `.lib`, `.global`, `.func`, `.nodeset`, `.temp`, ...), other source
+//! `.dc`, `.include`, `.lib`, `.func`, `.nodeset`, ...), other source
 //! functions (`EXP`, `SFFM`, `AM`, `TRNOISE`, ...), `PWL` options (`r=`, `td=`), model types other
 //! than `D`, instance parameters other than `IC=` on `L`/`C`.
 //!
@@ -97,7 +104,7 @@ mod units;
 
 mod circuit;
 
-pub use circuit::{Circuit, CircuitError, build_circuit, waveform};
+pub use circuit::{Circuit, CircuitError, DeviceConditions, build_circuit, waveform};
 pub use error::{ErrorKind, NetlistError, Pos, Warning};
 pub use parser::{OptionCard, OutputRequest};
 pub use source::SourceSpec;
@@ -108,14 +115,13 @@ pub use units::parse_spice_number;
 pub struct DiodeModel {
     /// The model's name, lowercased.
     pub name: String,
-    /// Saturation current `IS` in A (default 1e-14).
-    pub is: f64,
-    /// Emission coefficient `N` (default 1).
-    pub n: f64,
-    /// Series resistance `RS` in Ω (default 0).
-    pub rs: f64,
-    /// Other parameters given (`CJO`, `TT`, `BV`, ...), lowercased, which are not used; each
-    /// produced a warning.
+    /// The SPICE level-1 parameters given, ngspice's defaults for the rest (`TNOM` 27 °C unless
+    /// given; see [`DiodeModel::tnom_given`]).
+    pub card: dirac_components::DiodeParameters,
+    /// Whether the card gave `TNOM` (else `.options tnom=` applies).
+    pub tnom_given: bool,
+    /// Other parameters given (`IKF`, `KF`, ...), lowercased, which are not used; each produced
+    /// a warning saying what it would change.
     pub ignored: Vec<(String, f64)>,
 }
 

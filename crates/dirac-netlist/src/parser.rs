@@ -108,6 +108,8 @@ pub(crate) struct Parsed {
     pub op: bool,
     pub options: Vec<OptionCard>,
     pub outputs: Vec<OutputRequest>,
+    /// Nodes of `.global` cards, normalised (ground names excluded).
+    pub globals: Vec<String>,
     pub warnings: Vec<Warning>,
 }
 
@@ -794,6 +796,7 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
     let mut stack: Vec<Open> = Vec::new();
     let mut tran: Option<TranCard> = None;
     let mut op = false;
+    let mut globals = Vec::new();
     let mut options = Vec::new();
     let mut outputs = Vec::new();
 
@@ -906,6 +909,25 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
                     ));
                 }
                 ".op" => op = true,
+                ".global" => {
+                    // Global nodes keep their name inside subcircuits; ground is global already.
+                    while let Some(w) = p.cur.word() {
+                        let node = Name::node(&w);
+                        if node.norm != "0" && !globals.contains(&node.norm) {
+                            globals.push(node.norm);
+                        }
+                    }
+                }
+                ".temp" => {
+                    // The circuit temperature, read like `.options temp=`.
+                    let value = p.word("temperature")?;
+                    p.finish()?;
+                    options.push(OptionCard {
+                        key: "temp".to_owned(),
+                        value: Some(value.text.to_ascii_lowercase()),
+                        pos: start,
+                    });
+                }
                 ".options" | ".option" | ".opt" => options.extend(option_pairs(card, &p.text)),
                 k if OUTPUT_DOT_CARDS.contains(&k) => {
                     outputs.extend(output_requests(card, &p.text))
@@ -942,6 +964,7 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
         op,
         options,
         outputs,
+        globals,
         warnings,
     })
 }

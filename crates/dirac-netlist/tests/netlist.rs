@@ -1,5 +1,6 @@
 //! Netlist front end: every supported feature, and every error kind with its exact position.
 
+use dirac_components::DiodeParameters;
 use dirac_netlist::{DiodeModel, Element, ErrorKind, Netlist, SourceSpec, Tran, parse_netlist};
 
 fn parse(src: &str) -> Netlist {
@@ -283,7 +284,7 @@ fn coupled_inductors() {
 #[test]
 fn diode_with_model() {
     let net = parse(
-        "diode\nD1 a K dmod\nD2 k 0 Plain\n.model DMOD D(IS=2e-14 N=1.5 RS=0.25 CJO=1p)\n.model plain d\nR1 a 0 1\n",
+        "diode\nD1 a K dmod\nD2 k 0 Plain\n.model DMOD D(IS=2e-14 N=1.5 RS=0.25 CJO=1p IKF=1)\n.model plain d\nR1 a 0 1\n",
     );
     assert_eq!(
         net.element("d1"),
@@ -293,25 +294,35 @@ fn diode_with_model() {
             cathode: "k".into(),
             model: DiodeModel {
                 name: "dmod".into(),
-                is: 2e-14,
-                n: 1.5,
-                rs: 0.25,
-                ignored: vec![("cjo".into(), 1e-12)]
+                card: DiodeParameters {
+                    rs: 0.25,
+                    cjo: 1e-12,
+                    ..DiodeParameters::new(2e-14, 1.5)
+                },
+                tnom_given: false,
+                ignored: vec![("ikf".into(), 1.0)]
             }
         })
     );
     match net.element("d2") {
         Some(Element::D { model, .. }) => {
-            assert_eq!((model.is, model.n, model.rs), (1e-14, 1.0, 0.0))
+            assert_eq!(model.card, DiodeParameters::default())
         }
         other => panic!("{other:?}"),
     }
     assert_eq!(net.warnings.len(), 1);
-    assert_eq!((net.warnings[0].line, net.warnings[0].column), (4, 38));
+    assert_eq!((net.warnings[0].line, net.warnings[0].column), (4, 45));
+    assert!(
+        net.warnings[0].message.contains("IKF") && net.warnings[0].message.contains("knee"),
+        "{}",
+        net.warnings[0].message
+    );
     // Model parameters without parentheses, with commas and parameter references.
     let net = parse("d\n.param isat=1f\nD1 a 0 m1\n.model m1 D is={isat*10}, n=2\n");
     match net.element("d1") {
-        Some(Element::D { model, .. }) => assert_eq!((model.is, model.n), (1e-15 * 10.0, 2.0)),
+        Some(Element::D { model, .. }) => {
+            assert_eq!((model.card.is, model.card.n), (1e-15 * 10.0, 2.0))
+        }
         other => panic!("{other:?}"),
     }
 }
@@ -593,7 +604,7 @@ V1 a 0 SIN(0 1 1k)
             ..
         }) => {
             assert_eq!(
-                (anode.as_str(), cathode.as_str(), model.is),
+                (anode.as_str(), cathode.as_str(), model.card.is),
                 ("b", "x1.out", 1e-12)
             )
         }
@@ -630,10 +641,8 @@ fn unsupported_cards() {
         ".dc V1 0 1 0.1",
         ".include models.lib",
         ".lib models.lib tt",
-        ".global vdd",
         ".func f(x) {x*2}",
         ".nodeset V(a)=1",
-        ".temp 50",
     ] {
         let e = assert_err(
             &format!("t\nR1 a 0 1\n{card}\n"),

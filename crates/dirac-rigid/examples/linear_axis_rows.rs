@@ -7,12 +7,14 @@
 //! bodies then tumble together about `x`, which turns the common axis towards `y`: near 90° the two
 //! kept rows lose rank and the step fails. The same motion with `JointKind::Revolute` runs on.
 //!
+//! Both runs go through `Simulation`.
+//!
 //! `cargo run --release -p dirac-rigid --example linear_axis_rows`
 
 use dirac_core::Discretisation;
-use dirac_graph::{Assembler, Interconnection, Representation, Subsystem};
+use dirac_graph::{Interconnection, Representation, Subsystem, SubsystemId};
 use dirac_rigid::{Joint, JointFrame, JointKind, RigidBody, Side, rotation_index, so3};
-use dirac_sim::{Integrator, IntegratorOptions};
+use dirac_sim::{IntegratorOptions, Probe, Signal, Simulation};
 
 fn body_with_axis(body: &RigidBody, name: &str) -> Subsystem {
     let mut s = body.subsystem(name);
@@ -51,46 +53,71 @@ fn run(linear: bool) -> (String, Vec<so3::Mat3>) {
         .connect(&mut g, "hinge")
         .expect("joint");
     }
-    let system = Assembler::assemble(&g, Representation::Monolithic).expect("assembles");
     let q0 = RigidBody::coordinates([0.0; 3], &so3::IDENTITY);
     // Both bodies tumble about x at 1 rad/s; B also spins fast about the common axis, so its
     // gyroscopic torque must be carried by the axis rows.
     let va = RigidBody::rates(&so3::IDENTITY, [0.0; 3], [3.0, 0.0, 0.0]);
     let vb = RigidBody::rates(&so3::IDENTITY, [0.0; 3], [3.0, 0.0, 20.0]);
-    let names = ["A".to_string(), "B".to_string()];
-    let q = system.global_vector(&[q0.clone(), q0], &names).expect("q0");
-    let v = system.global_vector(&[va, vb], &names).expect("v0");
-    let options = IntegratorOptions::new(Discretisation::trapezoid(), 1e-3);
-    let mut sim = Integrator::new(system.model, system.constraints, options).expect("options");
-    if let Err(e) = sim.initialise(&q, &v, 0.0) {
+    // Both bodies' rotation entries, A's then B's.
+    let signals: Vec<Signal> = [("A", 0), ("B", 1)]
+        .into_iter()
+        .flat_map(|(name, part)| {
+            (0..12).map(move |coordinate| {
+                Signal::new(
+                    format!("{name}.q{coordinate}"),
+                    Probe::Position {
+                        part: SubsystemId(part),
+                        coordinate,
+                    },
+                )
+            })
+        })
+        .collect();
+    let h = 1e-3;
+    let options = IntegratorOptions::new(Discretisation::trapezoid(), h);
+    let mut sim = Simulation::new(g, Representation::Monolithic, options);
+    let given = vec![vec![true; 12]; 2];
+    if let Err(e) = sim
+        .set_initial(&[q0.clone(), q0], &[va, vb], &given, &given)
+        .and_then(|()| sim.prepare())
+    {
         return (format!("refused at the start: {e}"), Vec::new());
     }
     let mut path = Vec::with_capacity(STEPS);
     let dropped = sim.warnings().len();
     let (mut worst_gap, mut at, mut axis_at) = (0.0_f64, 0.0, 0.0);
     let mut turned = 0.0_f64;
-    for _ in 0..STEPS {
-        let (ra, rb) = (
-            RigidBody::rotation(&sim.q()[..12]),
-            RigidBody::rotation(&sim.q()[12..24]),
-        );
-        let gap = (0..3).fold(0.0_f64, |m, i| m.max((ra[i][2] - rb[i][2]).abs()));
-        let axis = ra[2][2].clamp(-1.0, 1.0).acos();
-        if gap > worst_gap {
-            (worst_gap, at, axis_at) = (gap, sim.t(), axis);
-        }
-        turned = turned.max(axis);
-        path.push(ra);
-        if let Err(e) = sim.step() {
-            let r = RigidBody::rotation(&sim.q()[..12]);
-            let tilt = r[2][2].clamp(-1.0, 1.0).acos();
-            let report = format!(
-                "{dropped} row(s) dropped at the start; failed at t = {:.3} s with the axis {:.1}° from z: {e}",
-                sim.t(),
-                tilt.to_degrees()
+    // Rows 0..STEPS−1: the state before each of the STEPS steps.
+    let outcome = sim.run_into(
+        STEPS as f64 * h,
+        &signals,
+        &mut |k: usize, t: f64, q: &[f64]| {
+            if k == STEPS {
+                return Ok(());
+            }
+            let (ra, rb) = (
+                RigidBody::rotation(&q[..12]),
+                RigidBody::rotation(&q[12..24]),
             );
-            return (report, path);
-        }
+            let gap = (0..3).fold(0.0_f64, |m, i| m.max((ra[i][2] - rb[i][2]).abs()));
+            let axis = ra[2][2].clamp(-1.0, 1.0).acos();
+            if gap > worst_gap {
+                (worst_gap, at, axis_at) = (gap, t, axis);
+            }
+            turned = turned.max(axis);
+            path.push(ra);
+            Ok(())
+        },
+    );
+    if let Err(e) = outcome {
+        let r = RigidBody::rotation(&sim.positions()[..12]);
+        let tilt = r[2][2].clamp(-1.0, 1.0).acos();
+        let report = format!(
+            "{dropped} row(s) dropped at the start; failed at t = {:.3} s with the axis {:.1}° from z: {e}",
+            sim.time(),
+            tilt.to_degrees()
+        );
+        return (report, path);
     }
     let report = format!(
         "{dropped} row(s) dropped at the start; ran {} s, the axis turned up to {:.1}° from z; max |R_A e − R_B e| = {worst_gap:.1e} at t = {at:.3} s, axis {:.1}° from z",

@@ -92,7 +92,7 @@ fn torsion_spring_on_a_revolute_joint() {
 fn governor(h: f64, t_end: f64) -> (f64, f64, f64) {
     let arm = MotorArm::governor().expect("governor");
     let m = arm.build().expect("arm");
-    let mut run = Run::new(
+    let mut run = Run::tracking_residual(
         &m.graph,
         Representation::Monolithic,
         trapezoid(h),
@@ -111,7 +111,7 @@ fn governor(h: f64, t_end: f64) -> (f64, f64, f64) {
             - std::f64::consts::PI;
         speed = d / h;
         last = phi;
-        residual = residual.max(run.sim.last_constraint_residual());
+        residual = residual.max(run.constraint_residual());
     }
     (speed, MotorArm::arm_angle(run.body_q(4)), residual)
 }

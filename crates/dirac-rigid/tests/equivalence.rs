@@ -247,8 +247,11 @@ fn spring_as_potential_or_interaction_force_gives_the_same_motion() {
         let mut out = Vec::new();
         for _ in 0..250 {
             run.step();
-            let q = run.system.subsystem_positions(run.sim.q()).to_vec();
-            let p = run.system.subsystem_momenta(run.sim.p());
+            let q = run
+                .system()
+                .subsystem_positions(run.integrator().q())
+                .to_vec();
+            let p = run.system().subsystem_momenta(run.integrator().p());
             // Momenta compared through their body-momentum pairing (constraint impulses of the
             // endpoint joints differ between representations).
             let mut pairing = Vec::new();

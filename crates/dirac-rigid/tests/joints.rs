@@ -291,7 +291,7 @@ fn cardan(beta: f64, spin: f64, h: f64) -> (Run, Vec<String>) {
         &[qa, qb],
         &[va, vb],
     );
-    let warnings = run.sim.warnings().to_vec();
+    let warnings = run.integrator().warnings().to_vec();
     (run, warnings)
 }
 
@@ -450,7 +450,7 @@ fn four_bar_keeps_freudenstein_closure() {
         &q0,
         &vec![vec![0.0; 12]; 3],
     );
-    let warnings = run.sim.warnings().to_vec();
+    let warnings = run.integrator().warnings().to_vec();
     println!("{warnings:?}");
     assert_eq!(warnings.len(), 3, "{warnings:?}");
     let (k1, k2, k3) = (

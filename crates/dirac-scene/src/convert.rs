@@ -189,9 +189,9 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
             }
             Element::D { model, .. } => format!(
                 "type = \"diode\"\nis = {}\nn = {}\nrs = {}",
-                number(model.is),
-                number(model.n),
-                number(model.rs)
+                number(model.card.is),
+                number(model.card.n),
+                number(model.card.rs)
             ),
             Element::K { .. } => continue,
         };

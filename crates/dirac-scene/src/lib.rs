@@ -97,7 +97,7 @@
 //! | `voltage_source` | `waveform` | `q` | `i` |
 //! | `current_source` | `waveform` | `q`, `phi` | `i` |
 //! | `coupled_inductors` | `l1`, `l2` > 0, `k` ∈ [−1, 1] | `q1`, `q2` | `i1`, `i2` |
-//! | `diode` | `is` > 0, `n` (1), `vt` (kT/q at 300 K), `rs` (0) | `q`, `u` | `i` |
+//! | `diode` | `is` > 0, `n` (1), `temp` (°C, 27), `rs` (0) | `q`, `phi` | `i` |
 //! | `saturating_inductor` | `l0` > 0, `l_inf` ∈ [0, l0], `i_sat` > 0 | `q` | `i` |
 //! | `mass` | `m` > 0 (a wall spring or damper is a coupling to a `ground`) | `x` | `x` |
 //! | `inertia` | `j` > 0 (torsion or friction to the frame: a coupling to a `ground`) | `theta` | `theta` |
@@ -165,14 +165,11 @@ pub use convert::{ConvertError, netlist_to_scene};
 pub use scene::build::{BuiltScene, MAX_ORDER};
 pub use scene::error::{Location, Origin, SceneError};
 pub use scene::model::{
-    ActuatorElement, BodySpec, CapacitorParams, Connection, ConnectionKind, CoupledInductorsParams,
-    DamperElement, DamperParams, DcMotorParams, DiodeParams, DiscretisationSpec, ELEMENT_TYPES,
-    ElementSpec, ForceSourceParams, GroundParams, IdealGearParams, IdealTransformerParams,
-    InductorParams, InertiaParams, InertiaSpec, Initial, InitialSpec, MassParams, NodePort,
-    PART_TYPES, Part, PartKind, PendulumParams, PinSpec, PlanarLinkageParams, RIGID_JOINT_TYPES,
-    Record, RepresentationSpec, ResistorParams, RigidBodyParams, RigidJointSpec, RotationSpec,
-    SaturatingInductorParams, Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec,
-    SpringElement, SpringParams, WaveformSpec,
+    ActuatorElement, BodySpec, Connection, ConnectionKind, DamperParams, DiodeParams,
+    DiscretisationSpec, ELEMENT_TYPES, ElementSpec, ForceSourceParams, GroundParams, InertiaSpec,
+    Initial, InitialSpec, NodePort, PART_TYPES, Part, PartKind, PinSpec, PlanarLinkageParams,
+    RIGID_JOINT_TYPES, Record, RepresentationSpec, RigidBodyParams, RigidJointSpec, RotationSpec,
+    Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec, SpringParams, WaveformSpec,
 };
 
 impl Scene {

@@ -1,8 +1,8 @@
 //! The integrator: state, initialisation and the step loop.
 
 use dirac_core::{
-    ConstraintKind, Constraints, Discretisation, Flavour, ForcedDiracStep, Model, RowSubset,
-    Triplets, analyse_rows,
+    ConstraintKind, Constraints, Discretisation, Flavour, ForcedDiracStep, LagrangianHessian,
+    Model, RowSubset, Triplets, analyse_rows,
 };
 use dirac_solve::{
     LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem,
@@ -209,6 +209,9 @@ pub struct Integrator<M, C> {
     saved_p: Vec<f64>,
     saved_impulse: Vec<f64>,
     counters: StepCounters,
+    /// Coordinates whose momentum is a constant of the model, with that constant (see
+    /// [`Integrator::free_momenta`]).
+    free_momenta: Vec<(usize, f64)>,
 }
 
 /// How often steps were split: at source breakpoints and after Newton failures.
@@ -382,7 +385,6 @@ struct StepSystem<'a, M: ?Sized, C: ?Sized> {
     constraints: &'a C,
     step: &'a mut ForcedDiracStep,
     constant: bool,
-    scale: f64,
     /// When set, the first residual evaluation (at the guess) also writes the end momentum there.
     end_momentum: Option<&'a mut [f64]>,
 }
@@ -406,8 +408,14 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for StepSystem<
     fn jacobian_is_constant(&self) -> bool {
         self.constant
     }
-    fn residual_scale(&self) -> f64 {
-        self.scale
+    fn constant_magnitudes(&mut self, out: &mut [f64]) {
+        self.step.constant_magnitudes(self.constraints, out);
+    }
+    fn update_fraction(&mut self, x: &[f64], update: &[f64]) -> f64 {
+        if self.constant || !self.model.has_update_limit() {
+            return 1.0;
+        }
+        self.step.update_fraction(self.model, x, update)
     }
 }
 
@@ -444,6 +452,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             saved_p: vec![0.0; n],
             saved_impulse: Vec::new(),
             counters: StepCounters::default(),
+            free_momenta: Vec::new(),
         })
     }
 
@@ -536,6 +545,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.q.copy_from_slice(q);
         self.p.copy_from_slice(p);
         self.v0.fill(0.0);
+        self.free_momenta = self.free_momenta(q, p);
         self.t0 = t;
         self.t = t;
         self.k = 0;
@@ -563,10 +573,50 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.q.copy_from_slice(q);
         self.p.copy_from_slice(&p);
         self.v0.copy_from_slice(&projected);
+        self.free_momenta = self.free_momenta(q, &p);
         self.t0 = t;
         self.t = t;
         self.k = 0;
         Ok(())
+    }
+
+    /// Coordinates whose velocity enters neither a second derivative of `L` nor a constraint row
+    /// (the junction flux of a diode without charge, a current source's flux), with their
+    /// momentum `p = ∂L/∂v`, which is then a constant. Such a coordinate's step equations say
+    /// its force vanishes and leave its momentum at that constant; a solved step leaves its
+    /// round-off there instead, which the next step would have to cancel, so the error would
+    /// random-walk and, through a tiny conductance (a reverse-biased junction's GMIN), move a
+    /// voltage by millivolts. The momentum is reset to the constant after every substep.
+    fn free_momenta(&self, q: &[f64], p: &[f64]) -> Vec<(usize, f64)> {
+        let n = q.len();
+        let mut involved = vec![false; n];
+        let mut hessian = LagrangianHessian::default();
+        hessian.begin();
+        self.model.lagrangian_hessian(q, &self.v0, &mut hessian);
+        for (i, j, _) in hessian.vv.iter() {
+            involved[i] = true;
+            involved[j] = true;
+        }
+        for (_, j, _) in hessian.qv.iter() {
+            involved[j] = true;
+        }
+        let mut forms = Triplets::new();
+        forms.begin();
+        self.constraints.inner().forms(q, &mut forms);
+        for (_, j, _) in forms.iter() {
+            involved[j] = true;
+        }
+        (0..n)
+            .filter(|&i| !involved[i])
+            .map(|i| (i, p[i]))
+            .collect()
+    }
+
+    /// Puts the constant momenta back after a substep (see [`Integrator::free_momenta`]).
+    fn reset_free_momenta(&mut self) {
+        for &(i, p) in &self.free_momenta {
+            self.p[i] = p;
+        }
     }
 
     /// Advances one step (one or two substeps, depending on the scheme).
@@ -752,8 +802,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             newton.invalidate_factorisation();
             *aux_size = size;
         }
-        let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
-        let result = self.solve_stage(i, scale, false, true);
+        let result = self.solve_stage(i, false, true);
         let stage = &mut self.stages[i];
         stage.step.set_step_size(nominal);
         stage.last_size = size;
@@ -768,6 +817,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         stage.older.copy_from_slice(&stage.x);
         Self::add_impulse(&mut self.impulse, stage);
         std::mem::swap(&mut self.p, &mut self.p_next);
+        self.reset_free_momenta();
         self.t += size;
         Ok(stats)
     }
@@ -790,7 +840,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     fn solve_stage(
         &mut self,
         i: usize,
-        scale: f64,
         end_momentum: bool,
         aux: bool,
     ) -> Result<NewtonStats, SimError> {
@@ -806,7 +855,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .step
                 .jacobian_is_constant(&self.model, &self.constraints),
             step: &mut stage.step,
-            scale,
             end_momentum: end_momentum.then_some(&mut stage.linear_end.at_guess[..]),
         };
         match newton.solve(&mut system, &mut stage.x) {
@@ -911,8 +959,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         if constant {
             stage.linear_end.guess.copy_from_slice(&stage.x);
         }
-        let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
-        let stats = self.solve_stage(i, scale, constant, false)?;
+        let stats = self.solve_stage(i, constant, false)?;
         let stage = &mut self.stages[i];
         if constant {
             let end = &mut stage.linear_end;
@@ -934,6 +981,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         Self::add_impulse(&mut self.impulse, stage);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.t += stage.step.step_size();
+        self.reset_free_momenta();
         Ok(stats)
     }
 
@@ -987,7 +1035,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             let stage = &mut self.stages[0];
             stage.step.set_start(&column[..n], &column[n..], self.t);
             stage.x.fill(0.0);
-            let stats = self.solve_stage(0, 1.0, false, false)?;
+            let stats = self.solve_stage(0, false, false)?;
             self.stats.accumulate(&stats);
             let stage = &mut self.stages[0];
             stage

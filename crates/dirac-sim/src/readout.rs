@@ -242,21 +242,6 @@ impl Readout {
         p: &[f64],
         t: f64,
     ) -> Result<(), ReadoutError> {
-        if !self.plan.constant {
-            // Term sizes at the guess: the scale of the residual test (a constant system is solved
-            // by one update, exact, with no test).
-            let n = self.plan.n;
-            let guess = self.work.full[..n].to_vec();
-            model.lagrangian_gradient(q, &guess, &mut self.work.lq, &mut self.work.lv);
-            if model.has_force() {
-                model.force(q, &guess, t, &mut self.work.f);
-            }
-        }
-        let scale = if self.plan.constant {
-            1.0
-        } else {
-            term_scale(p, &self.work)
-        };
         let mut system = System {
             layout: Layout {
                 n: self.plan.n,
@@ -273,7 +258,6 @@ impl Readout {
             row_slot: &self.plan.row_slot,
             work: &mut self.work,
             constant: self.plan.constant,
-            scale,
             at_zero: false,
         };
         if self.plan.rows.is_empty() {
@@ -923,7 +907,6 @@ struct System<'a, M: ?Sized, C: ?Sized> {
     row_slot: &'a [usize],
     work: &'a mut Work,
     constant: bool,
-    scale: f64,
     /// The next residual is evaluated at `x = 0` (then only `∂L/∂v − p` and `−∂L/∂q − f` remain).
     at_zero: bool,
 }
@@ -1013,7 +996,20 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for System<'_, 
         self.constant
     }
 
-    fn residual_scale(&self) -> f64 {
-        self.scale
+    fn update_fraction(&mut self, x: &[f64], update: &[f64]) -> f64 {
+        if self.constant || !self.model.has_update_limit() {
+            return 1.0;
+        }
+        let n = self.layout.n;
+        let mut v = vec![0.0; n];
+        let mut dv = vec![0.0; n];
+        for ((&c, &value), &u) in self.cols.iter().zip(x).zip(update) {
+            if c < n {
+                v[c] = value;
+                dv[c] = -u;
+            }
+        }
+        let dq = vec![0.0; n];
+        self.model.update_fraction(self.q, &v, &dq, &dv)
     }
 }

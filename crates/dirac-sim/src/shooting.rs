@@ -38,7 +38,6 @@ struct ShootingSystem<'a, G, const N: usize> {
     model: &'a G,
     step: &'a ShootingStep<N>,
     constant: bool,
-    scale: f64,
     error: Option<ShootingError>,
 }
 
@@ -76,10 +75,6 @@ impl<G: GenericModel<N>, const N: usize> NonlinearSystem for ShootingSystem<'_, 
 
     fn jacobian_is_constant(&self) -> bool {
         self.constant
-    }
-
-    fn residual_scale(&self) -> f64 {
-        self.scale
     }
 }
 
@@ -139,12 +134,10 @@ impl<G: GenericModel<N>, const N: usize> ShootingIntegrator<G, N> {
         } else {
             std::array::from_fn(|i| 2.0 * self.q[i] - self.q_prev[i])
         };
-        let scale = self.p.iter().fold(1.0_f64, |a, x| a.max(x.abs()));
         let mut system = ShootingSystem {
             model: &self.model,
             step: &self.step,
             constant: self.model.is_linear(),
-            scale,
             error: None,
         };
         let result = self.newton.solve(&mut system, &mut x);

@@ -16,6 +16,15 @@ pub enum Probe {
         /// Its local coordinate.
         coordinate: usize,
     },
+    /// The discrete momentum `p_k` conjugate to a coordinate (a flux linkage, a linear or angular
+    /// momentum): the state variable the integrator carries, so conserved momenta are read
+    /// without the readout's Legendre solve (MATH: `p_k = −D₁L_d − f_d⁻`, `p_{k+1} = D₂L_d + f_d⁺`).
+    Momentum {
+        /// The part.
+        part: SubsystemId,
+        /// Its local coordinate.
+        coordinate: usize,
+    },
     /// The rate of a coordinate: a current, a velocity.
     Velocity {
         /// The part.
@@ -43,6 +52,9 @@ pub enum Probe {
     /// The product of two probes (a rigid body's angular velocity `vee(Ṙ Rᵀ)` is a sum of
     /// products of rotation entries and their rates).
     Product(Box<Probe>, Box<Probe>),
+    /// The Euclidean length `√(Σ xᵢ²)` of probes (a point's distance from the origin, a
+    /// pendulum's length), accumulated with `hypot` so that it neither overflows nor underflows.
+    Norm(Vec<Probe>),
     /// The angle `atan2(y, x)` of two probes, in `(−π, π]` (a joint's angle from the dot products
     /// of its frames' axes).
     Atan2 {
@@ -85,6 +97,19 @@ impl Probe {
     ) -> Result<Self, RunError> {
         let (part, coordinate) = coordinate_of(graph, part, coordinate)?;
         Ok(Self::Position { part, coordinate })
+    }
+
+    /// The momentum conjugate to coordinate `coordinate` of part `part`.
+    ///
+    /// # Errors
+    /// [`RunError::UnknownSignal`] naming the part or coordinate that does not exist.
+    pub fn momentum(
+        graph: &Interconnection,
+        part: &str,
+        coordinate: &str,
+    ) -> Result<Self, RunError> {
+        let (part, coordinate) = coordinate_of(graph, part, coordinate)?;
+        Ok(Self::Momentum { part, coordinate })
     }
 
     /// The rate of coordinate `coordinate` of part `part`.
@@ -145,8 +170,24 @@ impl Probe {
         match self {
             Self::Effort(_) => true,
             Self::Sum(terms) => terms.iter().any(|(p, _)| p.needs_multipliers()),
+            Self::Norm(terms) => terms.iter().any(Self::needs_multipliers),
             Self::Product(a, b) | Self::Atan2 { y: a, x: b } => {
                 a.needs_multipliers() || b.needs_multipliers()
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether evaluating this probe reads a momentum (recorded rows copy the momenta only
+    /// then).
+    #[must_use]
+    pub fn reads_momenta(&self) -> bool {
+        match self {
+            Self::Momentum { .. } => true,
+            Self::Sum(terms) => terms.iter().any(|(p, _)| p.reads_momenta()),
+            Self::Norm(terms) => terms.iter().any(Self::reads_momenta),
+            Self::Product(a, b) | Self::Atan2 { y: a, x: b } => {
+                a.reads_momenta() || b.reads_momenta()
             }
             _ => false,
         }
@@ -190,11 +231,19 @@ impl Probe {
                     p.visit(graph, offsets, velocity, multiplier);
                 }
             }
+            Self::Norm(terms) => {
+                for p in terms {
+                    p.visit(graph, offsets, velocity, multiplier);
+                }
+            }
             Self::Product(a, b) | Self::Atan2 { y: a, x: b } => {
                 a.visit(graph, offsets, velocity, multiplier);
                 b.visit(graph, offsets, velocity, multiplier);
             }
-            Self::Position { .. } | Self::ConstraintResidual | Self::Constant(_) => {}
+            Self::Position { .. }
+            | Self::Momentum { .. }
+            | Self::ConstraintResidual
+            | Self::Constant(_) => {}
         }
     }
 }
@@ -228,6 +277,9 @@ pub struct Snapshot {
     pub q: Vec<f64>,
     /// Velocities of every part, concatenated in graph order.
     pub v: Vec<f64>,
+    /// Discrete momenta of every part, concatenated in graph order (endpoint momenta of the
+    /// constraint representation pulled back to their partner ports).
+    pub p: Vec<f64>,
     /// The multiplier of each connection that has a constraint row (`None` otherwise).
     pub efforts: Vec<Option<f64>>,
     /// The constraint residual of the step that arrived here.
@@ -240,6 +292,7 @@ impl Snapshot {
     pub fn evaluate(&self, graph: &Interconnection, offsets: &[usize], probe: &Probe) -> f64 {
         match probe {
             Probe::Position { part, coordinate } => self.q[offsets[part.0] + coordinate],
+            Probe::Momentum { part, coordinate } => self.p[offsets[part.0] + coordinate],
             Probe::Velocity { part, coordinate } => self.v[offsets[part.0] + coordinate],
             Probe::Flow(port) => graph.port_value(offsets, &self.v, *port),
             Probe::Effort(c) => self.efforts.get(c.0).copied().flatten().unwrap_or(0.0),
@@ -251,6 +304,9 @@ impl Snapshot {
                 .iter()
                 .map(|(p, k)| k * self.evaluate(graph, offsets, p))
                 .sum(),
+            Probe::Norm(terms) => terms
+                .iter()
+                .fold(0.0, |r, p| r.hypot(self.evaluate(graph, offsets, p))),
             Probe::Constant(value) => *value,
             Probe::Product(a, b) => {
                 self.evaluate(graph, offsets, a) * self.evaluate(graph, offsets, b)

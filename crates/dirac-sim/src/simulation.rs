@@ -811,13 +811,14 @@ impl Simulation {
     /// Set-up failures, or a readout that cannot be computed.
     pub fn snapshot(&mut self) -> Result<Snapshot, RunError> {
         let mut snapshot = Snapshot::default();
-        self.snapshot_into(&mut snapshot, true)?;
+        self.snapshot_into(&mut snapshot, Fill::ALL)?;
         Ok(snapshot)
     }
 
-    /// Fills `snapshot` with the current state (reusing its buffers); without `readout` only
-    /// the positions are current (velocities and multipliers are left as they were).
-    fn snapshot_into(&mut self, snapshot: &mut Snapshot, readout: bool) -> Result<(), RunError> {
+    /// Fills `snapshot` with the current state (reusing its buffers): always the positions, the
+    /// readout (velocities and multipliers) and the momenta as `fill` asks (else left as they
+    /// were).
+    fn snapshot_into(&mut self, snapshot: &mut Snapshot, fill: Fill) -> Result<(), RunError> {
         self.prepare()?;
         let residual = self.last_residual;
         let connections = self.graph.connections().len();
@@ -825,7 +826,7 @@ impl Simulation {
             .engine
             .as_mut()
             .ok_or_else(|| RunError::Settings("not prepared".into()))?;
-        engine.snapshot(snapshot, connections, residual, readout)
+        engine.snapshot(snapshot, connections, residual, fill)
     }
 
     /// The time of the current state.
@@ -928,10 +929,13 @@ impl Simulation {
         let mut max_residual: f64 = 0.0;
         let mut pending: Option<Snapshot> = None;
         let mut previous_mean: Option<StepMean> = None;
-        let readout = self.needs_readout(signals);
+        let fill = Fill {
+            readout: self.needs_readout(signals),
+            momenta: signals.iter().any(|s| s.probe.reads_momenta()),
+        };
         let mut snapshot = Snapshot::default();
         for k in 0..=steps {
-            self.snapshot_into(&mut snapshot, readout)
+            self.snapshot_into(&mut snapshot, fill)
                 .map_err(|e| match e {
                     RunError::Readout(r) => RunError::Readout(r.at_step(k)),
                     other => other,
@@ -1241,6 +1245,22 @@ impl Snapshot {
     }
 }
 
+/// What a snapshot computes besides the positions.
+#[derive(Debug, Clone, Copy)]
+struct Fill {
+    /// Velocities and multipliers (a readout solve).
+    readout: bool,
+    /// Momenta in subsystem layout (a copy of the state).
+    momenta: bool,
+}
+
+impl Fill {
+    const ALL: Self = Self {
+        readout: true,
+        momenta: true,
+    };
+}
+
 enum Engine {
     Assembled(Box<AssembledEngine>),
     Staggered(Box<StaggeredEngine>),
@@ -1394,7 +1414,7 @@ impl Engine {
         out: &mut Snapshot,
         connections: usize,
         residual: f64,
-        readout: bool,
+        fill: Fill,
     ) -> Result<(), RunError> {
         out.residual = residual;
         out.efforts.resize(connections, None);
@@ -1404,8 +1424,11 @@ impl Engine {
                 out.t = e.integrator.t();
                 out.q.clear();
                 out.q.extend_from_slice(&e.integrator.q()[..parts]);
+                if fill.momenta {
+                    out.p = e.system.subsystem_momenta(e.integrator.p());
+                }
                 out.v.resize(parts, 0.0);
-                if readout {
+                if fill.readout {
                     e.readout()?;
                     let (integrator, Some(readout)) = (&e.integrator, e.readout.as_mut()) else {
                         return Err(RunError::Settings("readout not built".into()));
@@ -1427,11 +1450,14 @@ impl Engine {
             }
             Self::Staggered(e) => {
                 out.t = e.staggered.time();
+                if fill.momenta {
+                    out.p = e.staggered.momenta();
+                }
                 out.q.clear();
                 out.v.clear();
                 for (part, readout_of) in e.staggered.parts().iter().zip(&mut e.readouts) {
                     out.q.extend_from_slice(part.q());
-                    if readout {
+                    if fill.readout {
                         readout_of.solve(
                             part.model(),
                             part.active_constraints(),

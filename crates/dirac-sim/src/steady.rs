@@ -122,13 +122,6 @@ impl SteadyState {
             ..NewtonOptions::default()
         };
         let mut newton = Newton::new(AutoLu::for_size(SolverChoice::Auto, size), options);
-        let mut r = vec![0.0; size];
-        system.residual(&x, &mut r);
-        system.scale = r
-            .iter()
-            .chain(&system.lq)
-            .chain(&system.f)
-            .fold(f64::MIN_POSITIVE, |a, v| a.max(v.abs()));
         let mut iterations = 0;
         let start = x.clone();
         let plain = newton.solve(&mut system, &mut x);
@@ -259,7 +252,6 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     contracted: Triplets,
     g: Vec<f64>,
     redundant: Vec<usize>,
-    scale: f64,
 }
 
 impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
@@ -293,7 +285,6 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             contracted: Triplets::new(),
             g: vec![0.0; m],
             redundant: Vec::new(),
-            scale: 1.0,
         }
     }
 
@@ -593,7 +584,21 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for SteadySyste
         self.entries(|r, c, value, _| jac.add(r, c, value));
     }
 
-    fn residual_scale(&self) -> f64 {
-        self.scale
+    fn update_fraction(&mut self, x: &[f64], update: &[f64]) -> f64 {
+        if !self.model.has_update_limit() {
+            return 1.0;
+        }
+        let n = self.n();
+        self.load(x);
+        let mut dq = vec![0.0; n];
+        let mut dv = vec![0.0; n];
+        for i in 0..n {
+            if self.cyclic[i] {
+                dv[i] = -update[i];
+            } else {
+                dq[i] = -update[i];
+            }
+        }
+        self.model.update_fraction(&self.q, &self.v, &dq, &dv)
     }
 }

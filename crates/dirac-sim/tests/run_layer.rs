@@ -332,3 +332,81 @@ fn fully_kinetic_model_needs_no_readout_analysis_at_the_start() {
         assert_eq!(first.row(k), second.row(k), "row {k}");
     }
 }
+
+use dirac_components::{Mass, Spring};
+
+/// Two free masses `m_A = 1`, `m_B = 3` joined by a spring `k = 2`: the spring's forces are
+/// equal and opposite, so the total momentum `p_A + p_B` is conserved by the discrete map to
+/// round-off (a variational integrator inherits Noether's theorem for translations), while each
+/// momentum swings. Row 0 is the initial state exactly: `p_A = 0`, `p_B = m_B·v_B = 1.5`.
+///
+/// Mutation: reading `v` instead of `p` in `Probe::Momentum` fails at row 0 (tests/mutations.md
+/// M27).
+#[test]
+fn momentum_probe_conserves_the_total_momentum_of_a_free_pair() {
+    // 2000 steps of round-off in a sum of size ~1.5: a few ulps per step at most.
+    const CONSERVATION_TOL: f64 = 1e-12;
+    let mut g = Interconnection::new();
+    g.add_subsystem(Mass::new(1.0).unwrap().subsystem("A"))
+        .expect("A");
+    g.add_subsystem(Mass::new(3.0).unwrap().subsystem("B"))
+        .expect("B");
+    let (a, b) = (
+        g.port("A", "x").expect("A.x"),
+        g.port("B", "x").expect("B.x"),
+    );
+    g.coupling("spring", a, b, Spring::linear(2.0).unwrap());
+    let (pa, pb) = (
+        Probe::momentum(&g, "A", "x").expect("p_A"),
+        Probe::momentum(&g, "B", "x").expect("p_B"),
+    );
+    let signals = [
+        Signal::new("p_A", pa.clone()),
+        Signal::new("p_B", pb.clone()),
+        Signal::new("P", Probe::Sum(vec![(pa, 1.0), (pb, 1.0)])),
+    ];
+    let mut sim = Simulation::new(
+        g,
+        Representation::Monolithic,
+        IntegratorOptions::new(Discretisation::midpoint(), 0.01),
+    );
+    sim.set_position("A", "x", 1.0).expect("A.x");
+    sim.set_velocity("B", "x", 0.5).expect("B.x'");
+    let (run, _) = sim.run(20.0, &signals).expect("runs");
+    assert_eq!(run.row(0), [0.0, 1.5, 1.5]);
+    let p_a = run.signal("p_A").expect("p_A");
+    let swing = p_a.iter().fold(0.0_f64, |m, p| m.max(p.abs()));
+    assert!(swing > 0.5, "p_A should swing, max |p_A| = {swing}");
+    for (k, total) in run.signal("P").expect("P").iter().enumerate() {
+        assert!(
+            (total - 1.5).abs() <= CONSERVATION_TOL,
+            "row {k}: p_A + p_B = {total}, drift {:e}",
+            total - 1.5
+        );
+    }
+}
+
+/// `Probe::Norm` is the Euclidean length of its terms: a point at (3, 4, 12) is 13 from the
+/// origin (a Pythagorean quadruple: exact in floating point), and lengths near `f64::MAX` do not
+/// overflow (hypot, not `√(x² + y²)`).
+///
+/// Mutation: summing the terms instead (`r + x`) gives 11 and fails (tests/mutations.md M28).
+#[test]
+fn norm_probe_is_the_euclidean_length() {
+    let mut g = Interconnection::new();
+    for name in ["X", "Y", "Z"] {
+        g.add_subsystem(Mass::new(1.0).unwrap().subsystem(name))
+            .expect("part");
+    }
+    let offsets = g.coordinate_offsets();
+    let position = |part| Probe::position(&g, part, "x").expect("x");
+    let norm = Probe::Norm(vec![position("X"), position("Y"), position("Z")]);
+    let mut snapshot = dirac_sim::Snapshot {
+        q: vec![3.0, -4.0, 12.0],
+        ..dirac_sim::Snapshot::default()
+    };
+    assert_eq!(snapshot.evaluate(&g, &offsets, &norm), 13.0);
+    snapshot.q = vec![3e307, 4e307, 0.0];
+    let big = snapshot.evaluate(&g, &offsets, &norm);
+    assert!((big / 5e307 - 1.0).abs() <= f64::EPSILON, "{big}");
+}

@@ -50,14 +50,17 @@ pub enum LinearSolveError {
 pub enum NewtonError {
     /// Newton ran out of iterations.
     #[error(
-        "Newton did not converge in {iterations} iterations (residual {residual:.3e} in equation {worst_equation})"
+        "Newton did not converge in {iterations} iterations (residual {residual:.3e}; equation {worst_equation} is {relative_residual:.1e} of the size of its terms)"
     )]
     NotConverged {
         /// Iterations performed.
         iterations: usize,
         /// Max-norm of the last residual.
         residual: f64,
-        /// Equation with the largest residual.
+        /// The largest residual relative to the size of its equation's terms
+        /// (`|F_i| / Σ_j |J_ij x_j|`, with the last Jacobian evaluated).
+        relative_residual: f64,
+        /// Equation with the largest relative residual.
         worst_equation: usize,
     },
     /// The residual became NaN or infinite.

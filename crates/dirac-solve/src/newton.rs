@@ -25,9 +25,20 @@ pub trait NonlinearSystem {
         false
     }
 
-    /// Typical magnitude of the residual's entries, used for the relative residual test.
-    fn residual_scale(&self) -> f64 {
+    /// The largest fraction `α ∈ (0, 1]` of the Newton update from `x` to `x − update` that the
+    /// system accepts (SPICE's junction limiting, expressed as a damping of the whole update, so
+    /// the direction stays Newton's). Newton then moves to `x − α·update`; an iterate reached with
+    /// `α < 1` is never accepted by the update test (only by the residual test). The default
+    /// accepts every update.
+    fn update_fraction(&mut self, _x: &[f64], _update: &[f64]) -> f64 {
         1.0
+    }
+
+    /// Writes, per equation, the size of its terms that do not depend on the unknowns (a carried
+    /// momentum, the positions inside a holonomic constraint); Newton adds `Σ_j |J_ij x_j|` for
+    /// the rest when it judges a residual against the size of its equation. Zero by default.
+    fn constant_magnitudes(&mut self, out: &mut [f64]) {
+        out.fill(0.0);
     }
 }
 
@@ -43,14 +54,42 @@ pub trait LinearSolver {
 }
 
 /// Tolerances of [`Newton`].
+///
+/// An iterate is accepted when one of three tests passes, none of which depends on the units or
+/// the overall size of the system:
+///
+/// - the residual is exactly zero;
+/// - **update test:** the last update was undamped, came from a Jacobian evaluated at the iterate
+///   it started from, and moved every unknown by at most `update_tol · max(|x_old|, |x_new|)` of
+///   that unknown (with an exact Jacobian the remaining error is then of order `update_tol²`);
+///   for an unknown that is small next to the other terms of its equations the size is taken from
+///   those equations instead (`Newton::unknown_scales`: the update then moves none of them by more
+///   than `update_tol` of their terms), and every unknown may also move by a few times the jitter
+///   that round-off in the residual gives it (`Newton::noise_floor`: the precision to which the
+///   Newton matrix determines it, e.g. a joint multiplier that the `M/h²` stiffness of its
+///   constraint ties to the round-off of the positions);
+/// - **residual test:** after an update from a Jacobian at its own iterate, every equation
+///   satisfies `|F_i(x)| ≤ residual_tol · (c_i + Σ_j |J_ij x_j|)`, with `c_i` the size of its
+///   terms that do not depend on the unknowns ([`NonlinearSystem::constant_magnitudes`]): its
+///   residual is at round-off relative to the size of its own terms (a residual of 1e-22 in an
+///   equation whose terms are 1e-8 is converged; one of 1e-15 in an equation whose terms are
+///   1e-14 is not); or, when the update was also at round-off of the largest unknown
+///   (`‖Δx‖∞ ≤ update_tol·‖x‖∞`), within a looser 5e-11 of its terms (equations whose terms
+///   cancel inside the model) plus `4ε·‖x‖∞·Σ_j |J_ij|`, the change of the equation when every
+///   unknown moves by the absolute precision it has in that regime (equations whose terms all
+///   vanish at the root). The iterate is then polished by one more update from the
+///   factorisation at hand, so its error is round-off, not the tolerance.
+///
+/// Every test is relative to each equation or unknown, or (the round-off floor) to the largest
+/// unknown: no absolute floor, which would accept any state of a system whose values are all
+/// small (a circuit carrying picoamperes).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NewtonOptions {
     /// Maximum number of Newton updates per solve.
     pub max_iterations: usize,
-    /// Converged when `‖F(x)‖∞ ≤ residual_tol · residual_scale`.
+    /// Relative residual of the residual test (per equation, against its own terms).
     pub residual_tol: f64,
-    /// Also converged when the last update satisfies `‖Δx‖∞ ≤ update_tol · (1 + ‖x‖∞)` (with an
-    /// exact Jacobian the error is then of order `update_tol²`: the residual sits at round-off).
+    /// Relative size of the last update, per unknown, of the update test.
     pub update_tol: f64,
     /// For systems whose Jacobian is constant (`F` affine), accept the iterate after one update
     /// without evaluating the residual again: Newton is exact on affine maps, so the check would
@@ -92,6 +131,8 @@ pub struct NewtonStats {
     pub factorisations: usize,
     /// Residual evaluations.
     pub residual_evaluations: usize,
+    /// Updates shortened by [`NonlinearSystem::update_fraction`] (junction limiting).
+    pub limited: usize,
 }
 
 impl NewtonStats {
@@ -100,6 +141,7 @@ impl NewtonStats {
         self.iterations += other.iterations;
         self.factorisations += other.factorisations;
         self.residual_evaluations += other.residual_evaluations;
+        self.limited += other.limited;
     }
 }
 
@@ -116,6 +158,17 @@ pub struct Newton<S: LinearSolver> {
     jacobian: Triplets,
     scaled: Vec<f64>,
     row_scale: Vec<f64>,
+    /// `Σ_j |J_ij x_j|` per equation (the size of its terms) for the residual test.
+    magnitude: Vec<f64>,
+    /// `Σ_j |J_ij|` per equation, for the residual test's round-off floor.
+    row_sum: Vec<f64>,
+    /// Per unknown, the jitter of a Newton update caused by round-off in the residual (see
+    /// [`Newton::noise_floor`]); a second buffer for the other sign pattern.
+    noise: Vec<f64>,
+    noise_probe: Vec<f64>,
+    /// Per unknown, `min_i (c_i + Σ_k |J_ik x_k|) / |J_ij|` over the equations it enters (see
+    /// [`Newton::unknown_scales`]).
+    unknown_scale: Vec<f64>,
     analysed: bool,
     factored: bool,
 }
@@ -131,6 +184,11 @@ impl<S: LinearSolver> Newton<S> {
             jacobian: Triplets::new(),
             scaled: Vec::new(),
             row_scale: Vec::new(),
+            magnitude: Vec::new(),
+            row_sum: Vec::new(),
+            noise: Vec::new(),
+            noise_probe: Vec::new(),
+            unknown_scale: Vec::new(),
             analysed: false,
             factored: false,
         }
@@ -178,15 +236,23 @@ impl<S: LinearSolver> Newton<S> {
             self.residual = vec![0.0; n];
             self.update = vec![0.0; n];
             self.row_scale = vec![0.0; n];
+            self.magnitude = vec![0.0; n];
+            self.row_sum = vec![0.0; n];
+            self.noise = vec![0.0; n];
+            self.noise_probe = vec![0.0; n];
+            self.unknown_scale = vec![0.0; n];
             self.reset();
         }
         let mut stats = NewtonStats::default();
-        let tol = self.options.residual_tol * system.residual_scale();
         let mut last_update = f64::INFINITY;
         let reuse = system.jacobian_is_constant();
         let modified = self.options.reuse_jacobian && !reuse;
         // Whether the last update came from a Jacobian factorised at that update's iterate.
         let mut exact_update = false;
+        // Whether the last update was shortened by the system's limits.
+        let mut damped = false;
+        // Whether the last update passed the per-unknown update test.
+        let mut small_update = false;
         let mut previous_rnorm = f64::INFINITY;
         // The update before `last_update`, if both came from the same kept factorisation: their
         // ratio estimates the contraction θ of the modified iteration.
@@ -194,6 +260,9 @@ impl<S: LinearSolver> Newton<S> {
         let mut kept_iterations = 0;
         // Whether the last update moved every unknown by at most KEPT_ACCEPT relative to itself.
         let mut at_roundoff = false;
+        // Whether `self.noise` holds the jitter for the factorisation in use (it changes little
+        // between iterates on one factorisation, so it is estimated once per factorisation).
+        let mut noise_known = false;
         for iteration in 0..=self.options.max_iterations {
             system.residual(x, &mut self.residual);
             stats.residual_evaluations += 1;
@@ -204,20 +273,17 @@ impl<S: LinearSolver> Newton<S> {
                     iterations: iteration,
                 });
             }
-            // The warm-start guess is accepted only if it is exact: an absolute residual test on
-            // the guess would freeze small-scale systems near steady state (rates off by
-            // tol/(h·coefficient)). Every later iterate follows at least one update; one from a
-            // kept factorisation converges only linearly, so a small residual alone does not
-            // accept it (the error could still be tol/θ-sized), only the error estimate below.
-            if rnorm == 0.0 || (iteration > 0 && (exact_update || !modified) && rnorm <= tol) {
+            // The warm-start guess is accepted only if it is exact. Every later iterate follows
+            // at least one update; one from a kept factorisation converges only linearly, so only
+            // a round-off-sized update accepts it.
+            if rnorm == 0.0 {
                 return Ok(stats);
             }
             // NaN when unknown: every comparison below is then false.
             let theta = last_update / previous_update;
-            if iteration > 0 {
-                let xnorm = x.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            if iteration > 0 && !damped {
                 if exact_update || !modified {
-                    if last_update <= self.options.update_tol * (1.0 + xnorm) {
+                    if small_update {
                         return Ok(stats);
                     }
                 } else if theta <= 0.5 && at_roundoff {
@@ -225,38 +291,67 @@ impl<S: LinearSolver> Newton<S> {
                 }
             }
             if iteration == self.options.max_iterations {
+                let (relative, equation) = if self.jacobian.is_empty() {
+                    (f64::NAN, worst)
+                } else {
+                    self.relative_residual(system, x)
+                };
                 return Err(NewtonError::NotConverged {
                     iterations: iteration,
                     residual: rnorm,
-                    worst_equation: worst,
+                    relative_residual: relative,
+                    worst_equation: equation,
                 });
             }
             let refresh = !self.factored
                 || if modified {
-                    rnorm > previous_rnorm
+                    damped
+                        || rnorm > previous_rnorm
                         || theta > self.options.max_contraction
                         || kept_iterations >= MAX_KEPT_ITERATIONS
                 } else {
                     !reuse
                 };
             if refresh {
-                self.factorise(system, x)
+                self.stamp(system, x)
                     .map_err(|source| NewtonError::Linear {
                         source,
                         residual: rnorm,
                         worst_equation: worst,
                     })?;
+            }
+            // The residual test, after an update from a Jacobian at its own iterate (an iterate of
+            // a kept factorisation earns it only through one more exact update). The terms are
+            // sized with the Jacobian just stamped at this iterate, or with the one the last,
+            // undamped update came from. A passing iterate is polished by one more update from
+            // the factorisation at hand, which takes its error from the size of the residual
+            // test to round-off.
+            let residual_converged =
+                iteration > 0 && (exact_update || !modified) && (refresh || reuse || !damped) && {
+                    let relative = self.relative_residual(system, x).0;
+                    relative <= self.options.residual_tol
+                        || (!damped
+                            && last_update <= self.options.update_tol * max_norm(x).0
+                            && self.stagnated(system, x))
+                };
+            if refresh {
+                self.factor().map_err(|source| NewtonError::Linear {
+                    source,
+                    residual: rnorm,
+                    worst_equation: worst,
+                })?;
                 stats.factorisations += 1;
                 kept_iterations = 0;
             } else {
                 kept_iterations += 1;
             }
-            previous_update = if refresh || exact_update || iteration == 0 {
+            previous_update = if refresh || exact_update || damped || iteration == 0 {
                 f64::NAN
             } else {
                 last_update
             };
             exact_update = refresh;
+            noise_known &= !refresh;
             previous_rnorm = rnorm;
             for ((u, r), s) in self
                 .update
@@ -274,14 +369,69 @@ impl<S: LinearSolver> Newton<S> {
                     worst_equation: worst,
                 })?;
             stats.iterations += 1;
+            if residual_converged {
+                for (xi, u) in x.iter_mut().zip(&self.update) {
+                    *xi -= u;
+                }
+                return Ok(stats);
+            }
+            let alpha = if reuse {
+                1.0
+            } else {
+                let a = system.update_fraction(x, &self.update);
+                // A NaN fraction is ignored (the residual check catches a bad iterate); zero or
+                // negative fractions would stall the iteration.
+                if a.is_nan() {
+                    1.0
+                } else {
+                    a.clamp(f64::MIN_POSITIVE, 1.0)
+                }
+            };
+            damped = alpha < 1.0;
+            if damped {
+                stats.limited += 1;
+            }
             let mut unorm = 0.0_f64;
             at_roundoff = true;
+            small_update = true;
+            let tol = self.options.update_tol;
             for (xi, u) in x.iter_mut().zip(&self.update) {
-                *xi -= u;
-                unorm = unorm.max(u.abs());
-                at_roundoff &= u.abs() <= KEPT_ACCEPT * xi.abs();
+                let step = alpha * u;
+                let old = *xi;
+                *xi -= step;
+                let a = step.abs();
+                unorm = unorm.max(a);
+                at_roundoff &= a <= KEPT_ACCEPT * xi.abs();
+                small_update &= a <= tol * old.abs().max(xi.abs());
             }
             last_update = unorm;
+            // An unknown that is small next to the terms of the equations it enters (a joint
+            // multiplier of 1e-4 in momentum rows of size 1) is resolved once its update moves
+            // none of them by more than `update_tol` of their terms; and no update can do better
+            // than the jitter that round-off in the residual gives it (asked only once Newton has
+            // had an update to converge with).
+            if !small_update && !damped && !reuse && (exact_update || !modified) {
+                self.unknown_scales(system, x);
+                let noise = iteration > 0;
+                if noise && !noise_known {
+                    noise_known = true;
+                    self.noise_floor(system, x)
+                        .map_err(|source| NewtonError::Linear {
+                            source,
+                            residual: rnorm,
+                            worst_equation: worst,
+                        })?;
+                }
+                small_update = self
+                    .update
+                    .iter()
+                    .zip(&self.unknown_scale)
+                    .zip(&self.noise)
+                    .all(|((u, scale), eta)| {
+                        let jitter = if noise { NOISE_MARGIN * eta } else { 0.0 };
+                        u.abs() <= tol * scale + jitter
+                    });
+            }
             if reuse && self.options.affine_shortcut {
                 return Ok(stats);
             }
@@ -289,7 +439,124 @@ impl<S: LinearSolver> Newton<S> {
         unreachable_converged()
     }
 
-    fn factorise<F: NonlinearSystem + ?Sized>(
+    /// The largest `|F_i(x)| / (c_i + Σ_j |J_ij x_j|)` over the equations (`c` the system's
+    /// [`NonlinearSystem::constant_magnitudes`]), with the equation where it is attained (the
+    /// last residual and the last stamped Jacobian; an equation whose terms all vanish counts as
+    /// infinitely far unless its residual is zero too).
+    fn relative_residual<F: NonlinearSystem + ?Sized>(
+        &mut self,
+        system: &mut F,
+        x: &[f64],
+    ) -> (f64, usize) {
+        system.constant_magnitudes(&mut self.magnitude);
+        for (r, c, v) in self.jacobian.iter() {
+            self.magnitude[r] += (v * x[c]).abs();
+        }
+        let mut worst = 0.0;
+        let mut at = 0;
+        for (i, (r, m)) in self.residual.iter().zip(&self.magnitude).enumerate() {
+            let ratio = if *r == 0.0 { 0.0 } else { r.abs() / m };
+            if ratio > worst || ratio.is_nan() {
+                worst = ratio;
+                at = i;
+            }
+        }
+        (worst, at)
+    }
+
+    /// Per unknown `j`, the size of the unknown as the equations it weighs in see it:
+    /// `s_j = max(|x_j|, max_i (c_i + Σ_k |J_ik x_k|) / |J_ij|)` over the equations where its
+    /// coefficient is at least `SCALE_COEFFICIENT` of the equation's largest. `m_i / |J_ij|` is
+    /// the change of `x_j` that moves equation `i` by the size of its terms, so an update below
+    /// `update_tol·s_j` changes that equation by less than `update_tol` of its terms. It differs
+    /// from `|x_j|` only for an unknown that is small next to its equations' other terms (a
+    /// pinned body's position, 1e-32 next to momenta of 1, or a joint multiplier of 1e-4), whose
+    /// relative resolution no equation needs. Equations where the unknown barely enters (a
+    /// junction voltage through the 1e-12 S of GMIN) say nothing about its size and are left out.
+    fn unknown_scales<F: NonlinearSystem + ?Sized>(&mut self, system: &mut F, x: &[f64]) {
+        system.constant_magnitudes(&mut self.magnitude);
+        for (r, c, v) in self.jacobian.iter() {
+            self.magnitude[r] += (v * x[c]).abs();
+        }
+        for (s, xi) in self.unknown_scale.iter_mut().zip(x) {
+            *s = xi.abs();
+        }
+        for (r, c, v) in self.jacobian.iter() {
+            let a = v.abs();
+            if a * self.row_scale[r] >= SCALE_COEFFICIENT {
+                let s = self.magnitude[r] / a;
+                if s > self.unknown_scale[c] {
+                    self.unknown_scale[c] = s;
+                }
+            }
+        }
+    }
+
+    /// Per unknown, how far a Newton update moves it when every residual carries the round-off of
+    /// evaluating its own terms, `ε·(c_i + Σ_j |J_ij x_j|)`: `η = |J⁻¹ δF|` with `δF_i` that size
+    /// and a fixed pseudo-random sign per equation, the larger of two sign patterns (one pattern
+    /// can cancel in an unknown; two rarely both do). This is the precision to which Newton can
+    /// determine each unknown from the factorisation at hand, in the unknown's own units: a
+    /// constraint multiplier inherits the round-off of the positions times the stiffness `M/h²`
+    /// of the equation that fixes it, a node charge that of the currents in its KCL row. Two
+    /// solves with the current factorisation; no new one.
+    fn noise_floor<F: NonlinearSystem + ?Sized>(
+        &mut self,
+        system: &mut F,
+        x: &[f64],
+    ) -> Result<(), LinearSolveError> {
+        system.constant_magnitudes(&mut self.magnitude);
+        for (r, c, v) in self.jacobian.iter() {
+            self.magnitude[r] += (v * x[c]).abs();
+        }
+        self.noise.fill(0.0);
+        for pattern in [0x9E37_79B9_7F4A_7C15_u64, 0xD1B5_4A32_D192_ED03] {
+            let mut state = pattern;
+            for ((p, m), s) in self
+                .noise_probe
+                .iter_mut()
+                .zip(&self.magnitude)
+                .zip(&self.row_scale)
+            {
+                // xorshift64: a fixed, reproducible sign per equation.
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let sign = if state & 1 == 0 { 1.0 } else { -1.0 };
+                *p = sign * f64::EPSILON * m * s;
+            }
+            self.solver.solve_in_place(&mut self.noise_probe)?;
+            for (eta, p) in self.noise.iter_mut().zip(&self.noise_probe) {
+                *eta = eta.max(p.abs());
+            }
+        }
+        Ok(())
+    }
+
+    /// The residual test's second tier, for an iterate whose last undamped exact update was at
+    /// round-off of the largest unknown: every equation satisfies
+    /// `|F_i| ≤ STAGNATION_RESIDUAL·(c_i + Σ_j |J_ij x_j|) + ROUNDOFF·‖x‖∞·Σ_j |J_ij|`. The second
+    /// term is the change of `F_i` when every unknown moves by the absolute precision the
+    /// unknowns have in that regime (`ROUNDOFF·‖x‖∞`); it has the units of `F_i` and matters only
+    /// in an equation whose terms all vanish at the root (a joint row `Δx = 0` between bodies at
+    /// rest), where no relative test can pass.
+    fn stagnated<F: NonlinearSystem + ?Sized>(&mut self, system: &mut F, x: &[f64]) -> bool {
+        system.constant_magnitudes(&mut self.magnitude);
+        self.row_sum.fill(0.0);
+        for (r, c, v) in self.jacobian.iter() {
+            self.magnitude[r] += (v * x[c]).abs();
+            self.row_sum[r] += v.abs();
+        }
+        let floor = ROUNDOFF * max_norm(x).0;
+        self.residual
+            .iter()
+            .zip(&self.magnitude)
+            .zip(&self.row_sum)
+            .all(|((r, m), s)| r.abs() <= STAGNATION_RESIDUAL * m + floor * s)
+    }
+
+    /// Stamps the Jacobian at `x` (analysing the pattern on the first call).
+    fn stamp<F: NonlinearSystem + ?Sized>(
         &mut self,
         system: &mut F,
         x: &[f64],
@@ -312,6 +579,11 @@ impl<S: LinearSolver> Newton<S> {
             self.scaled = vec![0.0; self.jacobian.len()];
             self.analysed = true;
         }
+        Ok(())
+    }
+
+    /// Factorises the stamped Jacobian.
+    fn factor(&mut self) -> Result<(), LinearSolveError> {
         // Row equilibration: scale every row to unit max-norm so partial pivoting compares like
         // with like (momentum equations and constraint rows differ in units by ~M/h).
         self.row_scale.fill(0.0);
@@ -344,6 +616,36 @@ impl<S: LinearSolver> Newton<S> {
 /// zero never pass this test: their solve falls back to a fresh factorisation.
 const KEPT_ACCEPT: f64 = 4.0 * f64::EPSILON;
 
+/// The residual test's second tier: an undamped exact update at round-off of the largest unknown
+/// (`‖Δx‖∞ ≤ update_tol·‖x‖∞`) with every equation within this fraction of its terms. It accepts
+/// unknowns that sit far below the others (a body's vertical creep next to its joint forces),
+/// whose updates are round-off of the larger ones and never pass the per-unknown test, in
+/// equations whose terms cancel inside the model (a torque `Λ cos θ` at `θ` near `−π/2`
+/// evaluated from a `θ` that carries an absolute error `ε|θ|`): the double rod chain's interior
+/// momentum row sits at 5.5e-13 of `Σ|J_ij x_j|` there. An error in a small unknown that large
+/// would still show: a diode's reverse current off by 1e-12 A is 1e-3 of its row.
+const STAGNATION_RESIDUAL: f64 = 5e-11;
+
+/// The absolute precision, relative to the largest unknown `‖x‖∞`, that every unknown has once
+/// the updates are at round-off of the largest one: an update solved from a system that mixes
+/// unknowns of all sizes carries an absolute error of a few `ε·‖x‖∞` in every component, so a
+/// small unknown (a body's position that should be 0 next to O(1) momenta and forces) sits at
+/// `±ε‖x‖∞`, and an equation made only of such unknowns keeps a residual of that size with every
+/// term ≈ 0 (the bundled four-bar's joint row: 1.1e-16). Four ulps leave room for the solve's
+/// error growth; the floor applies only in the at-round-off regime and is followed by a
+/// polishing update.
+const ROUNDOFF: f64 = 4.0 * f64::EPSILON;
+
+/// The smallest coefficient, relative to its equation's largest, through which an equation sets
+/// an unknown's scale in [`Newton::unknown_scales`]: `√ε`, below which the unknown's share of the
+/// equation is lost in the round-off of the larger terms' product with any update.
+const SCALE_COEFFICIENT: f64 = 1.5e-8;
+
+/// How many times its round-off jitter ([`Newton::noise_floor`]) an update may move an unknown
+/// and still count as converged: the estimate takes one ulp of each equation's terms, while a
+/// residual that sums a handful of terms carries a few.
+const NOISE_MARGIN: f64 = 8.0;
+
 /// Iterations on one kept factorisation before it is refreshed regardless of contraction.
 const MAX_KEPT_ITERATIONS: usize = 8;
 
@@ -352,6 +654,7 @@ fn unreachable_converged() -> Result<NewtonStats, NewtonError> {
     Err(NewtonError::NotConverged {
         iterations: 0,
         residual: f64::NAN,
+        relative_residual: f64::NAN,
         worst_equation: 0,
     })
 }
@@ -484,5 +787,307 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    /// `F(x) = s (x³ − 8)` with `s = 1e-20`: every residual is far below any absolute tolerance,
+    /// so only tests relative to the equation's own terms can tell the root `x = 2` from the
+    /// start `x = 1`. Newton must reach the root to round-off, exactly as for `s = 1`.
+    ///
+    /// Mutation: an absolute residual test `‖F‖ ≤ 1e-14` accepts `x = 1.99…` after one or two
+    /// updates (error 1e-1).
+    struct Scaled(f64);
+    impl NonlinearSystem for Scaled {
+        fn len(&self) -> usize {
+            1
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            r[0] = self.0 * (x[0] * x[0] * x[0] - 8.0);
+        }
+        fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+            jac.add(0, 0, self.0 * 3.0 * x[0] * x[0]);
+        }
+    }
+
+    #[test]
+    fn tiny_systems_converge_like_unit_ones() {
+        for s in [1.0, 1e-20, 1e20] {
+            for options in [NewtonOptions::default(), exact_newton()] {
+                let mut newton = Newton::new(DenseLu::new(), options);
+                let mut x = [1.0];
+                let stats = newton.solve(&mut Scaled(s), &mut x).unwrap();
+                assert!(
+                    (x[0] - 2.0).abs() <= 2.0 * f64::EPSILON,
+                    "s = {s}: {x:?} {stats:?}"
+                );
+            }
+        }
+    }
+
+    /// `a³ = 8` and `b + (1 + δ) − 1 = 0`, where `δ = ±ε` alternates between evaluations (the
+    /// round-off any model's residual carries): `b = 0` up to that noise, so no update of `b` is
+    /// ever small relative to `b` itself, and the per-unknown update test never passes. The
+    /// residual test does: `ε` against terms of size 2 (reported through
+    /// `constant_magnitudes`) is converged.
+    ///
+    /// Mutation: without the residual test the solve reports `NotConverged`.
+    struct ZeroUnknown {
+        evaluations: usize,
+    }
+    impl NonlinearSystem for ZeroUnknown {
+        fn len(&self) -> usize {
+            2
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            self.evaluations += 1;
+            let delta = if self.evaluations.is_multiple_of(2) {
+                f64::EPSILON
+            } else {
+                -f64::EPSILON / 2.0
+            };
+            r[0] = x[0] * x[0] * x[0] - 8.0;
+            r[1] = x[1] + (1.0 + delta) - 1.0;
+        }
+        fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+            jac.add(0, 0, 3.0 * x[0] * x[0]);
+            jac.add(1, 1, 1.0);
+        }
+        fn constant_magnitudes(&mut self, out: &mut [f64]) {
+            out[0] = 8.0;
+            out[1] = 2.0;
+        }
+    }
+
+    #[test]
+    fn unknown_converging_to_zero_is_accepted_by_the_residual_test() {
+        for options in [NewtonOptions::default(), exact_newton()] {
+            let mut newton = Newton::new(DenseLu::new(), options);
+            let mut x = [1.0, 3.0];
+            let stats = newton
+                .solve(&mut ZeroUnknown { evaluations: 0 }, &mut x)
+                .unwrap();
+            assert!((x[0] - 2.0).abs() <= 2.0 * f64::EPSILON, "{x:?}");
+            assert!(x[1].abs() <= 2.0 * f64::EPSILON, "{x:?} {stats:?}");
+        }
+    }
+
+    /// `eˣ = e²⁰` from `x = 0` (or 0.5): the first Newton update asks for `x ≈ 4.9e8` and the residual
+    /// overflows. With a limit of 2 per update (a stand-in for junction limiting) Newton walks
+    /// up and converges; every limited update is counted, and none of them is taken for
+    /// convergence although each is small next to the requested one.
+    ///
+    /// Mutation: applying the unlimited update (`α = 1`) gives `NonFiniteResidual`.
+    struct Exponential {
+        limit: Option<f64>,
+    }
+    impl NonlinearSystem for Exponential {
+        fn len(&self) -> usize {
+            1
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            r[0] = x[0].exp() - 20f64.exp();
+        }
+        fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+            jac.add(0, 0, x[0].exp());
+        }
+        fn update_fraction(&mut self, _x: &[f64], update: &[f64]) -> f64 {
+            self.limit.map_or(1.0, |l| (l / update[0].abs()).min(1.0))
+        }
+    }
+
+    #[test]
+    fn limited_updates_reach_the_root() {
+        let mut newton = Newton::new(DenseLu::new(), exact_newton());
+        let mut x = [0.0];
+        let err = newton
+            .solve(&mut Exponential { limit: None }, &mut x)
+            .unwrap_err();
+        assert!(
+            matches!(err, NewtonError::NonFiniteResidual { .. }),
+            "{err}"
+        );
+        let mut x = [0.5];
+        let stats = newton
+            .solve(&mut Exponential { limit: Some(2.0) }, &mut x)
+            .unwrap();
+        assert!((x[0] - 20.0).abs() <= 4.0 * f64::EPSILON * 20.0, "{x:?}");
+        assert!(
+            stats.limited >= 9 && stats.limited < stats.iterations,
+            "{stats:?}"
+        );
+    }
+
+    /// A system that shortens its first update to 1e-13 of itself: that update moves `x` by far
+    /// less than the update test's tolerance, yet the iterate is nowhere near the root. It must
+    /// not be accepted.
+    ///
+    /// Mutation: letting a damped update pass the update test returns `x ≈ 1`.
+    struct Stall {
+        first: bool,
+    }
+    impl NonlinearSystem for Stall {
+        fn len(&self) -> usize {
+            1
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            r[0] = x[0] * x[0] - 4.0;
+        }
+        fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+            jac.add(0, 0, 2.0 * x[0]);
+        }
+        fn update_fraction(&mut self, _x: &[f64], _update: &[f64]) -> f64 {
+            if std::mem::replace(&mut self.first, false) {
+                1e-13
+            } else {
+                1.0
+            }
+        }
+    }
+
+    #[test]
+    fn a_damped_update_is_never_convergence() {
+        for options in [NewtonOptions::default(), exact_newton()] {
+            let mut newton = Newton::new(DenseLu::new(), options);
+            let mut x = [1.0];
+            let stats = newton.solve(&mut Stall { first: true }, &mut x).unwrap();
+            assert!((x[0] - 2.0).abs() <= 2.0 * f64::EPSILON, "{x:?} {stats:?}");
+            assert_eq!(stats.limited, 1);
+        }
+    }
+
+    /// A joint-like row whose terms all vanish at the root, next to an O(1) unknown:
+    /// `a² = 2`, `u = w`, and `u + w = 0` evaluated as `((a + u) − a) + w`, the way a model
+    /// evaluates a relative position from coordinates of size `a` (so `u` is resolved only to the
+    /// absolute precision `ε·|a|`). At the root `u = w = 0`: every term of the last row vanishes,
+    /// its residual stays at the round-off of `a` and no test relative to the row's own terms can
+    /// pass. The round-off floor of the residual test's second tier accepts it.
+    ///
+    /// Mutation: `ROUNDOFF = 0.0` gives `NotConverged` (25 iterations).
+    struct VanishingRow;
+    impl NonlinearSystem for VanishingRow {
+        fn len(&self) -> usize {
+            3
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            r[0] = x[0] * x[0] - 2.0;
+            r[1] = x[1] - x[2];
+            r[2] = ((x[0] + x[1]) - x[0]) + x[2];
+        }
+        fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+            jac.add(0, 0, 2.0 * x[0]);
+            jac.add(1, 1, 1.0);
+            jac.add(1, 2, -1.0);
+            jac.add(2, 1, 1.0);
+            jac.add(2, 2, 1.0);
+        }
+        fn constant_magnitudes(&mut self, out: &mut [f64]) {
+            out.copy_from_slice(&[2.0, 0.0, 0.0]);
+        }
+    }
+
+    #[test]
+    fn row_whose_terms_all_vanish_converges() {
+        for options in [NewtonOptions::default(), exact_newton()] {
+            let mut newton = Newton::new(DenseLu::new(), options);
+            let mut x = [1.0, 0.3, -0.2];
+            let stats = newton.solve(&mut VanishingRow, &mut x).unwrap();
+            println!("vanishing row: {x:?} {stats:?}");
+            assert!((x[0] - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON, "{x:?}");
+            // The small unknowns are resolved to the absolute precision `ε·|a|` the model gives
+            // them.
+            assert!(x[1].abs() <= 4.0 * f64::EPSILON && x[2].abs() <= 4.0 * f64::EPSILON);
+        }
+    }
+
+    /// `F_i(x) = d_i x_i − b_i` with `|b_i|` reported as each equation's constant terms: at the
+    /// root every equation's terms add up to `m_i = 2|b_i|`, and a round-off of `ε·m_i` in `F_i`
+    /// moves `x_i` by exactly `ε·m_i/|d_i| = 2ε|x_i|`, whatever the sign patterns. The noise
+    /// floor must give that per unknown, for coefficients `d_i` twelve orders of magnitude apart
+    /// (row equilibration must not leak into the unknowns' units).
+    ///
+    /// Mutation: leaving out the row scale in the probe right-hand side gives `η_i = 2ε|x_i|·|d_i|`
+    /// and fails for every `d_i ≠ 1`.
+    struct Diagonal {
+        d: Vec<f64>,
+        b: Vec<f64>,
+    }
+    impl NonlinearSystem for Diagonal {
+        fn len(&self) -> usize {
+            self.d.len()
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            for (i, ri) in r.iter_mut().enumerate() {
+                *ri = self.d[i] * x[i] - self.b[i];
+            }
+        }
+        fn jacobian(&mut self, _x: &[f64], jac: &mut Triplets) {
+            for (i, d) in self.d.iter().enumerate() {
+                jac.add(i, i, *d);
+            }
+        }
+        fn constant_magnitudes(&mut self, out: &mut [f64]) {
+            for (o, b) in out.iter_mut().zip(&self.b) {
+                *o = b.abs();
+            }
+        }
+    }
+
+    #[test]
+    fn noise_floor_is_the_round_off_of_each_unknown() {
+        let mut system = Diagonal {
+            d: vec![1e6, -3.0, 1e-6, 7.0],
+            b: vec![2.0, 5e-3, -4e-9, 0.25],
+        };
+        let mut newton = Newton::new(DenseLu::new(), exact_newton());
+        let mut x = [0.0; 4];
+        newton.solve(&mut system, &mut x).unwrap();
+        newton.noise_floor(&mut system, &x).unwrap();
+        for (i, (eta, xi)) in newton.noise.iter().zip(&x).enumerate() {
+            let expected = 2.0 * f64::EPSILON * xi.abs();
+            assert!(
+                (eta - expected).abs() <= 1e-12 * expected,
+                "unknown {i}: η = {eta:e}, expected {expected:e}"
+            );
+        }
+    }
+
+    /// `F_0 = x_0 + g·x_1 − 1` with `g = 1e-12` (a GMIN-like coupling) and `F_1 = x_1 − 2`, each
+    /// with its constant reported: at the root (`x_0 = 1 − 2g`) `m_0 = 1 + (1 − 2g) + 2g = 2` and
+    /// `m_1 = 2 + 2`. The scale of `x_0` is `m_0/1 = 2`; `x_1` enters row 0 only through `g` (below `√ε` of the row),
+    /// so its scale is `m_1/1 = 4`, not `m_0/g = 2e12`, which would accept any update of `x_1`.
+    ///
+    /// Mutation: dropping the coefficient filter gives `s_1 = 2e12`.
+    struct Weak;
+    impl NonlinearSystem for Weak {
+        fn len(&self) -> usize {
+            2
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            r[0] = x[0] + 1e-12 * x[1] - 1.0;
+            r[1] = x[1] - 2.0;
+        }
+        fn jacobian(&mut self, _x: &[f64], jac: &mut Triplets) {
+            jac.add(0, 0, 1.0);
+            jac.add(0, 1, 1e-12);
+            jac.add(1, 1, 1.0);
+        }
+        fn constant_magnitudes(&mut self, out: &mut [f64]) {
+            out[0] = 1.0;
+            out[1] = 2.0;
+        }
+    }
+
+    #[test]
+    fn unknown_scales_come_from_the_equations_they_weigh_in() {
+        let mut newton = Newton::new(DenseLu::new(), exact_newton());
+        let mut x = [0.0; 2];
+        newton.solve(&mut Weak, &mut x).unwrap();
+        newton.unknown_scales(&mut Weak, &x);
+        let expected = [2.0, 4.0];
+        for (j, (s, e)) in newton.unknown_scale.iter().zip(expected).enumerate() {
+            assert!(
+                (s - e).abs() <= 4.0 * f64::EPSILON * e,
+                "s_{j} = {s:e}, expected {e:e}"
+            );
+        }
     }
 }

@@ -548,9 +548,9 @@ fn netlist_slot<'a>(netlist: &'a mut Netlist, name: &str) -> Result<NetlistSlot<
             }
             (Element::L { ic, .. } | Element::C { ic, .. }, "ic") => (ic.get_or_insert(0.0), None),
             (Element::K { k, .. }, "k") => (k, Some(UnitInterval)),
-            (Element::D { model, .. }, "is") => (&mut model.is, Some(Positive)),
-            (Element::D { model, .. }, "n") => (&mut model.n, Some(Positive)),
-            (Element::D { model, .. }, "rs") => (&mut model.rs, Some(NonNegative)),
+            (Element::D { model, .. }, "is") => (&mut model.card.is, Some(Positive)),
+            (Element::D { model, .. }, "n") => (&mut model.card.n, Some(Positive)),
+            (Element::D { model, .. }, "rs") => (&mut model.card.rs, Some(NonNegative)),
             (Element::V { source, .. } | Element::I { source, .. }, key) => match (source, key) {
                 (SourceSpec::Dc(v), "waveform") => (v, None),
                 (SourceSpec::Sin { vo, .. }, "waveform.offset") => (vo, None),

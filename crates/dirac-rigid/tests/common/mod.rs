@@ -4,21 +4,25 @@
 #![allow(dead_code)]
 
 use dirac_core::Discretisation;
-use dirac_graph::{AssembledSystem, Assembler, Interconnection, Representation, SubsystemId};
+use dirac_graph::{
+    AssembledConstraints, AssembledModel, AssembledSystem, Interconnection, Representation,
+    SubsystemId,
+};
 use dirac_rigid::so3::{self, Mat3};
 use dirac_rigid::{Joint, JointFrame, JointKind, RigidBody, Side};
-use dirac_sim::{Integrator, IntegratorOptions};
+use dirac_sim::{Integrator, IntegratorOptions, Simulation};
 use num_dual::{Dual64, DualNum};
 
-/// An assembled graph with its integrator.
+/// A graph run through the run layer ([`Simulation`]), with the assembled system's state at hand
+/// (global `q` and `p`, the integrator's warnings).
 pub struct Run {
-    pub system: AssembledSystem,
-    pub sim: Integrator<dirac_graph::AssembledModel, dirac_graph::AssembledConstraints>,
+    pub sim: Simulation,
 }
 
 impl Run {
-    /// Assembles `graph` in `representation`, builds an integrator with `options` and initialises
-    /// it at per-subsystem positions `q0` and rates `v0` (in the graph's subsystem order).
+    /// Builds a simulation of `graph` in `representation` with `options`, starting at the
+    /// per-subsystem positions `q0` and rates `v0` (in the graph's subsystem order, all given),
+    /// and prepares it.
     pub fn new(
         graph: &Interconnection,
         representation: Representation,
@@ -26,31 +30,64 @@ impl Run {
         q0: &[Vec<f64>],
         v0: &[Vec<f64>],
     ) -> Self {
-        let system = Assembler::assemble(graph, representation).expect("assembles");
-        let names: Vec<String> = graph
-            .subsystems()
-            .iter()
-            .map(|s| s.name().to_string())
-            .collect();
-        let q = system.global_vector(q0, &names).expect("q0");
-        let v = system.global_vector(v0, &names).expect("v0");
-        let mut sim = Integrator::new(system.model.clone(), system.constraints.clone(), options)
-            .expect("options");
-        sim.initialise(&q, &v, 0.0)
-            .expect("consistent initial state");
-        Self { system, sim }
+        Self::build(graph, representation, options, q0, v0, false)
     }
 
-    /// The twelve coordinates of subsystem `s` (a body) in `sim.q()`.
+    /// As [`Run::new`], evaluating every step's discrete constraint residual
+    /// ([`Run::constraint_residual`]).
+    pub fn tracking_residual(
+        graph: &Interconnection,
+        representation: Representation,
+        options: IntegratorOptions,
+        q0: &[Vec<f64>],
+        v0: &[Vec<f64>],
+    ) -> Self {
+        Self::build(graph, representation, options, q0, v0, true)
+    }
+
+    fn build(
+        graph: &Interconnection,
+        representation: Representation,
+        options: IntegratorOptions,
+        q0: &[Vec<f64>],
+        v0: &[Vec<f64>],
+        track_residual: bool,
+    ) -> Self {
+        let mut sim =
+            Simulation::new(graph.clone(), representation, options).track_residual(track_residual);
+        let given: Vec<Vec<bool>> = q0.iter().map(|q| vec![true; q.len()]).collect();
+        sim.set_initial(q0, v0, &given, &given)
+            .expect("initial state");
+        sim.prepare().expect("consistent initial state");
+        Self { sim }
+    }
+
+    /// The assembled system.
+    pub fn system(&self) -> &AssembledSystem {
+        self.sim.assembled().expect("assembled and prepared").0
+    }
+
+    /// The integrator the run layer steps.
+    pub fn integrator(&self) -> &Integrator<AssembledModel, AssembledConstraints> {
+        self.sim.assembled().expect("assembled and prepared").1
+    }
+
+    /// The twelve coordinates of subsystem `s` (a body) in the global `q`.
     pub fn body_q(&self, s: usize) -> &[f64] {
-        let o = self.system.global_index(SubsystemId(s), 0);
-        &self.sim.q()[o..o + 12]
+        let o = self.system().global_index(SubsystemId(s), 0);
+        &self.integrator().q()[o..o + 12]
     }
 
-    /// The twelve momenta of subsystem `s` (a body) in `sim.p()`.
+    /// The twelve momenta of subsystem `s` (a body) in the global `p`.
     pub fn body_p(&self, s: usize) -> &[f64] {
-        let o = self.system.global_index(SubsystemId(s), 0);
-        &self.sim.p()[o..o + 12]
+        let o = self.system().global_index(SubsystemId(s), 0);
+        &self.integrator().p()[o..o + 12]
+    }
+
+    /// The largest discrete constraint residual of the last step (built with
+    /// [`Run::tracking_residual`]; 0 otherwise).
+    pub fn constraint_residual(&mut self) -> f64 {
+        self.sim.snapshot().expect("readout").residual
     }
 
     pub fn step(&mut self) {

@@ -4,9 +4,9 @@
 use std::collections::{HashMap, HashSet};
 
 use dirac_components::{
-    Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource, Ground,
-    IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError, Pendulum, PlanarLinkage,
-    Resistor, RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
+    Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, DiodeParameters,
+    ForceSource, Ground, IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError, Pendulum,
+    PlanarLinkage, Resistor, RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
 };
 use dirac_core::Discretisation;
 use dirac_graph::{
@@ -523,12 +523,23 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
                 .subsystem(name),
             zeros(2),
         ),
-        PartKind::Diode(p) => (
-            Diode::new(p.is, p.n, p.vt, p.rs)
-                .map_err(at)?
-                .subsystem(name),
-            zeros(2),
-        ),
+        PartKind::Diode(p) => {
+            // The scene's parameters are measured at the junction temperature `temp` (TNOM = temp);
+            // a refusal of the temperature adjustment is placed at `temp`.
+            let check = dirac_graph::Check::new("diode");
+            let card = DiodeParameters {
+                rs: check.non_negative("rs", p.rs).map_err(at)?,
+                tnom: p.temp,
+                ..DiodeParameters::new(
+                    check.positive("is", p.is).map_err(at)?,
+                    check.positive("n", p.n).map_err(at)?,
+                )
+            };
+            let diode = Diode::at_temperature(&card, p.temp)
+                .map_err(|e| at(check.fail("temp", e.value, e.reason)))?
+                .diode;
+            (diode.subsystem(name), zeros(2))
+        }
         PartKind::SaturatingInductor(p) => (
             SaturatingInductor::new(p.l0, p.l_inf, p.i_sat)
                 .map_err(at)?

@@ -446,25 +446,25 @@ impl<'de> Deserialize<'de> for WaveformSpec {
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum PartKind {
     /// `type = "resistor"`: coordinate `q`, port `i`.
-    Resistor(ResistorParams),
+    Resistor(dirac_components::Resistor),
     /// `type = "inductor"`: coordinate `q`, port `i`.
-    Inductor(InductorParams),
+    Inductor(dirac_components::Inductor),
     /// `type = "capacitor"`: coordinate `q`, port `i`.
-    Capacitor(CapacitorParams),
+    Capacitor(dirac_components::Capacitor),
     /// `type = "voltage_source"`: coordinate `q`, port `i`.
     VoltageSource(SourceParams),
     /// `type = "current_source"`: coordinates `q`, `phi`, port `i`.
     CurrentSource(SourceParams),
     /// `type = "coupled_inductors"`: coordinates `q1`, `q2`, ports `i1`, `i2`.
-    CoupledInductors(CoupledInductorsParams),
-    /// `type = "diode"`: coordinates `q`, `u`, port `i` (anode to cathode).
+    CoupledInductors(dirac_components::CoupledInductors),
+    /// `type = "diode"`: coordinates `q`, `phi` (junction flux), port `i` (anode to cathode).
     Diode(DiodeParams),
     /// `type = "saturating_inductor"`: coordinate `q`, port `i`.
-    SaturatingInductor(SaturatingInductorParams),
+    SaturatingInductor(dirac_components::SaturatingInductor),
     /// `type = "mass"`: coordinate `x`, port `x`.
-    Mass(MassParams),
+    Mass(dirac_components::Mass),
     /// `type = "inertia"`: coordinate `theta`, port `theta`.
-    Inertia(InertiaParams),
+    Inertia(dirac_components::Inertia),
     /// `type = "spring"` (to ground): coordinate and port `x` (`theta` if rotational).
     Spring(SpringParams),
     /// `type = "damper"` (to ground): coordinate and port `x` (`theta` if rotational).
@@ -474,18 +474,18 @@ pub enum PartKind {
     /// `type = "ground"`: the fixed frame, coordinate and port `x` (`theta` if rotational).
     Ground(GroundParams),
     /// `type = "pendulum"`: coordinates and ports `x`, `y`.
-    Pendulum(PendulumParams),
+    Pendulum(dirac_components::Pendulum),
     /// `type = "planar_linkage"`: per body `{body}.x`, `{body}.y`, `{body}.theta`.
     PlanarLinkage(PlanarLinkageParams),
     /// `type = "dc_motor"`: coordinates `q`, `theta`, ports `i`, `theta`.
-    DcMotor(DcMotorParams),
+    DcMotor(dirac_components::DcMotor),
     /// `type = "ideal_transformer"`: coordinates `q1`, `q2`, ports `i1`, `i2`.
-    IdealTransformer(IdealTransformerParams),
+    IdealTransformer(dirac_components::IdealTransformer),
     /// `type = "ideal_gear"`: coordinates and ports `theta1`, `theta2`.
-    IdealGear(IdealGearParams),
+    IdealGear(dirac_components::IdealGear),
     /// `type = "rolling_disk"`: coordinates and ports `x`, `y`, `theta`, `phi`; rolls without
     /// slipping (q-dependent one-forms: use `scheme = "symmetric"` for bounded energy).
-    RollingDisk(RollingDiskParams),
+    RollingDisk(dirac_components::RollingDisk),
     /// `type = "rigid_body"`: a body in space, coordinates and ports `x`, `y`, `z` (centre of
     /// mass) and `r11` … `r33` (rotation), plus `{point}.x|y|z` per named point.
     RigidBody(Box<RigidBodyParams>),
@@ -555,30 +555,6 @@ fn is_false(v: &bool) -> bool {
     !*v
 }
 
-/// `resistor`: `r` (Ω, ≥ 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ResistorParams {
-    /// Resistance.
-    pub r: f64,
-}
-
-/// `inductor`: `l` (H, > 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct InductorParams {
-    /// Inductance.
-    pub l: f64,
-}
-
-/// `capacitor`: `c` (F, > 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CapacitorParams {
-    /// Capacitance.
-    pub c: f64,
-}
-
 /// `voltage_source` / `current_source`: `waveform`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -587,27 +563,16 @@ pub struct SourceParams {
     pub waveform: WaveformSpec,
 }
 
-/// `coupled_inductors`: `l1`, `l2` (> 0), `k` (`|k| ≤ 1`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CoupledInductorsParams {
-    /// Self-inductance of winding 1.
-    pub l1: f64,
-    /// Self-inductance of winding 2.
-    pub l2: f64,
-    /// Coupling coefficient.
-    pub k: f64,
-}
-
 fn default_emission() -> f64 {
     1.0
 }
 
-fn default_vt() -> f64 {
-    dirac_components::Diode::VT_300K
+fn default_temp() -> f64 {
+    27.0
 }
 
-/// `diode`: `is` (A, > 0), `n` (default 1), `vt` (V, default kT/q at 300 K), `rs` (Ω, default 0).
+/// `diode`: `is` (A, > 0), `n` (default 1), `temp` (°C, default 27: the thermal voltage is
+/// `k·temp/q`), `rs` (Ω, default 0).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DiodeParams {
@@ -616,40 +581,12 @@ pub struct DiodeParams {
     /// Emission coefficient.
     #[serde(default = "default_emission")]
     pub n: f64,
-    /// Thermal voltage.
-    #[serde(default = "default_vt")]
-    pub vt: f64,
+    /// Junction temperature (°C); the parameters are taken as measured at it.
+    #[serde(default = "default_temp")]
+    pub temp: f64,
     /// Series resistance.
     #[serde(default)]
     pub rs: f64,
-}
-
-/// `saturating_inductor`: `l0` (> 0), `l_inf` (`0 ≤ l_inf ≤ l0`), `i_sat` (> 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SaturatingInductorParams {
-    /// Small-signal inductance.
-    pub l0: f64,
-    /// Saturated inductance.
-    pub l_inf: f64,
-    /// Saturation current.
-    pub i_sat: f64,
-}
-
-/// `mass`: `m` (> 0). A wall spring or damper is a coupling to a `ground`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MassParams {
-    /// Mass.
-    pub m: f64,
-}
-
-/// `inertia`: `j` (> 0). A torsional spring or bearing friction is a coupling to a `ground`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct InertiaParams {
-    /// Moment of inertia.
-    pub j: f64,
 }
 
 /// `spring` to ground (free end at its coordinate): `k` (≥ 0), cubic `k3` (default 0), `rest`
@@ -708,23 +645,6 @@ fn default_gravity() -> f64 {
     9.81
 }
 
-/// `pendulum` (Cartesian, holonomic rod): `m` (> 0), `length` (> 0), `g` (default 9.81),
-/// `pivot` (default `[0, 0]`).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PendulumParams {
-    /// Bob mass.
-    pub m: f64,
-    /// Rod length.
-    pub length: f64,
-    /// Gravitational acceleration (towards −y).
-    #[serde(default = "default_gravity")]
-    pub g: f64,
-    /// Pivot position.
-    #[serde(default)]
-    pub pivot: [f64; 2],
-}
-
 /// A rigid body of a planar linkage: `{ name = "rod", m = 1, j = 0.1 }`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -771,46 +691,6 @@ pub struct PlanarLinkageParams {
     /// The pins.
     #[serde(default)]
     pub pins: Vec<PinSpec>,
-}
-
-/// `dc_motor`: motor constant `k`, armature `r` (≥ 0) and `l` (≥ 0), rotor `j` (≥ 0), friction
-/// `b` (≥ 0, default 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DcMotorParams {
-    /// Motor constant (V·s/rad = N·m/A).
-    pub k: f64,
-    /// Armature resistance.
-    pub r: f64,
-    /// Armature inductance.
-    pub l: f64,
-    /// Rotor inertia.
-    pub j: f64,
-    /// Viscous friction.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub b: f64,
-}
-
-/// `ideal_transformer`: turns ratio `n = N₂/N₁` (≠ 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct IdealTransformerParams {
-    /// Turns ratio.
-    pub n: f64,
-}
-
-/// `rolling_disk`: mass `m`, inertias `i` (rolling axis) and `j` (vertical axis), `radius`, all > 0.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RollingDiskParams {
-    /// Mass.
-    pub m: f64,
-    /// Moment of inertia about the rolling axis.
-    pub i: f64,
-    /// Moment of inertia about the vertical axis.
-    pub j: f64,
-    /// Radius.
-    pub radius: f64,
 }
 
 fn default_gravity_vector() -> [f64; 3] {
@@ -877,14 +757,6 @@ pub struct RigidBodyParams {
     /// Initial angular velocity, body axes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub angular_velocity: Option<[f64; 3]>,
-}
-
-/// `ideal_gear`: `ratio = θ₂/θ₁` (≠ 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct IdealGearParams {
-    /// Gear ratio.
-    pub ratio: f64,
 }
 
 /// A connection between ports, with a unique name.
@@ -1062,37 +934,15 @@ impl<'de> Deserialize<'de> for NodePort {
 pub enum ElementSpec {
     /// `{ type = "spring", k = 1, k3 = 0, rest = 0 }`: `V = ½k d² + ¼k₃ d⁴`, `d = x_a − x_b − rest`
     /// (`k3 ≠ 0`: a nonlinear, Duffing spring).
-    Spring(SpringElement),
+    Spring(dirac_components::Spring),
     /// `{ type = "damper", c = 0.1 }`: `f_a = −c (v_a − v_b) = −f_b`.
-    Damper(DamperElement),
+    Damper(dirac_components::Damper),
     /// `{ type = "force_source", waveform = ... }`: an actuator, `+F(t)` on `a`, `−F(t)` on `b`.
     ForceSource(ActuatorElement),
 }
 
 /// The `type` names of [`ElementSpec`].
 pub const ELEMENT_TYPES: [&str; 3] = ["spring", "damper", "force_source"];
-
-/// A spring element: `k` (≥ 0), `k3` (default 0), `rest` (default 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpringElement {
-    /// Linear stiffness.
-    pub k: f64,
-    /// Cubic stiffness.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub k3: f64,
-    /// Rest offset.
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub rest: f64,
-}
-
-/// A damper element: `c` (≥ 0).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DamperElement {
-    /// Damping coefficient.
-    pub c: f64,
-}
 
 /// An actuator element: `waveform`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
