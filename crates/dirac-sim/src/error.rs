@@ -53,6 +53,20 @@ pub enum SimError {
         /// The time of the row.
         t: f64,
     },
+    /// The step's Newton matrix is singular whatever the values: its pattern matches only
+    /// `rank` of its `size` equations to unknowns of their own (a coordinate nothing determines,
+    /// or relations that fix the same unknowns twice). A bad model, found before the first step.
+    #[error("structurally singular model: {}", structural(.undetermined, .overdetermined, *.rank, *.size))]
+    StructurallySingular {
+        /// The unknowns no set of the equations determines, named (coordinates, multipliers).
+        undetermined: Vec<String>,
+        /// The equations that over-determine their unknowns, named.
+        overdetermined: Vec<String>,
+        /// Structural rank of the Newton matrix.
+        rank: usize,
+        /// Its size.
+        size: usize,
+    },
     /// A non-positive or non-finite step size.
     #[error("step size must be positive and finite, got {0}")]
     StepSize(f64),
@@ -68,4 +82,45 @@ impl std::fmt::Display for Time {
         let rounded: f64 = format!("{:.11e}", self.0).parse().unwrap_or(self.0);
         write!(f, "{rounded}")
     }
+}
+
+/// At most this many names of each part of a structurally singular model are listed.
+const NAMES_SHOWN: usize = 6;
+
+/// The message of [`SimError::StructurallySingular`].
+fn structural(
+    undetermined: &[String],
+    overdetermined: &[String],
+    rank: usize,
+    size: usize,
+) -> String {
+    let list = |names: &[String]| {
+        let mut s = names
+            .iter()
+            .take(NAMES_SHOWN)
+            .cloned()
+            .collect::<Vec<_>>()
+            .join(", ");
+        if names.len() > NAMES_SHOWN {
+            s.push_str(&format!(" and {} more", names.len() - NAMES_SHOWN));
+        }
+        s
+    };
+    let mut parts = Vec::new();
+    if !undetermined.is_empty() {
+        parts.push(format!(
+            "nothing determines {} (a coordinate with neither inertia, potential, dissipation nor constraint, an unconnected port, or too few relations)",
+            list(undetermined)
+        ));
+    }
+    if !overdetermined.is_empty() {
+        parts.push(format!(
+            "no unknown is left to {} (redundant or contradicting relations, or an equation without any term)",
+            list(overdetermined)
+        ));
+    }
+    format!(
+        "{} (the step's Newton matrix has structural rank {rank} of {size}, so every step would fail)",
+        parts.join("; ")
+    )
 }

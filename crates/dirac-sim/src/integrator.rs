@@ -5,7 +5,7 @@ use dirac_core::{
     Model, RowSubset, Triplets, analyse_rows,
 };
 use dirac_solve::{
-    LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem,
+    LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Structure,
 };
 
 use crate::composition::Composition;
@@ -1060,6 +1060,60 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             p0,
             z: vec![0.0; 2 * n],
         })
+    }
+
+    /// Checks that every substep's Newton matrix can be regular: its pattern (which entries the
+    /// model and the constraints stamp, whatever their values; the pattern is fixed, see
+    /// [`Triplets`]) must match every equation to its own unknown. When it cannot, the matrix is
+    /// singular at every state and every step would fail; the error names the unknowns no
+    /// equation set determines (the under-determined part of the Dulmage–Mendelsohn partition)
+    /// and the equations that fix their unknowns more than once (the over-determined part).
+    /// Call it after [`Integrator::initialise`] (the constraint rows it keeps set the pattern).
+    ///
+    /// # Errors
+    /// [`SimError::StructurallySingular`] when a pattern has no perfect matching.
+    pub fn check_structure(&mut self) -> Result<(), SimError> {
+        let mut jacobian = Triplets::new();
+        for i in 0..self.stages.len() {
+            let stage = &mut self.stages[i];
+            stage.step.set_start(&self.q, &self.p, self.t);
+            jacobian.begin();
+            stage
+                .step
+                .jacobian(&self.model, &self.constraints, &stage.x, &mut jacobian);
+            let size = stage.step.unknowns();
+            let entries: Vec<(usize, usize)> = jacobian
+                .rows()
+                .iter()
+                .copied()
+                .zip(jacobian.cols().iter().copied())
+                .collect();
+            let structure = Structure::analyse(size, size, &entries, &vec![0; size]);
+            if structure.rank() == size {
+                continue;
+            }
+            let mut undetermined: Vec<String> = Vec::new();
+            for col in (0..size).filter(|&c| structure.is_underdetermined_col(c)) {
+                let name = self.describe_unknown(col);
+                if !undetermined.contains(&name) {
+                    undetermined.push(name);
+                }
+            }
+            let mut overdetermined: Vec<String> = Vec::new();
+            for row in (0..size).filter(|&r| structure.is_overdetermined_row(r)) {
+                let name = self.describe_equation(row);
+                if !overdetermined.contains(&name) {
+                    overdetermined.push(name);
+                }
+            }
+            return Err(SimError::StructurallySingular {
+                rank: structure.rank(),
+                size,
+                undetermined,
+                overdetermined,
+            });
+        }
+        Ok(())
     }
 
     /// Describes equation `row` of the step system.

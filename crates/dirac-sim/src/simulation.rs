@@ -427,14 +427,38 @@ impl Simulation {
             .collect();
         let q_parts: Vec<Vec<f64>> = self.initial.iter().map(|p| p.q.clone()).collect();
         let v_parts: Vec<Vec<f64>> = self.initial.iter().map(|p| p.v.clone()).collect();
-        let mut q = system.global_vector(&q_parts, &names)?;
-        let mut v = system.global_vector(&v_parts, &names)?;
+        let q = system.global_vector(&q_parts, &names)?;
+        let v = system.global_vector(&v_parts, &names)?;
         let mut integrator = Integrator::new(
             system.model.clone(),
             system.constraints.clone(),
             self.options.clone(),
         )?;
         integrator.initialise(&q, &v, self.t0)?;
+        // A model whose step matrix is singular whatever the values is refused before the first
+        // step (docs/audit.md item 18). The rest of the set-up still runs: when it refuses the
+        // model on its own (a loop of voltage sources of different values, an impossible start),
+        // that diagnosis is the more specific one; when it fails numerically or succeeds, the
+        // structural one is reported.
+        let structural = integrator.check_structure().err();
+        match self.prepare_assembled(system, integrator, q, v) {
+            Err(e) if structural.is_some() && !e.is_numerical() => Err(e),
+            result => match structural {
+                Some(e) => Err(e.into()),
+                None => result,
+            },
+        }
+    }
+
+    /// The rest of [`Simulation::build_assembled`]: the steady state or a consistent given start,
+    /// the readout and the warnings.
+    fn prepare_assembled(
+        &mut self,
+        system: AssembledSystem,
+        mut integrator: Integrator<AssembledModel, AssembledConstraints>,
+        mut q: Vec<f64>,
+        mut v: Vec<f64>,
+    ) -> Result<AssembledEngine, RunError> {
         let connection_rows = connection_active_rows(&system, integrator.active_constraints());
         if self.start == Start::SteadyState {
             let holds: Vec<(usize, f64)> = self
