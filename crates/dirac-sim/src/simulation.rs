@@ -483,6 +483,7 @@ impl Simulation {
             v.clone_from(&steady.v);
             integrator.initialise(&q, &v, self.t0)?;
         }
+        let representation = system.representation;
         let mut engine = AssembledEngine {
             start_q: integrator.q().to_vec(),
             start_v: v.clone(),
