@@ -136,6 +136,19 @@ impl Model for Inductor {
         lq[0] = 0.0;
         lv[0] = self.l * v[0];
     }
+    fn lagrangian_gradient_at(
+        &self,
+        offsets: &[usize],
+        _q: &[f64],
+        v: &[f64],
+        lq: &mut [f64],
+        lv: &mut [f64],
+    ) {
+        for &o in offsets {
+            lq[o] = 0.0;
+            lv[o] = self.l * v[o];
+        }
+    }
     fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
         h.vv.add(0, 0, self.l);
     }
@@ -161,12 +174,30 @@ impl Model for Resistor {
         lq[0] = 0.0;
         lv[0] = 0.0;
     }
+    fn lagrangian_gradient_at(
+        &self,
+        offsets: &[usize],
+        _q: &[f64],
+        _v: &[f64],
+        lq: &mut [f64],
+        lv: &mut [f64],
+    ) {
+        for &o in offsets {
+            lq[o] = 0.0;
+            lv[o] = 0.0;
+        }
+    }
     fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
     fn has_force(&self) -> bool {
         true
     }
     fn force(&self, _q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
         f[0] = -self.r * v[0];
+    }
+    fn force_at(&self, offsets: &[usize], _q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
+        for &o in offsets {
+            f[o] = -self.r * v[o];
+        }
     }
     fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, j: &mut ForceJacobian) {
         j.v.add(0, 0, -self.r);
@@ -192,6 +223,19 @@ impl Model for Capacitor {
     fn lagrangian_gradient(&self, q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
         lq[0] = -q[0] / self.c;
         lv[0] = 0.0;
+    }
+    fn lagrangian_gradient_at(
+        &self,
+        offsets: &[usize],
+        q: &[f64],
+        _v: &[f64],
+        lq: &mut [f64],
+        lv: &mut [f64],
+    ) {
+        for &o in offsets {
+            lq[o] = -q[o] / self.c;
+            lv[o] = 0.0;
+        }
     }
     fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], h: &mut LagrangianHessian) {
         h.qq.add(0, 0, -1.0 / self.c);
@@ -433,6 +477,39 @@ mod tests {
     /// the `+` node (`plus = true`) or the `−` node.
     fn between(part: &'static str, plus: bool) -> (&'static str, &'static str, f64) {
         (part, "i", if plus { -1.0 } else { 1.0 })
+    }
+
+    /// The one-pass evaluation of several instances (`lagrangian_gradient_at`, `force_at`, what
+    /// an assembled netlist calls for all elements of equal kind and value) writes exactly what
+    /// one call per instance writes, and nothing at the entries between the instances.
+    /// Mutation: `self.l * v[o] * 1.001` in `Inductor::lagrangian_gradient_at` (or an offset
+    /// shifted by one) fails the bitwise comparison.
+    #[test]
+    fn one_pass_evaluation_equals_one_call_per_instance() {
+        fn check<M: Model>(model: &M) {
+            let n = 7;
+            let q: Vec<f64> = (0..n).map(|i| 0.37 * i as f64 - 1.1).collect();
+            let v: Vec<f64> = (0..n).map(|i| 1.3 - 0.29 * i as f64).collect();
+            let offsets = [0, 2, 3, 6];
+            let (mut lq, mut lv, mut f) = (vec![9.0; n], vec![9.0; n], vec![9.0; n]);
+            model.lagrangian_gradient_at(&offsets, &q, &v, &mut lq, &mut lv);
+            model.force_at(&offsets, &q, &v, 0.5, &mut f);
+            for i in 0..n {
+                let (mut a, mut b, mut c) = ([9.0], [9.0], [9.0]);
+                if offsets.contains(&i) {
+                    model.lagrangian_gradient(&q[i..=i], &v[i..=i], &mut a, &mut b);
+                    model.force(&q[i..=i], &v[i..=i], 0.5, &mut c);
+                }
+                assert_eq!(
+                    (lq[i].to_bits(), lv[i].to_bits(), f[i].to_bits()),
+                    (a[0].to_bits(), b[0].to_bits(), c[0].to_bits()),
+                    "entry {i}"
+                );
+            }
+        }
+        check(&Inductor { l: 0.7 });
+        check(&Resistor { r: 3.0 });
+        check(&Capacitor { c: 0.2 });
     }
 
     #[test]

@@ -90,6 +90,26 @@ pub trait Model {
     /// Stamps the second derivatives of `L` at `(q, v)`.
     fn lagrangian_hessian(&self, q: &[f64], v: &[f64], hessian: &mut LagrangianHessian);
 
+    /// [`Model::lagrangian_gradient`] of several instances of this model at once: instance `k`
+    /// owns entries `offsets[k] .. offsets[k] + dim()` of the longer vectors `q`, `v`, `lq`, `lv`.
+    /// An assembled model calls it once for all the parts that share this model object (a
+    /// netlist's resistors of equal value), so a part may override it with one tight loop; the
+    /// values must be those of one call per instance.
+    fn lagrangian_gradient_at(
+        &self,
+        offsets: &[usize],
+        q: &[f64],
+        v: &[f64],
+        lq: &mut [f64],
+        lv: &mut [f64],
+    ) {
+        let n = self.dim();
+        for &o in offsets {
+            let r = o..o + n;
+            self.lagrangian_gradient(&q[r.clone()], &v[r.clone()], &mut lq[r.clone()], &mut lv[r]);
+        }
+    }
+
     /// Whether the model has an external force. Models without one skip force evaluation.
     fn has_force(&self) -> bool {
         false
@@ -102,6 +122,16 @@ pub trait Model {
 
     /// Stamps `∂f/∂q` and `∂f/∂v` at `(q, v, t)`.
     fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, _jacobian: &mut ForceJacobian) {}
+
+    /// [`Model::force`] of several instances at once, laid out as in
+    /// [`Model::lagrangian_gradient_at`].
+    fn force_at(&self, offsets: &[usize], q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
+        let n = self.dim();
+        for &o in offsets {
+            let r = o..o + n;
+            self.force(&q[r.clone()], &v[r.clone()], t, &mut f[r]);
+        }
+    }
 
     /// True when `L` is quadratic and `f` is affine in `(q, v)` with `t` entering only additively:
     /// every Hessian and force Jacobian is then constant, and so is the Newton matrix at fixed `h`.
@@ -174,11 +204,24 @@ impl<M: Model + ?Sized> Model for &M {
     fn lagrangian_hessian(&self, q: &[f64], v: &[f64], hessian: &mut LagrangianHessian) {
         (**self).lagrangian_hessian(q, v, hessian);
     }
+    fn lagrangian_gradient_at(
+        &self,
+        offsets: &[usize],
+        q: &[f64],
+        v: &[f64],
+        lq: &mut [f64],
+        lv: &mut [f64],
+    ) {
+        (**self).lagrangian_gradient_at(offsets, q, v, lq, lv);
+    }
     fn has_force(&self) -> bool {
         (**self).has_force()
     }
     fn force(&self, q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
         (**self).force(q, v, t, f);
+    }
+    fn force_at(&self, offsets: &[usize], q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
+        (**self).force_at(offsets, q, v, t, f);
     }
     fn force_jacobian(&self, q: &[f64], v: &[f64], t: f64, jacobian: &mut ForceJacobian) {
         (**self).force_jacobian(q, v, t, jacobian);

@@ -1,6 +1,7 @@
 //! The assembler: one interconnection graph → a model and constraints on global coordinates.
 
 use std::cell::Cell;
+use std::collections::HashMap;
 use std::fmt;
 use std::sync::Arc;
 
@@ -77,6 +78,35 @@ struct HotPart {
     has_update_limit: bool,
 }
 
+/// The parts that share one model object (instances of one definition, a netlist's elements of
+/// equal kind and value), evaluated by one call ([`Model::lagrangian_gradient_at`],
+/// [`Model::force_at`]) instead of one dynamic call per part.
+#[derive(Clone)]
+struct PartGroup {
+    model: Arc<dyn Model + Send + Sync>,
+    offsets: Vec<usize>,
+    has_force: bool,
+}
+
+/// The parts of `parts` grouped by model object, in order of first appearance.
+fn group_parts(parts: &[HotPart]) -> Vec<PartGroup> {
+    let mut index: HashMap<*const (), usize> = HashMap::new();
+    let mut groups: Vec<PartGroup> = Vec::new();
+    for p in parts {
+        let key = Arc::as_ptr(&p.model).cast::<()>();
+        let g = *index.entry(key).or_insert_with(|| {
+            groups.push(PartGroup {
+                model: Arc::clone(&p.model),
+                offsets: Vec::new(),
+                has_force: p.has_force,
+            });
+            groups.len() - 1
+        });
+        groups[g].offsets.push(p.offset);
+    }
+    groups
+}
+
 /// A part placed at an offset of the global coordinates.
 #[derive(Clone)]
 struct Placed {
@@ -94,6 +124,7 @@ struct Placed {
 #[derive(Clone)]
 pub struct AssembledModel {
     parts: Vec<HotPart>,
+    groups: Vec<PartGroup>,
     couplings: Vec<GlobalCoupling>,
     dim: usize,
     names: Vec<String>,
@@ -151,14 +182,8 @@ impl Model for AssembledModel {
         let covered: usize = self.parts.last().map_or(0, |p| p.offset + p.dim);
         lq[covered..].fill(0.0);
         lv[covered..].fill(0.0);
-        for p in &self.parts {
-            let r = p.offset..p.offset + p.dim;
-            p.model.lagrangian_gradient(
-                &q[r.clone()],
-                &v[r.clone()],
-                &mut lq[r.clone()],
-                &mut lv[r],
-            );
+        for g in &self.groups {
+            g.model.lagrangian_gradient_at(&g.offsets, q, v, lq, lv);
         }
         for c in self
             .couplings
@@ -215,12 +240,14 @@ impl Model for AssembledModel {
     fn force(&self, q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
         let covered: usize = self.parts.last().map_or(0, |p| p.offset + p.dim);
         f[covered..].fill(0.0);
-        for p in &self.parts {
-            let r = p.offset..p.offset + p.dim;
-            if p.has_force {
-                p.model.force(&q[r.clone()], &v[r.clone()], t, &mut f[r]);
+        for g in &self.groups {
+            if g.has_force {
+                g.model.force_at(&g.offsets, q, v, t, f);
             } else {
-                f[r].fill(0.0);
+                let n = g.model.dim();
+                for &o in &g.offsets {
+                    f[o..o + n].fill(0.0);
+                }
             }
         }
         self.stamp_coupling_force(q, v, t, f);
@@ -881,17 +908,19 @@ impl Assembler {
             && holonomic.iter().all(|h| h.constraint.is_linear());
         let autonomous = parts.iter().all(|p| p.model.is_autonomous())
             && couplings.iter().all(|c| c.element.is_autonomous());
+        let hot: Vec<HotPart> = parts
+            .iter()
+            .map(|p| HotPart {
+                model: p.model.clone(),
+                offset: p.offset,
+                dim: p.dim,
+                has_force: p.model.has_force(),
+                has_update_limit: p.model.has_update_limit(),
+            })
+            .collect();
         let model = AssembledModel {
-            parts: parts
-                .iter()
-                .map(|p| HotPart {
-                    model: p.model.clone(),
-                    offset: p.offset,
-                    dim: p.dim,
-                    has_force: p.model.has_force(),
-                    has_update_limit: p.model.has_update_limit(),
-                })
-                .collect(),
+            groups: group_parts(&hot),
+            parts: hot,
             couplings,
             dim,
             names,

@@ -7,6 +7,7 @@ use petgraph::graph::{NodeIndex, UnGraph};
 
 use crate::coupling::CouplingElement;
 use crate::error::GraphError;
+use crate::memo::StructureMemo;
 use crate::port_constraint::PortConstraint;
 use crate::subsystem::Subsystem;
 
@@ -151,6 +152,7 @@ pub struct Interconnection {
     by_name: HashMap<String, SubsystemId>,
     graph: UnGraph<Vertex, usize>,
     vertex_of_subsystem: Vec<NodeIndex>,
+    memo: StructureMemo,
 }
 
 impl Interconnection {
@@ -177,11 +179,19 @@ impl Interconnection {
             }
         }
         let id = SubsystemId(self.subsystems.len());
+        self.memo = StructureMemo::default();
         self.by_name.insert(subsystem.name.clone(), id);
         self.vertex_of_subsystem
             .push(self.graph.add_node(Vertex::Subsystem(id)));
         self.subsystems.push(subsystem);
         Ok(id)
+    }
+
+    /// Analyses of this graph's structure stored by the run layer (see [`StructureMemo`]); shared
+    /// with this graph's clones until either changes.
+    #[must_use]
+    pub fn memo(&self) -> &StructureMemo {
+        &self.memo
     }
 
     /// Resolves `subsystem.port` names to a [`PortRef`].
@@ -205,6 +215,7 @@ impl Interconnection {
 
     fn add_connection(&mut self, connection: Connection) -> ConnectionId {
         let id = ConnectionId(self.connections.len());
+        self.memo = StructureMemo::default();
         let v = self.graph.add_node(Vertex::Connection(id));
         for p in connection.ports() {
             self.graph
@@ -391,6 +402,37 @@ mod tests {
 
     fn part(name: &str, dim: usize) -> Subsystem {
         Subsystem::new(name, Free(dim))
+    }
+
+    /// The structure memo is shared by clones of an unchanged graph, and a graph that changes
+    /// (a part or a connection added) starts an empty one while the clones made before keep
+    /// theirs. Mutation: dropping the reset in `add_connection` leaves the stale entry in `g`
+    /// after `joint`, and the second assertion on `g` fails.
+    #[test]
+    fn memo_is_shared_by_clones_and_dropped_on_change() {
+        let mut g = Interconnection::new();
+        let a = g.add_subsystem(part("a", 1).with_port("x", 0)).unwrap();
+        let b = g.add_subsystem(part("b", 1).with_port("x", 0)).unwrap();
+        let before = g.clone();
+        g.memo().insert(std::sync::Arc::new(7_u32));
+        assert_eq!(before.memo().find(|x: &u32| *x == 7).as_deref(), Some(&7));
+        assert!(g.memo().find(|_: &u64| true).is_none(), "typed lookup");
+        let (pa, pb) = (
+            PortRef {
+                subsystem: a,
+                port: 0,
+            },
+            PortRef {
+                subsystem: b,
+                port: 0,
+            },
+        );
+        g.joint("j", pa, pb);
+        assert!(g.memo().is_empty(), "a changed graph keeps no analysis");
+        assert_eq!(before.memo().len(), 1, "the earlier clone keeps its own");
+        let mut h = before.clone();
+        h.add_subsystem(part("c", 1)).unwrap();
+        assert!(h.memo().is_empty());
     }
 
     #[test]

@@ -22,6 +22,7 @@ mod assembler;
 mod coupling;
 mod error;
 mod interconnection;
+mod memo;
 mod part_error;
 mod port_constraint;
 mod subsystem;
@@ -35,6 +36,7 @@ pub use error::GraphError;
 pub use interconnection::{
     Connection, ConnectionId, Interconnection, MAX_CONSTRAINT_PORTS, PortRef, SubsystemId,
 };
+pub use memo::StructureMemo;
 pub use part_error::{Check, PartError};
 pub use port_constraint::PortConstraint;
 pub use subsystem::{Port, Subsystem};

@@ -230,6 +230,8 @@ struct Branch {
     subsystem: usize,
     port: &'static str,
     coordinate: usize,
+    /// Whether the element is a capacitor (it has a charge signal `q(name)`).
+    capacitor: bool,
 }
 
 impl Circuit {
@@ -332,7 +334,7 @@ impl Circuit {
                 Probe::Flow(self.port_of(b)?)
             }
             ("q", element) => {
-                if !self.capacitors.iter().any(|c| c == element) {
+                if !self.branches.get(element).is_some_and(|b| b.capacitor) {
                     return Err(unknown(format!(
                         "`{element}` is not a capacitor; capacitors: {}",
                         self.capacitors.join(", ")
@@ -379,6 +381,41 @@ impl Circuit {
         let mut names: Vec<&str> = self.branches.keys().map(String::as_str).collect();
         names.sort_unstable();
         names.join(", ")
+    }
+}
+
+/// The linear two-terminal parts whose model a netlist shares between elements of equal value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum Kind {
+    Resistor,
+    Inductor,
+    Capacitor,
+}
+
+/// One part per (kind, value) made so far; every further element of that kind and value is the
+/// same part renamed ([`Subsystem::renamed`]: the model object is shared, not copied). A ladder of
+/// 10⁵ equal sections then holds three model objects instead of 3·10⁵ separately allocated ones,
+/// and the assembled model's loop over its parts reads the same few objects.
+#[derive(Default)]
+struct SharedParts(HashMap<(Kind, u64), Subsystem>);
+
+impl SharedParts {
+    /// The part `name` of `kind` and `value`: a renamed copy of an earlier one of the same kind
+    /// and value (bit for bit), else `make(value)`.
+    fn part(
+        &mut self,
+        kind: Kind,
+        value: f64,
+        name: &str,
+        make: impl FnOnce(f64) -> Result<Subsystem, PartError>,
+    ) -> Result<Subsystem, PartError> {
+        let key = (kind, value.to_bits());
+        if let Some(prototype) = self.0.get(&key) {
+            return Ok(prototype.renamed(name));
+        }
+        let part = make(value)?;
+        self.0.insert(key, part.clone());
+        Ok(part)
     }
 }
 
@@ -462,12 +499,16 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     }
     // Every other element is a part of its own between its two nodes, in card order; a coupled
     // inductor is a winding of its K part. The builder sets the port signs from terminal order.
+    // Resistors, inductors and capacitors of equal value share one model object.
+    let mut shared = SharedParts::default();
     for (e, element) in netlist.elements.iter().enumerate() {
         let check = |part: Result<Subsystem, PartError>| part.map_err(|err| located(e, err));
         let (name, part, q, v) = match element {
             Element::R { name, value, .. } => (
                 name,
-                check(Resistor::new(*value).map(|p| p.subsystem(name.clone())))?,
+                check(shared.part(Kind::Resistor, *value, name, |r| {
+                    Resistor::new(r).map(|p| p.subsystem(name.clone()))
+                }))?,
                 none(1),
                 none(1),
             ),
@@ -488,13 +529,16 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                             subsystem: *subsystem,
                             port,
                             coordinate: winding,
+                            capacitor: false,
                         },
                     );
                     continue;
                 }
                 (
                     name,
-                    check(Inductor::new(*value).map(|p| p.subsystem(name.clone())))?,
+                    check(shared.part(Kind::Inductor, *value, name, |l| {
+                        Inductor::new(l).map(|p| p.subsystem(name.clone()))
+                    }))?,
                     none(1),
                     (vec![ic.unwrap_or(0.0)], vec![ic.is_some()]),
                 )
@@ -510,7 +554,9 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 let volts = netlist.capacitor_voltage(n1, n2, *ic);
                 (
                     name,
-                    check(Capacitor::new(*value).map(|p| p.subsystem(name.clone())))?,
+                    check(shared.part(Kind::Capacitor, *value, name, |c| {
+                        Capacitor::new(c).map(|p| p.subsystem(name.clone()))
+                    }))?,
                     (vec![value * volts.unwrap_or(0.0)], vec![volts.is_some()]),
                     none(1),
                 )
@@ -563,6 +609,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 subsystem: s,
                 port: "i",
                 coordinate: 0,
+                capacitor: matches!(element, Element::C { .. }),
             },
         );
     }

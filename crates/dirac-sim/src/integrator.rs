@@ -620,7 +620,23 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     }
 
     /// Advances one step (one or two substeps, depending on the scheme).
+    ///
+    /// A state component that lands in the subnormal range (below `f64::MIN_POSITIVE` ≈ 2.2e-308
+    /// in magnitude) is set to zero: a decaying circuit otherwise ends in a round-off limit cycle
+    /// among subnormal numbers, where every operation is several times slower (the damped seed
+    /// loop: 3.44 µs per step against 0.80 over 10⁷ steps), and a subnormal number carries fewer
+    /// significant bits than the state's round-off anyway.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
+        let report = self.step_unflushed()?;
+        for v in self.q.iter_mut().chain(self.p.iter_mut()) {
+            if v.is_subnormal() {
+                *v = 0.0;
+            }
+        }
+        Ok(report)
+    }
+
+    fn step_unflushed(&mut self) -> Result<StepReport, SimError> {
         if matches!(self.affine, Affine::Unknown) {
             self.affine = self.build_affine()?;
         }

@@ -37,6 +37,8 @@ use dirac_solve::{
     LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Structure,
 };
 
+use std::sync::Arc;
+
 use crate::linear::{AutoLu, SolverChoice};
 
 /// Marks a full-system unknown or equation left out of the reduced solve.
@@ -58,6 +60,20 @@ pub enum ReadoutRow {
 /// The algebraic readout of one model with its (active) constraint rows.
 #[derive(Debug)]
 pub struct Readout {
+    plan: Arc<ReadoutPlan>,
+    /// Magnitude of the terms of the last solve's equations (for relative tests).
+    scale: f64,
+    newton: Newton<AutoLu>,
+    reduced: Vec<f64>,
+    work: Work,
+    stats: NewtonStats,
+}
+
+/// What the structural analysis of the readout system found: which unknowns and equations are
+/// solved, which are free or redundant. A function of the pattern alone, so it is shared by every
+/// readout of the same model and constraint rows (the run layer keeps it with the graph).
+#[derive(Debug)]
+pub(crate) struct ReadoutPlan {
     n: usize,
     m: usize,
     /// Full index of each reduced unknown / equation.
@@ -73,12 +89,24 @@ pub struct Readout {
     /// Every equation of the over-determined part (the redundant ones and those they restate).
     overdetermined: Vec<usize>,
     constant: bool,
-    /// Magnitude of the terms of the last solve's equations (for relative tests).
-    scale: f64,
-    newton: Newton<AutoLu>,
-    reduced: Vec<f64>,
-    work: Work,
-    stats: NewtonStats,
+}
+
+impl ReadoutPlan {
+    /// Whether some equation is left out as a restatement of others (else a start cannot
+    /// violate an algebraic relation the readout checks).
+    pub(crate) fn has_consistency_conditions(&self) -> bool {
+        !self.redundant.is_empty()
+    }
+
+    /// See [`Readout::velocity_determined`].
+    pub(crate) fn velocity_determined(&self, i: usize) -> bool {
+        self.velocity_determined[i]
+    }
+
+    /// See [`Readout::multiplier_determined`].
+    pub(crate) fn multiplier_determined(&self, a: usize) -> bool {
+        self.multiplier_determined[a]
+    }
 }
 
 /// Buffers of one residual or Jacobian evaluation.
@@ -147,21 +175,451 @@ impl Readout {
         v: &[f64],
         t: f64,
     ) -> Self {
+        let work = Work::stamped(model, constraints, q, v, t);
+        let plan = Arc::new(ReadoutPlan::analyse(model, constraints, &work));
+        Self::from_parts(plan, work)
+    }
+
+    /// The structural analysis [`Readout::new`] makes, alone (the pattern stamped at `q`, `v`,
+    /// `t`).
+    pub(crate) fn analyse<M: Model + ?Sized, C: Constraints + ?Sized>(
+        model: &M,
+        constraints: &C,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+    ) -> Arc<ReadoutPlan> {
+        let work = Work::stamped(model, constraints, q, v, t);
+        Arc::new(ReadoutPlan::analyse(model, constraints, &work))
+    }
+
+    /// A readout with a plan analysed before (for the same model and constraint rows), its
+    /// buffers stamped at `q`, `v`, `t`.
+    pub(crate) fn with_plan<M: Model + ?Sized, C: Constraints + ?Sized>(
+        plan: Arc<ReadoutPlan>,
+        model: &M,
+        constraints: &C,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+    ) -> Self {
+        Self::from_parts(plan, Work::stamped(model, constraints, q, v, t))
+    }
+
+    /// The structural analysis this readout solves by.
+    pub(crate) fn plan(&self) -> &Arc<ReadoutPlan> {
+        &self.plan
+    }
+
+    fn from_parts(plan: Arc<ReadoutPlan>, work: Work) -> Self {
+        let options = NewtonOptions {
+            reuse_jacobian: false,
+            update_tol: 1e-13,
+            ..NewtonOptions::default()
+        };
+        Self {
+            newton: Newton::new(
+                AutoLu::for_size(SolverChoice::Auto, plan.rows.len()),
+                options,
+            ),
+            reduced: vec![0.0; plan.rows.len()],
+            plan,
+            scale: 0.0,
+            work,
+            stats: NewtonStats::default(),
+        }
+    }
+
+    /// Solves for the velocities and multipliers at `(q, p, t)`, starting from the last solution.
+    ///
+    /// # Errors
+    /// When Newton fails (a singular system at this state, or no convergence).
+    pub fn solve<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &mut self,
+        model: &M,
+        constraints: &C,
+        q: &[f64],
+        p: &[f64],
+        t: f64,
+    ) -> Result<(), ReadoutError> {
+        let mut system = System {
+            layout: Layout {
+                n: self.plan.n,
+                m: self.plan.m,
+            },
+            model,
+            constraints,
+            q,
+            p,
+            t,
+            cols: &self.plan.cols,
+            rows: &self.plan.rows,
+            col_slot: &self.plan.col_slot,
+            row_slot: &self.plan.row_slot,
+            work: &mut self.work,
+            constant: self.plan.constant,
+            at_zero: false,
+        };
+        if self.plan.rows.is_empty() {
+            system.scatter(&self.reduced);
+            return Ok(());
+        }
+        if self.plan.constant {
+            // Affine: one update from zero is exact, and the residual at zero needs no products.
+            self.reduced.fill(0.0);
+            system.at_zero = true;
+        }
+        match self.newton.solve(&mut system, &mut self.reduced) {
+            Ok(stats) => {
+                self.stats.accumulate(&stats);
+                system.scatter(&self.reduced);
+                Ok(())
+            }
+            Err(source) => {
+                let (equation, likely_cause) = self.explain(model, constraints, &source);
+                Err(ReadoutError {
+                    step: None,
+                    t,
+                    source,
+                    equation,
+                    likely_cause,
+                })
+            }
+        }
+    }
+
+    /// Velocities `v` at the state of the last [`Readout::solve`].
+    #[must_use]
+    pub fn velocities(&self) -> &[f64] {
+        &self.work.full[..self.plan.n]
+    }
+
+    /// Multipliers `λ` (one per constraint row) at the state of the last [`Readout::solve`].
+    #[must_use]
+    pub fn multipliers(&self) -> &[f64] {
+        let o = 2 * self.plan.n + self.plan.m;
+        &self.work.full[o..o + self.plan.m]
+    }
+
+    /// Accelerations `a`, where a multiplier needed them (0 elsewhere: only what the velocities and
+    /// multipliers depend on is solved).
+    #[must_use]
+    pub fn accelerations(&self) -> &[f64] {
+        let o = self.plan.n + self.plan.m;
+        &self.work.full[o..o + self.plan.n]
+    }
+
+    /// Whether velocity `i` follows from the algebraic relations (else it needs a differentiated
+    /// relation: an index-2 quantity).
+    #[must_use]
+    pub fn velocity_determined(&self, i: usize) -> bool {
+        self.plan.velocity_determined[i]
+    }
+
+    /// Whether multiplier `a` follows from the algebraic relations.
+    #[must_use]
+    pub fn multiplier_determined(&self, a: usize) -> bool {
+        self.plan.multiplier_determined[a]
+    }
+
+    /// The equations left out of the solve (they restate others: consistency conditions).
+    #[must_use]
+    pub fn redundant_equations(&self) -> Vec<ReadoutRow> {
+        let layout = Layout {
+            n: self.plan.n,
+            m: self.plan.m,
+        };
+        self.plan
+            .redundant
+            .iter()
+            .map(|&r| layout.kind(r))
+            .collect()
+    }
+
+    /// Residuals of the left-out equations at the last solution: nonzero values say the state
+    /// violates an algebraic relation (an inconsistent start), with the equation's kind.
+    pub fn consistency_residuals<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &mut self,
+        model: &M,
+        constraints: &C,
+        q: &[f64],
+        p: &[f64],
+        t: f64,
+    ) -> Vec<(ReadoutRow, f64)> {
+        let layout = Layout {
+            n: self.plan.n,
+            m: self.plan.m,
+        };
+        self.work
+            .stamp(model, constraints, q, self.velocities_owned().as_slice(), t);
+        let full = std::mem::take(&mut self.work.full);
+        let mut residual = std::mem::take(&mut self.work.residual);
+        layout.residual(&mut self.work, model, q, p, t, &full, &mut residual);
+        self.scale = term_scale(p, &self.work);
+        let out = self
+            .plan
+            .redundant
+            .iter()
+            .map(|&r| (layout.kind(r), residual[r]))
+            .collect();
+        self.work.full = full;
+        self.work.residual = residual;
+        out
+    }
+
+    fn velocities_owned(&self) -> Vec<f64> {
+        self.velocities().to_vec()
+    }
+
+    /// Magnitude of the terms of the equations at the last [`Readout::consistency_residuals`]
+    /// (momenta, forces): the scale against which a residual is small.
+    #[must_use]
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
+    /// The state's positions and velocities that enter the over-determined equations (those that
+    /// fix some value more than once): what may be moved to make a start consistent.
+    #[must_use]
+    pub(crate) fn involved(&self, _violated: &[ReadoutRow]) -> Vec<crate::simulation::Unknown> {
+        use crate::simulation::Unknown;
+        let layout = Layout {
+            n: self.plan.n,
+            m: self.plan.m,
+        };
+        let mut out = Vec::new();
+        let mut push = |u: Unknown| {
+            if !out.contains(&u) {
+                out.push(u);
+            }
+        };
+        for &r in &self.plan.overdetermined {
+            match layout.kind(r) {
+                ReadoutRow::Force(i) => {
+                    for (row, j, _) in self.work.hessian.qq.iter() {
+                        if row == i {
+                            push(Unknown::Position(j));
+                        }
+                    }
+                    for (row, j, _) in self.work.force_jacobian.q.iter() {
+                        if row == i {
+                            push(Unknown::Position(j));
+                        }
+                    }
+                }
+                ReadoutRow::Momentum(i) => {
+                    for (j, col, _) in self.work.hessian.qv.iter() {
+                        if col == i {
+                            push(Unknown::Position(j));
+                        }
+                    }
+                    for (row, j, _) in self.work.hessian.vv.iter() {
+                        if row == i {
+                            push(Unknown::Velocity(j));
+                        }
+                    }
+                }
+                ReadoutRow::Constraint(_) | ReadoutRow::Acceleration(_) => {}
+            }
+        }
+        out
+    }
+
+    /// The largest derivative of an over-determined equation with respect to the state's value
+    /// `unknown` (the scale of a finite-difference step that moves that equation visibly).
+    #[must_use]
+    pub(crate) fn sensitivity(&self, unknown: crate::simulation::Unknown) -> f64 {
+        use crate::simulation::Unknown;
+        let layout = Layout {
+            n: self.plan.n,
+            m: self.plan.m,
+        };
+        let mut worst: f64 = 0.0;
+        for &r in &self.plan.overdetermined {
+            match (layout.kind(r), unknown) {
+                (ReadoutRow::Force(i), Unknown::Position(j)) => {
+                    for (row, col, value) in self
+                        .work
+                        .hessian
+                        .qq
+                        .iter()
+                        .chain(self.work.force_jacobian.q.iter())
+                    {
+                        if row == i && col == j {
+                            worst = worst.max(value.abs());
+                        }
+                    }
+                }
+                (ReadoutRow::Momentum(i), Unknown::Position(j)) => {
+                    for (row, col, value) in self.work.hessian.qv.iter() {
+                        if row == j && col == i {
+                            worst = worst.max(value.abs());
+                        }
+                    }
+                }
+                (ReadoutRow::Momentum(i), Unknown::Velocity(j)) => {
+                    for (row, col, value) in self.work.hessian.vv.iter() {
+                        if row == i && col == j {
+                            worst = worst.max(value.abs());
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        worst
+    }
+
+    /// Names an equation of the readout system.
+    #[must_use]
+    pub fn describe_row<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+        row: ReadoutRow,
+    ) -> String {
+        let layout = Layout {
+            n: self.plan.n,
+            m: self.plan.m,
+        };
+        self.describe(model, constraints, layout.row(row))
+    }
+
+    /// Newton counters of every solve so far.
+    #[must_use]
+    /// The reduced unknowns the next nonlinear solve starts from (the last solution).
+    pub(crate) fn start_guess(&self) -> Vec<f64> {
+        self.reduced.clone()
+    }
+
+    /// Restores a start saved by [`Readout::start_guess`], so that a solve made on the side (the
+    /// natural modes) leaves the next readout exactly as it would have been without it.
+    pub(crate) fn restore_start_guess(&mut self, guess: &[f64]) {
+        self.reduced.copy_from_slice(guess);
+    }
+
+    pub fn stats(&self) -> NewtonStats {
+        self.stats
+    }
+
+    /// Names equation `r` of the full system.
+    /// The equation or unknown at fault in a failed solve, named, and the likely cause.
+    fn explain<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+        error: &NewtonError,
+    ) -> (String, String) {
+        let domain = "the state left the model's domain: the step before it was too large for a nonlinear part, or a part was driven past its limit (a saturating inductor past its saturation flux, say)";
+        match error {
+            NewtonError::NotConverged { worst_equation, .. } => (
+                self.plan.rows.get(*worst_equation).map_or_else(
+                    || "no equation named".to_string(),
+                    |&r| {
+                        format!(
+                            "largest residual in {}",
+                            self.describe(model, constraints, r)
+                        )
+                    },
+                ),
+                format!("no velocities satisfy the relations at this state: {domain}"),
+            ),
+            NewtonError::NonFiniteResidual { equation, .. } => (
+                self.plan.rows.get(*equation).map_or_else(
+                    || "no equation named".to_string(),
+                    |&r| {
+                        format!(
+                            "NaN or infinity in {}",
+                            self.describe(model, constraints, r)
+                        )
+                    },
+                ),
+                domain.to_string(),
+            ),
+            NewtonError::Linear { source, .. } => {
+                let index = match source {
+                    LinearSolveError::NumericallySingular { index }
+                    | LinearSolveError::StructurallySingular { index }
+                    | LinearSolveError::NonFinite { index } => Some(*index),
+                    LinearSolveError::EmptyColumn { col } => Some(*col),
+                    _ => None,
+                };
+                (
+                    index.and_then(|c| self.plan.cols.get(c)).map_or_else(
+                        || "the readout system is singular at this state".to_string(),
+                        |&c| {
+                            format!(
+                                "{} is not determined by the relations at this state",
+                                self.describe_unknown(model, constraints, c)
+                            )
+                        },
+                    ),
+                    format!(
+                        "the relations are singular here although they were not at the start: {domain}"
+                    ),
+                )
+            }
+        }
+    }
+
+    /// Names full unknown `c` of `(v, γ, a, λ)`.
+    fn describe_unknown<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+        c: usize,
+    ) -> String {
+        let (n, m) = (self.plan.n, self.plan.m);
+        if c < n {
+            format!("the rate of `{}`", model.coordinate_name(c))
+        } else if c < n + m {
+            format!("the impulse of constraint `{}`", constraints.name(c - n))
+        } else if c < 2 * n + m {
+            format!("the acceleration of `{}`", model.coordinate_name(c - n - m))
+        } else {
+            format!(
+                "the multiplier of constraint `{}`",
+                constraints.name(c - 2 * n - m)
+            )
+        }
+    }
+
+    fn describe<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &self,
+        model: &M,
+        constraints: &C,
+        r: usize,
+    ) -> String {
+        let layout = Layout {
+            n: self.plan.n,
+            m: self.plan.m,
+        };
+        match layout.kind(r) {
+            ReadoutRow::Momentum(i) => {
+                format!("momentum of `{}`", model.coordinate_name(i))
+            }
+            ReadoutRow::Constraint(a) => format!("constraint `{}`", constraints.name(a)),
+            ReadoutRow::Force(i) => format!("force balance of `{}`", model.coordinate_name(i)),
+            ReadoutRow::Acceleration(a) => {
+                format!("constraint `{}` (differentiated)", constraints.name(a))
+            }
+        }
+    }
+}
+
+impl ReadoutPlan {
+    /// The structural analysis of the readout equations whose derivatives `work` holds.
+    fn analyse<M: Model + ?Sized, C: Constraints + ?Sized>(
+        model: &M,
+        constraints: &C,
+        work: &Work,
+    ) -> Self {
         let n = model.dim();
         let m = constraints.count();
         let size = 2 * n + 2 * m;
-        let mut work = Work {
-            full: vec![0.0; size],
-            residual: vec![0.0; size],
-            lq: vec![0.0; n],
-            lv: vec![0.0; n],
-            f: vec![0.0; n],
-            ..Work::default()
-        };
-        work.stamp(model, constraints, q, v, t);
         let layout = Layout { n, m };
         let mut pattern = Vec::new();
-        layout.jacobian_entries(&work, |r, c, _| pattern.push((r, c)));
+        layout.jacobian_entries(work, |r, c, _| pattern.push((r, c)));
         // Prefer to solve for outputs (velocities, multipliers) over accelerations and gauges.
         let mut priority = vec![0u8; size];
         priority[n..n + m].fill(2);
@@ -251,16 +709,9 @@ impl Readout {
             .map(|a| !structure.is_underdetermined_col(2 * n + m + a))
             .collect();
         let constant = model.is_linear() && constraints.is_constant();
-        let options = NewtonOptions {
-            reuse_jacobian: false,
-            update_tol: 1e-13,
-            ..NewtonOptions::default()
-        };
         Self {
             n,
             m,
-            newton: Newton::new(AutoLu::for_size(SolverChoice::Auto, rows.len()), options),
-            reduced: vec![0.0; rows.len()],
             cols,
             rows,
             col_slot,
@@ -270,380 +721,6 @@ impl Readout {
             redundant,
             overdetermined,
             constant,
-            scale: 0.0,
-            work,
-            stats: NewtonStats::default(),
-        }
-    }
-
-    /// Solves for the velocities and multipliers at `(q, p, t)`, starting from the last solution.
-    ///
-    /// # Errors
-    /// When Newton fails (a singular system at this state, or no convergence).
-    pub fn solve<M: Model + ?Sized, C: Constraints + ?Sized>(
-        &mut self,
-        model: &M,
-        constraints: &C,
-        q: &[f64],
-        p: &[f64],
-        t: f64,
-    ) -> Result<(), ReadoutError> {
-        let mut system = System {
-            layout: Layout {
-                n: self.n,
-                m: self.m,
-            },
-            model,
-            constraints,
-            q,
-            p,
-            t,
-            cols: &self.cols,
-            rows: &self.rows,
-            col_slot: &self.col_slot,
-            row_slot: &self.row_slot,
-            work: &mut self.work,
-            constant: self.constant,
-            at_zero: false,
-        };
-        if self.rows.is_empty() {
-            system.scatter(&self.reduced);
-            return Ok(());
-        }
-        if self.constant {
-            // Affine: one update from zero is exact, and the residual at zero needs no products.
-            self.reduced.fill(0.0);
-            system.at_zero = true;
-        }
-        match self.newton.solve(&mut system, &mut self.reduced) {
-            Ok(stats) => {
-                self.stats.accumulate(&stats);
-                system.scatter(&self.reduced);
-                Ok(())
-            }
-            Err(source) => {
-                let (equation, likely_cause) = self.explain(model, constraints, &source);
-                Err(ReadoutError {
-                    step: None,
-                    t,
-                    source,
-                    equation,
-                    likely_cause,
-                })
-            }
-        }
-    }
-
-    /// Velocities `v` at the state of the last [`Readout::solve`].
-    #[must_use]
-    pub fn velocities(&self) -> &[f64] {
-        &self.work.full[..self.n]
-    }
-
-    /// Multipliers `λ` (one per constraint row) at the state of the last [`Readout::solve`].
-    #[must_use]
-    pub fn multipliers(&self) -> &[f64] {
-        let o = 2 * self.n + self.m;
-        &self.work.full[o..o + self.m]
-    }
-
-    /// Accelerations `a`, where a multiplier needed them (0 elsewhere: only what the velocities and
-    /// multipliers depend on is solved).
-    #[must_use]
-    pub fn accelerations(&self) -> &[f64] {
-        let o = self.n + self.m;
-        &self.work.full[o..o + self.n]
-    }
-
-    /// Whether velocity `i` follows from the algebraic relations (else it needs a differentiated
-    /// relation: an index-2 quantity).
-    #[must_use]
-    pub fn velocity_determined(&self, i: usize) -> bool {
-        self.velocity_determined[i]
-    }
-
-    /// Whether multiplier `a` follows from the algebraic relations.
-    #[must_use]
-    pub fn multiplier_determined(&self, a: usize) -> bool {
-        self.multiplier_determined[a]
-    }
-
-    /// The equations left out of the solve (they restate others: consistency conditions).
-    #[must_use]
-    pub fn redundant_equations(&self) -> Vec<ReadoutRow> {
-        let layout = Layout {
-            n: self.n,
-            m: self.m,
-        };
-        self.redundant.iter().map(|&r| layout.kind(r)).collect()
-    }
-
-    /// Residuals of the left-out equations at the last solution: nonzero values say the state
-    /// violates an algebraic relation (an inconsistent start), with the equation's kind.
-    pub fn consistency_residuals<M: Model + ?Sized, C: Constraints + ?Sized>(
-        &mut self,
-        model: &M,
-        constraints: &C,
-        q: &[f64],
-        p: &[f64],
-        t: f64,
-    ) -> Vec<(ReadoutRow, f64)> {
-        let layout = Layout {
-            n: self.n,
-            m: self.m,
-        };
-        self.work
-            .stamp(model, constraints, q, self.velocities_owned().as_slice(), t);
-        let full = std::mem::take(&mut self.work.full);
-        let mut residual = std::mem::take(&mut self.work.residual);
-        layout.residual(&mut self.work, model, q, p, t, &full, &mut residual);
-        self.scale = term_scale(p, &self.work);
-        let out = self
-            .redundant
-            .iter()
-            .map(|&r| (layout.kind(r), residual[r]))
-            .collect();
-        self.work.full = full;
-        self.work.residual = residual;
-        out
-    }
-
-    fn velocities_owned(&self) -> Vec<f64> {
-        self.velocities().to_vec()
-    }
-
-    /// Magnitude of the terms of the equations at the last [`Readout::consistency_residuals`]
-    /// (momenta, forces): the scale against which a residual is small.
-    #[must_use]
-    pub fn scale(&self) -> f64 {
-        self.scale
-    }
-
-    /// The state's positions and velocities that enter the over-determined equations (those that
-    /// fix some value more than once): what may be moved to make a start consistent.
-    #[must_use]
-    pub(crate) fn involved(&self, _violated: &[ReadoutRow]) -> Vec<crate::simulation::Unknown> {
-        use crate::simulation::Unknown;
-        let layout = Layout {
-            n: self.n,
-            m: self.m,
-        };
-        let mut out = Vec::new();
-        let mut push = |u: Unknown| {
-            if !out.contains(&u) {
-                out.push(u);
-            }
-        };
-        for &r in &self.overdetermined {
-            match layout.kind(r) {
-                ReadoutRow::Force(i) => {
-                    for (row, j, _) in self.work.hessian.qq.iter() {
-                        if row == i {
-                            push(Unknown::Position(j));
-                        }
-                    }
-                    for (row, j, _) in self.work.force_jacobian.q.iter() {
-                        if row == i {
-                            push(Unknown::Position(j));
-                        }
-                    }
-                }
-                ReadoutRow::Momentum(i) => {
-                    for (j, col, _) in self.work.hessian.qv.iter() {
-                        if col == i {
-                            push(Unknown::Position(j));
-                        }
-                    }
-                    for (row, j, _) in self.work.hessian.vv.iter() {
-                        if row == i {
-                            push(Unknown::Velocity(j));
-                        }
-                    }
-                }
-                ReadoutRow::Constraint(_) | ReadoutRow::Acceleration(_) => {}
-            }
-        }
-        out
-    }
-
-    /// The largest derivative of an over-determined equation with respect to the state's value
-    /// `unknown` (the scale of a finite-difference step that moves that equation visibly).
-    #[must_use]
-    pub(crate) fn sensitivity(&self, unknown: crate::simulation::Unknown) -> f64 {
-        use crate::simulation::Unknown;
-        let layout = Layout {
-            n: self.n,
-            m: self.m,
-        };
-        let mut worst: f64 = 0.0;
-        for &r in &self.overdetermined {
-            match (layout.kind(r), unknown) {
-                (ReadoutRow::Force(i), Unknown::Position(j)) => {
-                    for (row, col, value) in self
-                        .work
-                        .hessian
-                        .qq
-                        .iter()
-                        .chain(self.work.force_jacobian.q.iter())
-                    {
-                        if row == i && col == j {
-                            worst = worst.max(value.abs());
-                        }
-                    }
-                }
-                (ReadoutRow::Momentum(i), Unknown::Position(j)) => {
-                    for (row, col, value) in self.work.hessian.qv.iter() {
-                        if row == j && col == i {
-                            worst = worst.max(value.abs());
-                        }
-                    }
-                }
-                (ReadoutRow::Momentum(i), Unknown::Velocity(j)) => {
-                    for (row, col, value) in self.work.hessian.vv.iter() {
-                        if row == i && col == j {
-                            worst = worst.max(value.abs());
-                        }
-                    }
-                }
-                _ => {}
-            }
-        }
-        worst
-    }
-
-    /// Names an equation of the readout system.
-    #[must_use]
-    pub fn describe_row<M: Model + ?Sized, C: Constraints + ?Sized>(
-        &self,
-        model: &M,
-        constraints: &C,
-        row: ReadoutRow,
-    ) -> String {
-        let layout = Layout {
-            n: self.n,
-            m: self.m,
-        };
-        self.describe(model, constraints, layout.row(row))
-    }
-
-    /// Newton counters of every solve so far.
-    #[must_use]
-    /// The reduced unknowns the next nonlinear solve starts from (the last solution).
-    pub(crate) fn start_guess(&self) -> Vec<f64> {
-        self.reduced.clone()
-    }
-
-    /// Restores a start saved by [`Readout::start_guess`], so that a solve made on the side (the
-    /// natural modes) leaves the next readout exactly as it would have been without it.
-    pub(crate) fn restore_start_guess(&mut self, guess: &[f64]) {
-        self.reduced.copy_from_slice(guess);
-    }
-
-    pub fn stats(&self) -> NewtonStats {
-        self.stats
-    }
-
-    /// Names equation `r` of the full system.
-    /// The equation or unknown at fault in a failed solve, named, and the likely cause.
-    fn explain<M: Model + ?Sized, C: Constraints + ?Sized>(
-        &self,
-        model: &M,
-        constraints: &C,
-        error: &NewtonError,
-    ) -> (String, String) {
-        let domain = "the state left the model's domain: the step before it was too large for a nonlinear part, or a part was driven past its limit (a saturating inductor past its saturation flux, say)";
-        match error {
-            NewtonError::NotConverged { worst_equation, .. } => (
-                self.rows.get(*worst_equation).map_or_else(
-                    || "no equation named".to_string(),
-                    |&r| {
-                        format!(
-                            "largest residual in {}",
-                            self.describe(model, constraints, r)
-                        )
-                    },
-                ),
-                format!("no velocities satisfy the relations at this state: {domain}"),
-            ),
-            NewtonError::NonFiniteResidual { equation, .. } => (
-                self.rows.get(*equation).map_or_else(
-                    || "no equation named".to_string(),
-                    |&r| {
-                        format!(
-                            "NaN or infinity in {}",
-                            self.describe(model, constraints, r)
-                        )
-                    },
-                ),
-                domain.to_string(),
-            ),
-            NewtonError::Linear { source, .. } => {
-                let index = match source {
-                    LinearSolveError::NumericallySingular { index }
-                    | LinearSolveError::StructurallySingular { index }
-                    | LinearSolveError::NonFinite { index } => Some(*index),
-                    LinearSolveError::EmptyColumn { col } => Some(*col),
-                    _ => None,
-                };
-                (
-                    index.and_then(|c| self.cols.get(c)).map_or_else(
-                        || "the readout system is singular at this state".to_string(),
-                        |&c| {
-                            format!(
-                                "{} is not determined by the relations at this state",
-                                self.describe_unknown(model, constraints, c)
-                            )
-                        },
-                    ),
-                    format!(
-                        "the relations are singular here although they were not at the start: {domain}"
-                    ),
-                )
-            }
-        }
-    }
-
-    /// Names full unknown `c` of `(v, γ, a, λ)`.
-    fn describe_unknown<M: Model + ?Sized, C: Constraints + ?Sized>(
-        &self,
-        model: &M,
-        constraints: &C,
-        c: usize,
-    ) -> String {
-        let (n, m) = (self.n, self.m);
-        if c < n {
-            format!("the rate of `{}`", model.coordinate_name(c))
-        } else if c < n + m {
-            format!("the impulse of constraint `{}`", constraints.name(c - n))
-        } else if c < 2 * n + m {
-            format!("the acceleration of `{}`", model.coordinate_name(c - n - m))
-        } else {
-            format!(
-                "the multiplier of constraint `{}`",
-                constraints.name(c - 2 * n - m)
-            )
-        }
-    }
-
-    fn describe<M: Model + ?Sized, C: Constraints + ?Sized>(
-        &self,
-        model: &M,
-        constraints: &C,
-        r: usize,
-    ) -> String {
-        let layout = Layout {
-            n: self.n,
-            m: self.m,
-        };
-        match layout.kind(r) {
-            ReadoutRow::Momentum(i) => {
-                format!("momentum of `{}`", model.coordinate_name(i))
-            }
-            ReadoutRow::Constraint(a) => format!("constraint `{}`", constraints.name(a)),
-            ReadoutRow::Force(i) => format!("force balance of `{}`", model.coordinate_name(i)),
-            ReadoutRow::Acceleration(a) => {
-                format!("constraint `{}` (differentiated)", constraints.name(a))
-            }
         }
     }
 }
@@ -766,6 +843,29 @@ impl Layout {
 }
 
 impl Work {
+    /// Buffers for a model of `model.dim()` coordinates and `constraints.count()` rows, with the
+    /// derivatives stamped at `(q, v, t)`.
+    fn stamped<M: Model + ?Sized, C: Constraints + ?Sized>(
+        model: &M,
+        constraints: &C,
+        q: &[f64],
+        v: &[f64],
+        t: f64,
+    ) -> Self {
+        let n = model.dim();
+        let size = 2 * n + 2 * constraints.count();
+        let mut work = Self {
+            full: vec![0.0; size],
+            residual: vec![0.0; size],
+            lq: vec![0.0; n],
+            lv: vec![0.0; n],
+            f: vec![0.0; n],
+            ..Self::default()
+        };
+        work.stamp(model, constraints, q, v, t);
+        work
+    }
+
     /// Stamps the Hessian, the force Jacobian, the forms and the contracted form derivative at
     /// `(q, v, t)`.
     fn stamp<M: Model + ?Sized, C: Constraints + ?Sized>(

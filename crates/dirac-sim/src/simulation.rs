@@ -13,14 +13,16 @@ use std::time::Instant;
 use dirac_core::{Constraints, Model, RowSubset};
 use dirac_graph::{
     AssembledConstraints, AssembledModel, AssembledSystem, Assembler, ConnectionId, GraphError,
-    Interconnection, Representation,
+    Interconnection, Representation, StructureMemo,
 };
 use thiserror::Error;
 
 use crate::error::SimError;
 use crate::integrator::{Integrator, IntegratorOptions};
 use crate::modes::{MODAL_LIMIT, ModesError, NaturalModes};
-use crate::readout::{Readout, ReadoutError, ReadoutRow};
+use std::sync::Arc;
+
+use crate::readout::{Readout, ReadoutError, ReadoutPlan, ReadoutRow};
 use crate::signal::{Signal, Snapshot};
 use crate::staggered::{Splitting, Staggered};
 use crate::steady::{SteadyState, SteadyStateError};
@@ -481,24 +483,45 @@ impl Simulation {
             v.clone_from(&steady.v);
             integrator.initialise(&q, &v, self.t0)?;
         }
-        let mut readout = Readout::new(
-            integrator.model(),
-            integrator.active_constraints(),
-            integrator.q(),
-            &v,
-            self.t0,
-        );
-        if self.start == Start::Given {
-            let given = self.given_global(&system);
-            self.make_consistent(&mut integrator, &mut readout, &mut q, &mut v, &given)?;
-        }
-        self.warn_redundant(&system, &integrator);
-        Ok(AssembledEngine {
+        let representation = system.representation;
+        let mut engine = AssembledEngine {
+            start_q: integrator.q().to_vec(),
+            start_v: v.clone(),
+            t0: self.t0,
             system,
             integrator,
-            readout,
+            readout: None,
+            plan: None,
+            replay_start_solve: false,
+            memo: self.graph.memo().clone(),
+            representation,
             connection_rows,
-        })
+        };
+        if self.start == Start::Given {
+            // The start can violate an algebraic relation only where the readout system has a
+            // redundant equation (one that restates others); without one there is nothing to
+            // check, and the readout is built when a signal first needs it.
+            let plan = (!engine.fully_kinetic())
+                .then(|| engine.plan())
+                .filter(|plan| plan.has_consistency_conditions());
+            if let Some(plan) = plan {
+                let given = self.given_global(&engine.system);
+                let e = &mut engine;
+                let readout = e.readout.insert(Readout::with_plan(
+                    plan,
+                    e.integrator.model(),
+                    e.integrator.active_constraints(),
+                    &e.start_q,
+                    &e.start_v,
+                    e.t0,
+                ));
+                self.make_consistent(&mut e.integrator, readout, &mut q, &mut v, &given)?;
+            } else {
+                engine.replay_start_solve = true;
+            }
+        }
+        self.warn_redundant(&engine.system, &engine.integrator);
+        Ok(engine)
     }
 
     /// Warns about constraint rows dropped as linearly dependent, except the one row per closed
@@ -509,9 +532,14 @@ impl Simulation {
         system: &AssembledSystem,
         integrator: &Integrator<AssembledModel, AssembledConstraints>,
     ) {
-        let kept = integrator.active_constraints().kept();
         let all = integrator.constraints().count();
-        let dropped: Vec<usize> = (0..all).filter(|r| !kept.contains(r)).collect();
+        let mut is_kept = vec![false; all];
+        for &r in integrator.active_constraints().kept() {
+            if let Some(k) = is_kept.get_mut(r) {
+                *k = true;
+            }
+        }
+        let dropped: Vec<usize> = (0..all).filter(|&r| !is_kept[r]).collect();
         if dropped.is_empty() {
             return;
         }
@@ -755,8 +783,7 @@ impl Simulation {
         let h = self.options.h;
         match &mut self.engine {
             Some(Engine::Assembled(e)) => {
-                let integrator = &e.integrator;
-                let n = integrator.model().dim();
+                let n = e.integrator.model().dim();
                 if n > MODAL_LIMIT {
                     // Refused before the readout solve, which costs a factorisation at this size.
                     return Err(ModesError::TooLarge {
@@ -767,24 +794,24 @@ impl Simulation {
                 }
                 // The solve is on the side: the first recorded row must not depend on whether
                 // the modes were asked for (the CLI asks, the library's callers need not).
-                let guess = e.readout.start_guess();
-                let solved = e.readout.solve(
+                e.readout()?;
+                let (integrator, Some(readout)) = (&e.integrator, e.readout.as_mut()) else {
+                    return Err(RunError::Settings("readout not built".into()));
+                };
+                let guess = readout.start_guess();
+                let solved = readout.solve(
                     integrator.model(),
                     integrator.active_constraints(),
                     integrator.q(),
                     integrator.p(),
                     integrator.t(),
                 );
-                e.readout.restore_start_guess(&guess);
+                readout.restore_start_guess(&guess);
                 solved?;
                 let modes = NaturalModes::analyse(
                     integrator.model(),
                     integrator.active_constraints(),
-                    (
-                        integrator.q(),
-                        e.readout.velocities(),
-                        e.readout.multipliers(),
-                    ),
+                    (integrator.q(), readout.velocities(), readout.multipliers()),
                     integrator.t(),
                     h,
                 )?;
@@ -1021,9 +1048,14 @@ impl Simulation {
 
     /// Entries of the snapshot that `signals` read and the algebraic relations do not fix.
     fn deferred_entries(&mut self, signals: &[Signal]) -> Vec<Entry> {
-        let Some(engine) = &self.engine else {
+        if !self.needs_readout(signals) {
+            return Vec::new();
+        }
+        let Some(engine) = &mut self.engine else {
             return Vec::new();
         };
+        engine.analyse_readout();
+        let engine = &*engine;
         let mut velocities = Vec::new();
         let mut efforts = Vec::new();
         for signal in signals {
@@ -1186,12 +1218,19 @@ fn connection_active_rows<C: Constraints>(
     system: &AssembledSystem,
     active: &RowSubset<C>,
 ) -> Vec<Option<usize>> {
-    let kept = active.kept();
+    // Active index of each full row (a table: a search per connection is quadratic on a
+    // 10⁵-node circuit).
+    let mut active_of = vec![None; system.constraint_rows()];
+    for (k, &row) in active.kept().iter().enumerate() {
+        if let Some(slot) = active_of.get_mut(row) {
+            *slot = Some(k);
+        }
+    }
     (0..system.connection_count())
         .map(|c| {
             system
                 .connection_row(c)
-                .and_then(|row| kept.iter().position(|&k| k == row))
+                .and_then(|row| active_of.get(row).copied().flatten())
         })
         .collect()
 }
@@ -1255,8 +1294,131 @@ enum Engine {
 struct AssembledEngine {
     system: AssembledSystem,
     integrator: Integrator<AssembledModel, AssembledConstraints>,
-    readout: Readout,
+    /// The readout, built when first needed (a signal that reads a rate or a multiplier, the
+    /// natural modes, or a start to check).
+    readout: Option<Readout>,
+    /// Its structural analysis, when asked for before the readout itself.
+    plan: Option<Arc<ReadoutPlan>>,
+    /// The start state the readout's buffers are stamped at (as the eager set-up did).
+    start_q: Vec<f64>,
+    start_v: Vec<f64>,
+    t0: f64,
+    /// A given start whose check was skipped (nothing to check): the readout, when built before
+    /// the first step, first solves at the start as that check did, so that its Newton iteration
+    /// then starts from the same guess and the values read are the same to the last bit.
+    replay_start_solve: bool,
+    /// Where the graph keeps structural analyses (shared by its clones).
+    memo: StructureMemo,
+    representation: Representation,
     connection_rows: Vec<Option<usize>>,
+}
+
+/// A readout analysis stored in the graph's memo, valid for one representation and one set of
+/// kept constraint rows.
+struct MemoPlan {
+    representation: Representation,
+    kept: Vec<usize>,
+    plan: Arc<ReadoutPlan>,
+}
+
+impl AssembledEngine {
+    /// Whether the model is unconstrained with a kinetic term in every coordinate (the pattern
+    /// of `∂²L/∂v²` holds its whole diagonal): the readout equations then match one to one
+    /// (momentum `i` to velocity `i`, force balance `i` to acceleration `i`), so none is redundant
+    /// and a start has nothing to check, which is known without the structural analysis.
+    fn fully_kinetic(&self) -> bool {
+        if self.integrator.active_constraints().count() > 0 {
+            return false;
+        }
+        let n = self.integrator.model().dim();
+        let mut hessian = dirac_core::LagrangianHessian::default();
+        hessian.begin();
+        self.integrator
+            .model()
+            .lagrangian_hessian(&self.start_q, &self.start_v, &mut hessian);
+        hessian.freeze();
+        let mut diagonal = vec![false; n];
+        for (i, j, _) in hessian.vv.iter() {
+            if i == j && i < n {
+                diagonal[i] = true;
+            }
+        }
+        diagonal.iter().all(|&d| d)
+    }
+
+    /// The readout's structural analysis: the readout's own, the graph's memo's (same
+    /// representation and kept rows), or analysed now and stored there.
+    fn plan(&mut self) -> Arc<ReadoutPlan> {
+        if let Some(readout) = &self.readout {
+            return Arc::clone(readout.plan());
+        }
+        if let Some(plan) = &self.plan {
+            return Arc::clone(plan);
+        }
+        let kept = self.integrator.active_constraints().kept();
+        let representation = self.representation;
+        let plan = if let Some(memo) = self
+            .memo
+            .find(|m: &MemoPlan| m.representation == representation && m.kept == kept)
+        {
+            Arc::clone(&memo.plan)
+        } else {
+            let plan = Readout::analyse(
+                self.integrator.model(),
+                self.integrator.active_constraints(),
+                &self.start_q,
+                &self.start_v,
+                self.t0,
+            );
+            self.memo.insert(Arc::new(MemoPlan {
+                representation,
+                kept: kept.to_vec(),
+                plan: Arc::clone(&plan),
+            }));
+            plan
+        };
+        self.plan = Some(Arc::clone(&plan));
+        plan
+    }
+
+    /// The readout, built on first use.
+    ///
+    /// # Errors
+    /// The replayed solve at the start (see `replay_start_solve`) failing.
+    fn readout(&mut self) -> Result<&mut Readout, RunError> {
+        if self.readout.is_none() {
+            let plan = self.plan();
+            let integrator = &self.integrator;
+            let mut readout = Readout::with_plan(
+                plan,
+                integrator.model(),
+                integrator.active_constraints(),
+                &self.start_q,
+                &self.start_v,
+                self.t0,
+            );
+            if std::mem::take(&mut self.replay_start_solve) && integrator.steps_taken() == 0 {
+                readout.solve(
+                    integrator.model(),
+                    integrator.active_constraints(),
+                    integrator.q(),
+                    integrator.p(),
+                    integrator.t(),
+                )?;
+                readout.consistency_residuals(
+                    integrator.model(),
+                    integrator.active_constraints(),
+                    integrator.q(),
+                    integrator.p(),
+                    integrator.t(),
+                );
+            }
+            self.readout = Some(readout);
+        }
+        self.readout
+            .as_mut()
+            .ok_or_else(|| RunError::Settings("readout not built".into()))
+    }
 }
 
 struct StaggeredEngine {
@@ -1283,25 +1445,28 @@ impl Engine {
         out.efforts.resize(connections, None);
         match self {
             Self::Assembled(e) => {
-                let integrator = &e.integrator;
                 let parts = e.system.subsystem_coordinates();
-                out.t = integrator.t();
+                out.t = e.integrator.t();
                 out.q.clear();
-                out.q.extend_from_slice(&integrator.q()[..parts]);
+                out.q.extend_from_slice(&e.integrator.q()[..parts]);
                 if fill.momenta {
-                    out.p = e.system.subsystem_momenta(integrator.p());
+                    out.p = e.system.subsystem_momenta(e.integrator.p());
                 }
                 out.v.resize(parts, 0.0);
                 if fill.readout {
-                    e.readout.solve(
+                    e.readout()?;
+                    let (integrator, Some(readout)) = (&e.integrator, e.readout.as_mut()) else {
+                        return Err(RunError::Settings("readout not built".into()));
+                    };
+                    readout.solve(
                         integrator.model(),
                         integrator.active_constraints(),
                         integrator.q(),
                         integrator.p(),
                         integrator.t(),
                     )?;
-                    out.v.copy_from_slice(&e.readout.velocities()[..parts]);
-                    let lambda = e.readout.multipliers();
+                    out.v.copy_from_slice(&readout.velocities()[..parts]);
+                    let lambda = readout.multipliers();
                     for (effort, row) in out.efforts.iter_mut().zip(&e.connection_rows) {
                         *effort = row.map(|r| lambda[r]);
                     }
@@ -1381,9 +1546,19 @@ impl Engine {
         }
     }
 
+    /// Makes the readout's structural analysis available to [`Engine::velocity_determined`] and
+    /// [`Engine::effort_determined`].
+    fn analyse_readout(&mut self) {
+        if let Self::Assembled(e) = self {
+            e.plan();
+        }
+    }
+
+    /// Whether velocity `i` follows from the algebraic relations (after
+    /// [`Engine::analyse_readout`]; assumed so before).
     fn velocity_determined(&self, i: usize) -> bool {
         match self {
-            Self::Assembled(e) => e.readout.velocity_determined(i),
+            Self::Assembled(e) => e.plan.as_ref().is_none_or(|p| p.velocity_determined(i)),
             Self::Staggered(e) => {
                 let mut offset = 0;
                 for (part, readout) in e.staggered.parts().iter().zip(&e.readouts) {
@@ -1405,7 +1580,7 @@ impl Engine {
                 .get(c.0)
                 .copied()
                 .flatten()
-                .is_none_or(|r| e.readout.multiplier_determined(r)),
+                .is_none_or(|r| e.plan.as_ref().is_none_or(|p| p.multiplier_determined(r))),
             Self::Staggered(_) => true,
         }
     }
@@ -1418,7 +1593,7 @@ impl Engine {
                 summary.steps = e.integrator.steps_taken();
                 summary.newton_iterations = stats.iterations;
                 summary.factorisations = stats.factorisations;
-                summary.readout_iterations = e.readout.stats().iterations;
+                summary.readout_iterations = e.readout.as_ref().map_or(0, |r| r.stats().iterations);
                 summary.breakpoint_substeps = counters.breakpoint_substeps;
                 summary.step_cuts = counters.step_cuts;
             }
