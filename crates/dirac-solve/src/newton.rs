@@ -411,16 +411,16 @@ impl<S: LinearSolver> Newton<S> {
             // than the jitter that round-off in the residual gives it (asked only once Newton has
             // had an update to converge with).
             if !small_update && !damped && !reuse && (exact_update || !modified) {
-                self.unknown_scales(system, x);
+                self.term_sizes(system, x);
+                self.unknown_scales(x);
                 let noise = iteration > 0;
                 if noise && !noise_known {
                     noise_known = true;
-                    self.noise_floor(system, x)
-                        .map_err(|source| NewtonError::Linear {
-                            source,
-                            residual: rnorm,
-                            worst_equation: worst,
-                        })?;
+                    self.noise_floor().map_err(|source| NewtonError::Linear {
+                        source,
+                        residual: rnorm,
+                        worst_equation: worst,
+                    })?;
                 }
                 small_update = self
                     .update
@@ -439,6 +439,17 @@ impl<S: LinearSolver> Newton<S> {
         unreachable_converged()
     }
 
+    /// Fills `magnitude` with the size of every equation's terms at `x`,
+    /// `m_i = c_i + Σ_j |J_ij x_j|` (`c` from [`NonlinearSystem::constant_magnitudes`], `J` the
+    /// last stamped Jacobian): the yardstick of the residual test, the unknowns' scales and the
+    /// noise floor.
+    fn term_sizes<F: NonlinearSystem + ?Sized>(&mut self, system: &mut F, x: &[f64]) {
+        system.constant_magnitudes(&mut self.magnitude);
+        for (r, c, v) in self.jacobian.iter() {
+            self.magnitude[r] += (v * x[c]).abs();
+        }
+    }
+
     /// The largest `|F_i(x)| / (c_i + Σ_j |J_ij x_j|)` over the equations (`c` the system's
     /// [`NonlinearSystem::constant_magnitudes`]), with the equation where it is attained (the
     /// last residual and the last stamped Jacobian; an equation whose terms all vanish counts as
@@ -448,10 +459,7 @@ impl<S: LinearSolver> Newton<S> {
         system: &mut F,
         x: &[f64],
     ) -> (f64, usize) {
-        system.constant_magnitudes(&mut self.magnitude);
-        for (r, c, v) in self.jacobian.iter() {
-            self.magnitude[r] += (v * x[c]).abs();
-        }
+        self.term_sizes(system, x);
         let mut worst = 0.0;
         let mut at = 0;
         for (i, (r, m)) in self.residual.iter().zip(&self.magnitude).enumerate() {
@@ -473,11 +481,8 @@ impl<S: LinearSolver> Newton<S> {
     /// pinned body's position, 1e-32 next to momenta of 1, or a joint multiplier of 1e-4), whose
     /// relative resolution no equation needs. Equations where the unknown barely enters (a
     /// junction voltage through the 1e-12 S of GMIN) say nothing about its size and are left out.
-    fn unknown_scales<F: NonlinearSystem + ?Sized>(&mut self, system: &mut F, x: &[f64]) {
-        system.constant_magnitudes(&mut self.magnitude);
-        for (r, c, v) in self.jacobian.iter() {
-            self.magnitude[r] += (v * x[c]).abs();
-        }
+    /// Reads the term sizes [`Newton::term_sizes`] left at `x`.
+    fn unknown_scales(&mut self, x: &[f64]) {
         for (s, xi) in self.unknown_scale.iter_mut().zip(x) {
             *s = xi.abs();
         }
@@ -499,16 +504,9 @@ impl<S: LinearSolver> Newton<S> {
     /// determine each unknown from the factorisation at hand, in the unknown's own units: a
     /// constraint multiplier inherits the round-off of the positions times the stiffness `M/h²`
     /// of the equation that fixes it, a node charge that of the currents in its KCL row. Two
-    /// solves with the current factorisation; no new one.
-    fn noise_floor<F: NonlinearSystem + ?Sized>(
-        &mut self,
-        system: &mut F,
-        x: &[f64],
-    ) -> Result<(), LinearSolveError> {
-        system.constant_magnitudes(&mut self.magnitude);
-        for (r, c, v) in self.jacobian.iter() {
-            self.magnitude[r] += (v * x[c]).abs();
-        }
+    /// solves with the current factorisation; no new one. Reads the term sizes
+    /// [`Newton::term_sizes`] left at the current iterate.
+    fn noise_floor(&mut self) -> Result<(), LinearSolveError> {
         self.noise.fill(0.0);
         for pattern in [0x9E37_79B9_7F4A_7C15_u64, 0xD1B5_4A32_D192_ED03] {
             let mut state = pattern;
@@ -541,10 +539,9 @@ impl<S: LinearSolver> Newton<S> {
     /// in an equation whose terms all vanish at the root (a joint row `Δx = 0` between bodies at
     /// rest), where no relative test can pass.
     fn stagnated<F: NonlinearSystem + ?Sized>(&mut self, system: &mut F, x: &[f64]) -> bool {
-        system.constant_magnitudes(&mut self.magnitude);
+        self.term_sizes(system, x);
         self.row_sum.fill(0.0);
-        for (r, c, v) in self.jacobian.iter() {
-            self.magnitude[r] += (v * x[c]).abs();
+        for (r, _, v) in self.jacobian.iter() {
             self.row_sum[r] += v.abs();
         }
         let floor = ROUNDOFF * max_norm(x).0;
@@ -1040,7 +1037,8 @@ mod tests {
         let mut newton = Newton::new(DenseLu::new(), exact_newton());
         let mut x = [0.0; 4];
         newton.solve(&mut system, &mut x).unwrap();
-        newton.noise_floor(&mut system, &x).unwrap();
+        newton.term_sizes(&mut system, &x);
+        newton.noise_floor().unwrap();
         for (i, (eta, xi)) in newton.noise.iter().zip(&x).enumerate() {
             let expected = 2.0 * f64::EPSILON * xi.abs();
             assert!(
@@ -1081,7 +1079,8 @@ mod tests {
         let mut newton = Newton::new(DenseLu::new(), exact_newton());
         let mut x = [0.0; 2];
         newton.solve(&mut Weak, &mut x).unwrap();
-        newton.unknown_scales(&mut Weak, &x);
+        newton.term_sizes(&mut Weak, &x);
+        newton.unknown_scales(&x);
         let expected = [2.0, 4.0];
         for (j, (s, e)) in newton.unknown_scale.iter().zip(expected).enumerate() {
             assert!(
