@@ -465,6 +465,7 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     for w in prepared.warnings() {
         eprintln!("warning: {w}");
     }
+    let printed = prepared.warnings().len();
     let execution = prepared.execution();
     let options = prepared.options().clone();
     if matches!(execution, Execution::Assembled(_))
@@ -506,6 +507,10 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
         Ok(_) => {}
     }
     out.commit()?;
+    // What the run itself found (values read from the steps), after the set-up's warnings.
+    for w in summary.warnings.iter().skip(printed) {
+        eprintln!("warning: {w}");
+    }
     if args.json_summary {
         eprintln!("{}", summary_json(&model, execution, h, t_end, &summary));
     }

@@ -1273,6 +1273,39 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         &self.impulse
     }
 
+    /// Where the mean constraint force of a step ([`Integrator::last_step_impulses`] over `h`)
+    /// sits in time, as a fraction `c` of `h` after `t_k`: it approximates the multiplier at
+    /// `t_k + c·h` to `O(h²)`. A Galerkin step's multiplier blocks weigh the constraint force
+    /// with the basis of the control points they belong to (`Λʲ ≈ h Σᵢ bᵢ ℓⱼ(cᵢ) λ(cᵢ)`); the
+    /// (+) step has no block for its end point, whose share `w = Σᵢ bᵢ ℓ_s(cᵢ)` the next step's
+    /// first block carries, so its impulse is centred at `½ − w` (the midpoint rule: `0`, the
+    /// impulse on `p_k`; a quadratic path on `0, ½, 1`: `⅓`), the (−) step's at `½ + w`, the
+    /// symmetric pair's at `½`. A composition averages its substeps' centres by their `γᵢ`.
+    #[must_use]
+    pub fn impulse_centre(&self) -> f64 {
+        let path = self.options.discretisation.path();
+        let rule = self.options.discretisation.force_rule();
+        let s = path.degree();
+        let w: f64 = rule
+            .nodes()
+            .iter()
+            .zip(rule.weights())
+            .map(|(&c, &b)| b * path.basis(c, s))
+            .sum();
+        let within = match self.options.scheme {
+            Scheme::Plus => 0.5 - w,
+            Scheme::Minus => 0.5 + w,
+            Scheme::Symmetric => 0.5,
+        };
+        let mut start = 0.0;
+        let mut centre = 0.0;
+        for &gamma in self.options.composition.gammas() {
+            centre += gamma * (start + gamma * within);
+            start += gamma;
+        }
+        centre
+    }
+
     /// The step size `h`.
     #[must_use]
     pub fn step_size(&self) -> f64 {

@@ -34,6 +34,16 @@ impl AutoLu {
             SolverChoice::Auto => Self::Sparse(Box::default()),
         }
     }
+
+    /// The same solver with pivots up to `tol` (relative, see
+    /// [`DenseLu::with_pivot_tolerance`]) counted as zero.
+    #[must_use]
+    pub fn with_pivot_tolerance(self, tol: f64) -> Self {
+        match self {
+            Self::Dense(s) => Self::Dense(s.with_pivot_tolerance(tol)),
+            Self::Sparse(s) => Self::Sparse(Box::new((*s).with_pivot_tolerance(tol))),
+        }
+    }
 }
 
 impl LinearSolver for AutoLu {

@@ -34,7 +34,8 @@
 
 use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
 use dirac_solve::{
-    LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Structure,
+    LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Precision,
+    Structure,
 };
 
 use std::sync::Arc;
@@ -67,7 +68,25 @@ pub struct Readout {
     reduced: Vec<f64>,
     work: Work,
     stats: NewtonStats,
+    /// Per full unknown, whether the last solve determined it to [`READOUT_PRECISION`].
+    precise: Vec<bool>,
 }
+
+/// The relative precision (round-off jitter over scale, [`Newton::precision`]) below which a
+/// value read from `(q_k, p_k, t_k)` is taken as determined by that state: `10⁶·ε`, a condition
+/// number of 10⁶ from the state to the value. A value above it is fixed by the state only through
+/// a coefficient lost among the others (a node potential behind an off diode, read as `i/g`
+/// from a winding current with `g` = 1e-12 S): the state's own error, which is not round-off
+/// but the scheme's (the midpoint rule leaves such a stiff mode ringing at ±1e-10 A about its
+/// slow value), then reaches the value magnified a million times or more, so it is read from the
+/// steps instead (see [`Readout::velocity_precise`]). Well-determined values sit near `ε` to
+/// `10³·ε`.
+pub const READOUT_PRECISION: f64 = 1e6 * f64::EPSILON;
+
+/// Pivots the readout's LU treats as zero: `ε²` of their (equilibrated) row. Larger tiny pivots
+/// are let through, and the unknowns they leave ill-determined are found by their round-off
+/// jitter instead (so one of them does not stop the readout of the others).
+const READOUT_PIVOT_TOL: f64 = f64::EPSILON * f64::EPSILON;
 
 /// What the structural analysis of the readout system found: which unknowns and equations are
 /// solved, which are free or redundant. A function of the pattern alone, so it is shared by every
@@ -219,10 +238,12 @@ impl Readout {
         };
         Self {
             newton: Newton::new(
-                AutoLu::for_size(SolverChoice::Auto, plan.rows.len()),
+                AutoLu::for_size(SolverChoice::Auto, plan.rows.len())
+                    .with_pivot_tolerance(READOUT_PIVOT_TOL),
                 options,
             ),
             reduced: vec![0.0; plan.rows.len()],
+            precise: vec![true; 2 * plan.n + 2 * plan.m],
             plan,
             scale: 0.0,
             work,
@@ -272,6 +293,38 @@ impl Readout {
         match self.newton.solve(&mut system, &mut self.reduced) {
             Ok(stats) => {
                 self.stats.accumulate(&stats);
+                self.precise.fill(true);
+                let precision =
+                    self.newton
+                        .precision(&mut system, &self.reduced)
+                        .map_err(|source| NewtonError::Linear {
+                            source,
+                            residual: 0.0,
+                            worst_equation: 0,
+                        });
+                match precision {
+                    Ok(Some(Precision { jitter, scale })) => {
+                        // Judged against the unknown's scale, but never below the largest
+                        // unknown's size: an unknown whose equations' terms all vanish (a body's
+                        // rate about a still axis) has no scale of its own, and only values
+                        // ill-conditioned against the whole readout are read from the steps.
+                        let largest = self.reduced.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+                        for ((&c, eta), s) in self.plan.cols.iter().zip(jitter).zip(scale) {
+                            self.precise[c] = *eta <= READOUT_PRECISION * s.max(largest);
+                        }
+                    }
+                    Ok(None) => {}
+                    Err(source) => {
+                        let (equation, likely_cause) = self.explain(model, constraints, &source);
+                        return Err(ReadoutError {
+                            step: None,
+                            t,
+                            source,
+                            equation,
+                            likely_cause,
+                        });
+                    }
+                }
                 system.scatter(&self.reduced);
                 Ok(())
             }
@@ -307,6 +360,21 @@ impl Readout {
     pub fn accelerations(&self) -> &[f64] {
         let o = self.plan.n + self.plan.m;
         &self.work.full[o..o + self.plan.n]
+    }
+
+    /// Whether the last solve determined velocity `i` to [`READOUT_PRECISION`] (else the state
+    /// fixes it only through a coefficient lost in round-off, and the caller reads it from the
+    /// steps, as it does a velocity that is not [`Readout::velocity_determined`]).
+    #[must_use]
+    pub fn velocity_precise(&self, i: usize) -> bool {
+        self.precise[i]
+    }
+
+    /// Whether the last solve determined multiplier `a` to [`READOUT_PRECISION`] (see
+    /// [`Readout::velocity_precise`]).
+    #[must_use]
+    pub fn multiplier_precise(&self, a: usize) -> bool {
+        self.precise[2 * self.plan.n + self.plan.m + a]
     }
 
     /// Whether velocity `i` follows from the algebraic relations (else it needs a differentiated

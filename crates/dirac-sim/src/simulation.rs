@@ -20,6 +20,7 @@ use thiserror::Error;
 use crate::error::SimError;
 use crate::integrator::{Integrator, IntegratorOptions};
 use crate::modes::{MODAL_LIMIT, ModesError, NaturalModes};
+use std::collections::VecDeque;
 use std::sync::Arc;
 
 use crate::readout::{Readout, ReadoutError, ReadoutPlan, ReadoutRow};
@@ -836,14 +837,20 @@ impl Simulation {
     /// Set-up failures, or a readout that cannot be computed.
     pub fn snapshot(&mut self) -> Result<Snapshot, RunError> {
         let mut snapshot = Snapshot::default();
-        self.snapshot_into(&mut snapshot, Fill::ALL)?;
+        self.snapshot_into(&mut snapshot, Fill::ALL, &mut Vec::new())?;
         Ok(snapshot)
     }
 
     /// Fills `snapshot` with the current state (reusing its buffers): always the positions, the
     /// readout (velocities and multipliers) and the momenta as `fill` asks (else left as they
-    /// were).
-    fn snapshot_into(&mut self, snapshot: &mut Snapshot, fill: Fill) -> Result<(), RunError> {
+    /// were); `imprecise` receives the velocities and efforts the readout did not determine to
+    /// [`crate::READOUT_PRECISION`].
+    fn snapshot_into(
+        &mut self,
+        snapshot: &mut Snapshot,
+        fill: Fill,
+        imprecise: &mut Vec<Entry>,
+    ) -> Result<(), RunError> {
         self.prepare()?;
         let residual = self.last_residual;
         let connections = self.graph.connections().len();
@@ -851,7 +858,7 @@ impl Simulation {
             .engine
             .as_mut()
             .ok_or_else(|| RunError::Settings("not prepared".into()))?;
-        engine.snapshot(snapshot, connections, residual, fill)
+        engine.snapshot(snapshot, connections, residual, fill, imprecise)
     }
 
     /// The time of the current state.
@@ -911,7 +918,10 @@ impl Simulation {
     ///
     /// Values the algebraic relations cannot fix at `t_k` (index-2 quantities: the current of a
     /// capacitor across a voltage source, the potential between an inductor and a current source)
-    /// are the mean of the two steps around `t_k`; asking for one delays each row by a step.
+    /// are the mean of the two steps around `t_k` (extrapolated from the first two and the last
+    /// two at the ends); asking for one delays each row by a step. So are values the relations
+    /// fix only through a coefficient lost in round-off at this state (a node potential behind an
+    /// off diode: [`crate::READOUT_PRECISION`]), row by row, with a warning naming the signal.
     ///
     /// # Errors
     /// Bad settings or signals, an inconsistent start, a step or readout that fails, or the sink.
@@ -949,62 +959,79 @@ impl Simulation {
         let steps = ((t_end - self.t0) / h).round() as usize;
         let names: Vec<String> = signals.iter().map(|s| s.name.clone()).collect();
         sink.begin(&names).map_err(RunError::Output)?;
-        let deferred = self.deferred_entries(signals);
+        let per_signal = self.signal_entries(signals);
+        let mut read: Vec<Entry> = Vec::new();
+        for entry in per_signal.iter().flatten() {
+            if !read.contains(entry) {
+                read.push(*entry);
+            }
+        }
+        let deferred = self.deferred_entries(&read);
         let mut values = vec![0.0; signals.len()];
         let mut max_residual: f64 = 0.0;
-        let mut pending: Option<Snapshot> = None;
-        let mut previous_mean: Option<StepMean> = None;
         let fill = Fill {
-            readout: self.needs_readout(signals),
+            readout: !read.is_empty(),
             momenta: signals.iter().any(|s| s.probe.reads_momenta()),
         };
+        // Means of the last steps, kept whenever rows read a readout: a value the state at t_k
+        // does not determine precisely (`imprecise`) is read from them, as the deferred ones.
+        let mut means = Means {
+            steps,
+            centre: self.engine.as_ref().map_or(0.5, Engine::impulse_centre),
+            ..Means::default()
+        };
+        let mut before: Vec<f64> = Vec::new();
+        let mut imprecise: Vec<Entry> = Vec::new();
+        let mut completed: Vec<Entry> = Vec::new();
+        let mut from_steps = FromSteps::new(signals.len());
+        // Rows with values from the steps, in order, waiting for the steps' means they need.
+        let mut pending: VecDeque<(usize, Snapshot, Vec<Entry>)> = VecDeque::new();
         let mut snapshot = Snapshot::default();
         for k in 0..=steps {
-            self.snapshot_into(&mut snapshot, fill)
+            self.snapshot_into(&mut snapshot, fill, &mut imprecise)
                 .map_err(|e| match e {
                     RunError::Readout(r) => RunError::Readout(r.at_step(k)),
                     other => other,
                 })?;
             let t_k = self.t0 + k as f64 * h;
-            if deferred.is_empty() {
+            completed.clone_from(&deferred);
+            for entry in &imprecise {
+                if read.contains(entry) && !completed.contains(entry) {
+                    completed.push(*entry);
+                }
+            }
+            if completed.is_empty() && pending.is_empty() {
                 self.emit(k, t_k, &snapshot, signals, &mut values, sink)?;
-                if k < steps {
-                    self.step()?;
-                    max_residual = max_residual.max(self.last_residual);
-                }
-                continue;
-            }
-            // Row k needs the mean of step k: take it, then complete and emit row k.
-            let before = snapshot.q.clone();
-            self.step()?;
-            max_residual = max_residual.max(self.last_residual);
-            let mean = self.step_mean(&before, h)?;
-            let mut row = snapshot.clone();
-            for &entry in &deferred {
-                let value = match &previous_mean {
-                    Some(previous) => 0.5 * (previous.get(entry) + mean.get(entry)),
-                    None => mean.get(entry),
-                };
-                row.set(entry, value);
-            }
-            if k == 0 {
-                pending = Some(row);
             } else {
-                if let Some(mut first) = pending.take() {
-                    // Row 0: extrapolate the step means at h/2 and 3h/2 back to t_0.
-                    let first_mean = previous_mean.as_ref().unwrap_or(&mean);
-                    for &entry in &deferred {
-                        first.set(entry, 1.5 * first_mean.get(entry) - 0.5 * mean.get(entry));
-                    }
-                    self.emit(0, self.t0, &first, signals, &mut values, sink)?;
+                if !completed.is_empty() {
+                    from_steps.record(t_k, &completed, &deferred, &per_signal);
                 }
-                self.emit(k, t_k, &row, signals, &mut values, sink)?;
+                pending.push_back((k, snapshot.clone(), completed.clone()));
             }
-            previous_mean = Some(mean);
+            // A run of no steps whose row 0 needs a step's mean takes one step.
+            if k < steps || !pending.is_empty() && means.taken == 0 {
+                max_residual = max_residual.max(self.step_with_mean(
+                    fill.readout,
+                    &snapshot,
+                    &mut before,
+                    &mut means,
+                )?);
+            }
+            while let Some((row, _, entries)) = pending.front() {
+                if !means.can_complete(*row, entries) {
+                    break;
+                }
+                let Some((row, mut values_at, entries)) = pending.pop_front() else {
+                    break;
+                };
+                for &entry in &entries {
+                    values_at.set(entry, means.value(row, entry));
+                }
+                let t = self.t0 + row as f64 * h;
+                self.emit(row, t, &values_at, signals, &mut values, sink)?;
+            }
         }
-        if let Some(first) = pending.take() {
-            self.emit(0, self.t0, &first, signals, &mut values, sink)?;
-        }
+        from_steps.warn(signals, &mut self.warnings);
         let mut summary = self.summary();
         summary.max_constraint_residual = self.track_residual.then_some(max_residual);
         summary.wall_s = started.elapsed().as_secs_f64();
@@ -1032,23 +1059,26 @@ impl Simulation {
         sink.row(k, t, values).map_err(RunError::Output)
     }
 
-    /// Whether any of `signals` reads a velocity or a multiplier (else rows need no readout).
-    fn needs_readout(&self, signals: &[Signal]) -> bool {
-        let needs = std::cell::Cell::new(false);
-        for signal in signals {
-            signal.probe.visit(
-                &self.graph,
-                &self.offsets,
-                &mut |_| needs.set(true),
-                &mut |_| needs.set(true),
-            );
-        }
-        needs.get()
+    /// Per signal, the snapshot entries it reads.
+    fn signal_entries(&self, signals: &[Signal]) -> Vec<Vec<Entry>> {
+        signals
+            .iter()
+            .map(|signal| {
+                let entries = std::cell::RefCell::new(Vec::new());
+                signal.probe.visit(
+                    &self.graph,
+                    &self.offsets,
+                    &mut |i| entries.borrow_mut().push(Entry::Velocity(i)),
+                    &mut |c| entries.borrow_mut().push(Entry::Effort(c.0)),
+                );
+                entries.into_inner()
+            })
+            .collect()
     }
 
-    /// Entries of the snapshot that `signals` read and the algebraic relations do not fix.
-    fn deferred_entries(&mut self, signals: &[Signal]) -> Vec<Entry> {
-        if !self.needs_readout(signals) {
+    /// Entries of `read` that the algebraic relations do not fix (structurally).
+    fn deferred_entries(&mut self, read: &[Entry]) -> Vec<Entry> {
+        if read.is_empty() {
             return Vec::new();
         }
         let Some(engine) = &mut self.engine else {
@@ -1056,38 +1086,50 @@ impl Simulation {
         };
         engine.analyse_readout();
         let engine = &*engine;
-        let mut velocities = Vec::new();
-        let mut efforts = Vec::new();
-        for signal in signals {
-            signal.probe.visit(
-                &self.graph,
-                &self.offsets,
-                &mut |i| {
-                    if !engine.velocity_determined(i) && !velocities.contains(&Entry::Velocity(i)) {
-                        velocities.push(Entry::Velocity(i));
-                    }
-                },
-                &mut |c| {
-                    if !engine.effort_determined(c) && !efforts.contains(&Entry::Effort(c.0)) {
-                        efforts.push(Entry::Effort(c.0));
-                    }
-                },
-            );
-        }
-        velocities.extend(efforts);
-        velocities
+        read.iter()
+            .copied()
+            .filter(|entry| match *entry {
+                Entry::Velocity(i) => !engine.velocity_determined(i),
+                Entry::Effort(c) => !engine.effort_determined(ConnectionId(c)),
+            })
+            .collect()
     }
 
-    /// The mean rates and constraint forces over the step just taken from positions `before`.
-    fn step_mean(&self, before: &[f64], h: f64) -> Result<StepMean, RunError> {
+    /// Takes one step; with `track`, records its mean rates and constraint forces in `means`
+    /// (from the positions of `snapshot`, the state it starts from). Returns the step's
+    /// constraint residual.
+    fn step_with_mean(
+        &mut self,
+        track: bool,
+        snapshot: &Snapshot,
+        before: &mut Vec<f64>,
+        means: &mut Means,
+    ) -> Result<f64, RunError> {
+        if track {
+            before.clone_from(&snapshot.q);
+        }
+        self.step()?;
+        if track {
+            let mut mean = means.recycle();
+            self.step_mean_into(before, self.options.h, &mut mean)?;
+            means.push(mean);
+        }
+        Ok(self.last_residual)
+    }
+
+    /// Writes into `mean` the mean rates and constraint forces over the step just taken from
+    /// positions `before` (reusing its buffers).
+    fn step_mean_into(&self, before: &[f64], h: f64, mean: &mut StepMean) -> Result<(), RunError> {
         let engine = self
             .engine
             .as_ref()
             .ok_or_else(|| RunError::Settings("not prepared".into()))?;
-        let after = engine.positions();
-        let rates = after.iter().zip(before).map(|(a, b)| (a - b) / h).collect();
-        let efforts = engine.mean_efforts(self.graph.connections().len(), h);
-        Ok(StepMean { rates, efforts })
+        engine.positions_into(&mut mean.rates);
+        for (rate, b) in mean.rates.iter_mut().zip(before) {
+            *rate = (*rate - b) / h;
+        }
+        engine.mean_efforts_into(self.graph.connections().len(), h, &mut mean.efforts);
+        Ok(())
     }
 
     /// Counters so far.
@@ -1235,6 +1277,140 @@ fn connection_active_rows<C: Constraints>(
         .collect()
 }
 
+/// The means of the last steps of a run, and how a value at `t_k` is read from them (see
+/// [`Simulation::run_into`]).
+#[derive(Default)]
+struct Means {
+    /// Steps of the run (`N`): means `m_0 … m_{N−1}`, step `j` from `t_j` to `t_{j+1}`.
+    steps: usize,
+    /// Where a step's mean constraint force sits in it ([`Integrator::impulse_centre`]).
+    centre: f64,
+    /// Steps taken so far (the index of the next mean).
+    taken: usize,
+    /// The last [`Means::KEPT`] means, oldest first.
+    last: VecDeque<StepMean>,
+}
+
+impl Means {
+    /// Means kept: a row needs at most the two after it, or those of steps 1 and 2 for rows 0
+    /// and 1, which wait for step 2.
+    const KEPT: usize = 4;
+
+    /// A mean to fill: the oldest one's buffers once [`Means::KEPT`] are held (it is no longer
+    /// needed), else new ones.
+    fn recycle(&mut self) -> StepMean {
+        if self.last.len() == Self::KEPT {
+            self.last.pop_front().unwrap_or_default()
+        } else {
+            StepMean::default()
+        }
+    }
+
+    fn push(&mut self, mean: StepMean) {
+        if self.last.len() == Self::KEPT {
+            self.last.pop_front();
+        }
+        self.last.push_back(mean);
+        self.taken += 1;
+    }
+
+    /// The two steps `(a, a + 1)` whose means give `entry` at `t_k` (`None`: a single step).
+    /// Around `t_k` they are steps `k − 1` and `k`; at the ends the nearest two. A constraint
+    /// force skips step 0 when the run has three or more: its impulse lacks the share of the
+    /// step before the start (the (+) step's first block carries it), so it holds only part of
+    /// the force.
+    fn pair(&self, k: usize, entry: Entry) -> Option<usize> {
+        let n = self.steps;
+        if n < 2 {
+            return None;
+        }
+        let low = usize::from(matches!(entry, Entry::Effort(_)) && n >= 3);
+        Some(k.saturating_sub(1).clamp(low, n - 2))
+    }
+
+    /// The mean of step `j`, if kept.
+    fn mean(&self, j: usize) -> Option<&StepMean> {
+        let oldest = self.taken.checked_sub(self.last.len())?;
+        self.last.get(j.checked_sub(oldest)?)
+    }
+
+    /// Whether the means row `k` needs for `entries` have been taken.
+    fn can_complete(&self, k: usize, entries: &[Entry]) -> bool {
+        entries.iter().all(|&entry| match self.pair(k, entry) {
+            Some(a) => self.taken >= a + 2,
+            None => self.taken >= 1,
+        })
+    }
+
+    /// `entry` at `t_k`: linear in time through the means of its two steps, a rate centred at
+    /// `½` of its step, a constraint force at [`Means::centre`] (`O(h²)`).
+    fn value(&self, k: usize, entry: Entry) -> f64 {
+        match self.pair(k, entry) {
+            Some(a) => match (self.mean(a), self.mean(a + 1)) {
+                (Some(first), Some(second)) => {
+                    let centre = match entry {
+                        Entry::Velocity(_) => 0.5,
+                        Entry::Effort(_) => self.centre,
+                    };
+                    let (x, y) = (first.get(entry), second.get(entry));
+                    x + (k as f64 - a as f64 - centre) * (y - x)
+                }
+                _ => f64::NAN,
+            },
+            None => self.mean(0).map_or(f64::NAN, |m| m.get(entry)),
+        }
+    }
+}
+
+/// Per signal, the output rows where a value it reads was not determined by the state at `t_k`
+/// to [`crate::READOUT_PRECISION`] and came from the steps instead: the run's warning.
+struct FromSteps {
+    /// Rows and the first time, per signal.
+    rows: Vec<(usize, f64)>,
+}
+
+impl FromSteps {
+    fn new(signals: usize) -> Self {
+        Self {
+            rows: vec![(0, f64::NAN); signals],
+        }
+    }
+
+    /// Counts row `t` for every signal that reads one of `completed` that is not `deferred`
+    /// (those are documented, not a finding of this run).
+    fn record(
+        &mut self,
+        t: f64,
+        completed: &[Entry],
+        deferred: &[Entry],
+        per_signal: &[Vec<Entry>],
+    ) {
+        for (count, entries) in self.rows.iter_mut().zip(per_signal) {
+            if entries
+                .iter()
+                .any(|e| completed.contains(e) && !deferred.contains(e))
+            {
+                if count.0 == 0 {
+                    count.1 = t;
+                }
+                count.0 += 1;
+            }
+        }
+    }
+
+    fn warn(&self, signals: &[Signal], warnings: &mut Vec<String>) {
+        for ((rows, first), signal) in self.rows.iter().zip(signals) {
+            if *rows > 0 {
+                warnings.push(format!(
+                    "`{}` at {rows} output time(s) (first t = {}) is ill-conditioned in the state at t_k (condition number above 1e6: it depends on the state only through a coefficient lost among the others, e.g. a node behind an off diode): read there from the means of the adjacent steps, accurate to O(h²)",
+                    signal.name,
+                    crate::error::Time(*first),
+                ));
+            }
+        }
+    }
+}
+
 /// An entry of a snapshot filled from step means.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Entry {
@@ -1243,6 +1419,7 @@ enum Entry {
 }
 
 /// Mean rates and constraint forces of one step.
+#[derive(Default)]
 struct StepMean {
     rates: Vec<f64>,
     efforts: Vec<Option<f64>>,
@@ -1440,8 +1617,10 @@ impl Engine {
         connections: usize,
         residual: f64,
         fill: Fill,
+        imprecise: &mut Vec<Entry>,
     ) -> Result<(), RunError> {
         out.residual = residual;
+        imprecise.clear();
         out.efforts.resize(connections, None);
         match self {
             Self::Assembled(e) => {
@@ -1470,6 +1649,18 @@ impl Engine {
                     for (effort, row) in out.efforts.iter_mut().zip(&e.connection_rows) {
                         *effort = row.map(|r| lambda[r]);
                     }
+                    imprecise.extend(
+                        (0..parts)
+                            .filter(|&i| !readout.velocity_precise(i))
+                            .map(Entry::Velocity),
+                    );
+                    imprecise.extend(
+                        e.connection_rows
+                            .iter()
+                            .enumerate()
+                            .filter(|(_, row)| row.is_some_and(|r| !readout.multiplier_precise(r)))
+                            .map(|(c, _)| Entry::Effort(c)),
+                    );
                 }
                 Ok(())
             }
@@ -1490,7 +1681,13 @@ impl Engine {
                             part.p(),
                             part.t(),
                         )?;
+                        let offset = out.v.len();
                         out.v.extend_from_slice(readout_of.velocities());
+                        imprecise.extend(
+                            (0..part.q().len())
+                                .filter(|&i| !readout_of.velocity_precise(i))
+                                .map(|i| Entry::Velocity(offset + i)),
+                        );
                     } else {
                         out.v.extend(std::iter::repeat_n(0.0, part.q().len()));
                     }
@@ -1518,9 +1715,23 @@ impl Engine {
     }
 
     fn positions(&self) -> Vec<f64> {
+        let mut out = Vec::new();
+        self.positions_into(&mut out);
+        out
+    }
+
+    /// [`Engine::positions`] into `out` (reusing its buffer).
+    fn positions_into(&self, out: &mut Vec<f64>) {
+        out.clear();
         match self {
-            Self::Assembled(e) => e.system.subsystem_positions(e.integrator.q()).to_vec(),
-            Self::Staggered(e) => e.staggered.positions(),
+            Self::Assembled(e) => {
+                out.extend_from_slice(e.system.subsystem_positions(e.integrator.q()));
+            }
+            Self::Staggered(e) => {
+                for part in e.staggered.parts() {
+                    out.extend_from_slice(part.q());
+                }
+            }
         }
     }
 
@@ -1531,18 +1742,24 @@ impl Engine {
         }
     }
 
-    fn mean_efforts(&self, connections: usize, h: f64) -> Vec<Option<f64>> {
+    /// See [`Integrator::impulse_centre`] (a staggered run has no constraint forces).
+    fn impulse_centre(&self) -> f64 {
         match self {
-            Self::Assembled(e) => {
-                let impulses = e.integrator.last_step_impulses();
-                e.connection_rows
-                    .iter()
-                    .map(|row| row.and_then(|r| impulses.get(r)).map(|i| i / h))
-                    .chain(std::iter::repeat(None))
-                    .take(connections)
-                    .collect()
+            Self::Assembled(e) => e.integrator.impulse_centre(),
+            Self::Staggered(_) => 0.5,
+        }
+    }
+
+    /// The mean constraint force of each connection over the last step (`None` for one without
+    /// a constraint row), into `out`.
+    fn mean_efforts_into(&self, connections: usize, h: f64, out: &mut Vec<Option<f64>>) {
+        out.clear();
+        out.resize(connections, None);
+        if let Self::Assembled(e) = self {
+            let impulses = e.integrator.last_step_impulses();
+            for (effort, row) in out.iter_mut().zip(&e.connection_rows) {
+                *effort = row.and_then(|r| impulses.get(r)).map(|i| i / h);
             }
-            Self::Staggered(_) => vec![None; connections],
         }
     }
 

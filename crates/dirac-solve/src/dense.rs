@@ -7,8 +7,10 @@ use crate::newton::LinearSolver;
 ///
 /// For the small systems of a few-dof model (one step of a 1-dof oscillator is a 1×1 system) this
 /// beats any sparse path; it is chosen automatically below [`DenseLu::AUTO_LIMIT`] unknowns.
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct DenseLu {
+    /// Pivots not above this (rows equilibrated to unit max-norm) count as zero.
+    pivot_tol: f64,
     n: usize,
     rows: Vec<usize>,
     cols: Vec<usize>,
@@ -22,13 +24,37 @@ impl DenseLu {
     /// against `SparseLu` on banded KKT systems: about 30 unknowns).
     pub const AUTO_LIMIT: usize = 32;
 
-    /// Pivots smaller than this (rows are equilibrated to unit max-norm) count as zero.
-    const PIVOT_TOL: f64 = 1e-14;
+    /// Pivots smaller than this (rows are equilibrated to unit max-norm) count as zero, unless
+    /// [`DenseLu::with_pivot_tolerance`] says otherwise.
+    pub const PIVOT_TOL: f64 = 1e-14;
 
     /// A solver with no pattern yet.
     #[must_use]
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// The same solver with pivots up to `tol` counted as zero. A caller that judges the
+    /// precision of every unknown itself (the readout, by the round-off jitter of each) lowers it
+    /// so that one ill-determined unknown does not stop the solve of the others.
+    #[must_use]
+    pub fn with_pivot_tolerance(mut self, tol: f64) -> Self {
+        self.pivot_tol = tol;
+        self
+    }
+}
+
+impl Default for DenseLu {
+    fn default() -> Self {
+        Self {
+            pivot_tol: Self::PIVOT_TOL,
+            n: 0,
+            rows: Vec::new(),
+            cols: Vec::new(),
+            a: Vec::new(),
+            perm: Vec::new(),
+            work: Vec::new(),
+        }
     }
 }
 
@@ -68,7 +94,7 @@ impl LinearSolver for DenseLu {
                     piv = i;
                 }
             }
-            if best.is_nan() || best <= Self::PIVOT_TOL {
+            if best.is_nan() || best <= self.pivot_tol {
                 return Err(LinearSolveError::NumericallySingular { index: k });
             }
             if piv != k {

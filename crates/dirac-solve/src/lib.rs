@@ -21,7 +21,7 @@ mod triplets;
 
 pub use dense::DenseLu;
 pub use error::{LinearSolveError, NewtonError};
-pub use newton::{LinearSolver, Newton, NewtonOptions, NewtonStats, NonlinearSystem};
+pub use newton::{LinearSolver, Newton, NewtonOptions, NewtonStats, NonlinearSystem, Precision};
 pub use sparse::SparseLu;
 pub use structure::Structure;
 pub use triplets::{PatternMismatch, Triplets};

@@ -122,6 +122,15 @@ impl Default for NewtonOptions {
     }
 }
 
+/// How precisely a Newton matrix determines each unknown ([`Newton::precision`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Precision<'a> {
+    /// Per unknown, its round-off jitter `η_j`.
+    pub jitter: &'a [f64],
+    /// Per unknown, its scale `s_j` in the equations it weighs in.
+    pub scale: &'a [f64],
+}
+
 /// Counters of one or more Newton solves.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct NewtonStats {
@@ -437,6 +446,34 @@ impl<S: LinearSolver> Newton<S> {
             }
         }
         unreachable_converged()
+    }
+
+    /// How precisely the Newton matrix at hand determines each unknown at `x` (a solution just
+    /// returned by [`Newton::solve`]): per unknown, its round-off jitter `η_j`
+    /// (`|J⁻¹ δF|` with every residual carrying the round-off of its own terms, the jitter the
+    /// update test allows) and its scale `s_j` in the equations it weighs in (see
+    /// [`NewtonOptions`]). `η_j/s_j`
+    /// near `ε` is a well-determined unknown; near 1, one that the equations fix only through a
+    /// coefficient lost in round-off (a node potential read through an off diode's 1e-12 S).
+    /// `None` when no factorisation is at hand (the warm start was exact).
+    ///
+    /// # Errors
+    /// A failing triangular solve.
+    pub fn precision<F: NonlinearSystem + ?Sized>(
+        &mut self,
+        system: &mut F,
+        x: &[f64],
+    ) -> Result<Option<Precision<'_>>, LinearSolveError> {
+        if !self.factored || self.noise.len() != x.len() {
+            return Ok(None);
+        }
+        self.term_sizes(system, x);
+        self.unknown_scales(x);
+        self.noise_floor()?;
+        Ok(Some(Precision {
+            jitter: &self.noise,
+            scale: &self.unknown_scale,
+        }))
     }
 
     /// Fills `magnitude` with the size of every equation's terms at `x`,

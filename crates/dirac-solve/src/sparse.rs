@@ -38,8 +38,9 @@ use crate::triplets::PatternMismatch;
 /// (and on banded KKT systems it is also 2.5–3× slower). The `L`/`U` storage only grows; a later
 /// factorisation allocates only if its pivot sequence creates more fill than the warm-up or any
 /// earlier factorisation left room for.
-#[derive(Default)]
 pub struct SparseLu {
+    /// Pivots not above this fraction of the largest matrix entry count as zero.
+    pivot_tol: f64,
     n: usize,
     triplets: usize,
     analysed: bool,
@@ -82,9 +83,23 @@ impl Clone for Factors {
     }
 }
 
+impl Default for SparseLu {
+    fn default() -> Self {
+        Self {
+            pivot_tol: Self::PIVOT_TOL,
+            n: 0,
+            triplets: 0,
+            analysed: false,
+            factored: false,
+            factors: None,
+        }
+    }
+}
+
 impl Clone for SparseLu {
     fn clone(&self) -> Self {
         Self {
+            pivot_tol: self.pivot_tol,
             n: self.n,
             triplets: self.triplets,
             analysed: self.analysed,
@@ -107,8 +122,9 @@ impl std::fmt::Debug for SparseLu {
 }
 
 impl SparseLu {
-    /// Pivots not above this fraction of the largest matrix entry count as zero.
-    const PIVOT_TOL: f64 = 1e-14;
+    /// Pivots not above this fraction of the largest matrix entry count as zero, unless
+    /// [`SparseLu::with_pivot_tolerance`] says otherwise.
+    pub const PIVOT_TOL: f64 = 1e-14;
 
     /// faer treats 32-bit indices as signed, and its pattern construction tags duplicates in the
     /// top bit of a triplet index: dimension and triplet count must stay below 2³¹.
@@ -118,6 +134,14 @@ impl SparseLu {
     #[must_use]
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// The same solver with pivots up to `tol` of the largest entry counted as zero (see
+    /// [`DenseLu::with_pivot_tolerance`](crate::DenseLu::with_pivot_tolerance)).
+    #[must_use]
+    pub fn with_pivot_tolerance(mut self, tol: f64) -> Self {
+        self.pivot_tol = tol;
+        self
     }
 
     /// Number of distinct structural entries of the analysed pattern (0 before `analyse`).
@@ -255,7 +279,7 @@ impl LinearSolver for SparseLu {
             largest = largest.max(v.abs());
         }
         numeric_lu(f)?;
-        let tol = Self::PIVOT_TOL * largest;
+        let tol = self.pivot_tol * largest;
         let col_perm = f.symbolic.col_perm().arrays().0;
         let u = f.lu.u_factor_unsorted();
         let (u_pattern, u_val) = u.parts();
