@@ -13,8 +13,9 @@
 //!   `−h·`[`Diode::dissipation`]`(ī, v̄_j)`), equals the change of stored energy,
 //!   `Σ v̄·Δp − h v̄·∂L/∂q(q̄, v̄)` (a capacitor's `Z(2q_k + Z)/2C`, a junction's `v̄_j Δp_φ`, an
 //!   inductor's `ī Δφ`), to round-off of the largest term. These are the per-part terms of the
-//!   hand-built circuits of `dirac-sim/tests/diode.rs`, written once through the [`Model`] trait so
-//!   that any netlist's parts are accounted; the node impulses do no work because KCL holds.
+//!   hand-built circuits of `dirac-sim/tests/diode.rs`, written once through the
+//!   `dirac_core::Model` trait so that any netlist's parts are accounted; the node impulses do no
+//!   work because KCL holds.
 //!
 //! The checker ([`account`]) judges a step from its data alone; the negative controls at the end
 //! feed it real steps changed so that a diode produces energy or the bookkeeping is wrong, and
