@@ -594,12 +594,18 @@ impl Table {
 
 /// Runs `dirac run` on `netlist` at its own step.
 fn run_dirac(netlist: &Path, out: &Path) -> Table {
+    run_dirac_with(netlist, out, &[])
+}
+
+/// Runs `dirac run` on `netlist` at its own step with the extra arguments `args`.
+fn run_dirac_with(netlist: &Path, out: &Path, args: &[&str]) -> Table {
     let output = Command::new(env!("CARGO_BIN_EXE_dirac"))
         .arg("run")
         .arg(netlist)
         .arg("--out")
         .arg(out)
         .arg("--quiet")
+        .args(args)
         .output()
         .expect("dirac runs");
     assert!(
@@ -867,7 +873,7 @@ impl Row {
 
 /// The judgement of one case.
 struct Verdict {
-    case: &'static str,
+    case: String,
     rows: Vec<Row>,
     failures: Vec<(Check, String)>,
 }
@@ -1050,7 +1056,7 @@ fn judge(case: &Case, runs: &Runs) -> Verdict {
         }
     }
     Verdict {
-        case: case.file,
+        case: case.file.to_string(),
         rows,
         failures,
     }
@@ -1058,14 +1064,14 @@ fn judge(case: &Case, runs: &Runs) -> Verdict {
 
 fn report(verdicts: &[Verdict]) -> String {
     let mut out = format!(
-        "{:<18} {:<11} {:<7} {:>10} {:>10} {:>8} {:>10} {:>10} {:>11}\n",
+        "{:<25} {:<11} {:<7} {:>10} {:>10} {:>8} {:>10} {:>10} {:>11}\n",
         "netlist", "signal", "kind", "e_dirac", "e_ng", "ratio", "e_ref/e_ng", "max|y|", "compared"
     );
     for v in verdicts {
         for r in &v.rows {
             writeln!(
                 out,
-                "{:<18} {:<11} {:<7} {:>10.3e} {:>10.3e} {:>8} {:>10} {:>10.3e} {:>5}/{:<5}",
+                "{:<25} {:<11} {:<7} {:>10.3e} {:>10.3e} {:>8} {:>10} {:>10.3e} {:>5}/{:<5}",
                 v.case,
                 r.signal,
                 format!("{:?}", r.kind),
@@ -1106,14 +1112,28 @@ fn bundled_netlists_are_as_accurate_as_ngspice() {
     assert!(verdicts.iter().all(|v| v.failures.is_empty()), "{text}");
 }
 
-/// Every bundled diode netlist against ngspice at the same step, judged as [`CASES`] are.
+/// Every bundled diode netlist against ngspice at the same step, judged as [`CASES`] are, with
+/// the midpoint rule (the default) and with `--method gauss2` (order 4, judged by the same rule
+/// against the same ngspice runs; its rows carry the tag `gauss2`).
 #[test]
 fn diode_netlists_are_as_accurate_as_ngspice() {
     require_ngspice();
-    let runs: Vec<Runs> = std::thread::scope(|s| {
+    let runs: Vec<(Runs, Table)> = std::thread::scope(|s| {
         let handles: Vec<_> = DIODE_CASES
             .iter()
-            .map(|c| s.spawn(move || run_case(c)))
+            .map(|c| {
+                s.spawn(move || {
+                    let path = repo("examples/netlists").join(c.file);
+                    let scratch =
+                        Scratch::new(&format!("{}-gauss2", c.file.trim_end_matches(".cir")));
+                    let gauss2 = run_dirac_with(
+                        &path,
+                        &scratch.0.join("dirac.csv"),
+                        &["--method", "gauss2"],
+                    );
+                    (run_case(c), gauss2)
+                })
+            })
             .collect();
         handles
             .into_iter()
@@ -1123,7 +1143,17 @@ fn diode_netlists_are_as_accurate_as_ngspice() {
     let verdicts: Vec<Verdict> = DIODE_CASES
         .iter()
         .zip(&runs)
-        .map(|(case, runs)| judge(case, runs))
+        .flat_map(|(case, (runs, gauss2))| {
+            let mut order_four = judge(
+                case,
+                &Runs {
+                    dirac: gauss2.clone(),
+                    ..runs.clone()
+                },
+            );
+            order_four.case = format!("{} gauss2", case.file.trim_end_matches(".cir"));
+            [judge(case, runs), order_four]
+        })
         .collect();
     let text = report(&verdicts);
     println!("{text}");

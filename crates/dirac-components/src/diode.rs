@@ -496,6 +496,18 @@ impl Diode {
         self.rs * i * i + v * self.junction_current(v).0
     }
 
+    /// The power a solved step leaves in the diode: `i·(v + R_S i) − v·i_c`, the power into its
+    /// terminals (branch current `i` times terminal voltage `v + R_S i`, `v` the junction voltage)
+    /// less the junction's charging power `v·i_c` (`i_c = ΔQ_j/h`, 0 without junction charge).
+    /// It equals [`Diode::dissipation`] when the device relation `i − i_c = i_D(v) + GMIN·v`
+    /// holds; taken from the solved current rather than from the device relation, it is negative
+    /// when a solution's current opposes its junction voltage, which `dissipation` (≥ 0 whatever
+    /// its arguments) cannot show.
+    #[must_use]
+    pub fn terminal_dissipation(&self, i: f64, v: f64, i_c: f64) -> f64 {
+        i * (v + self.rs * i) - v * i_c
+    }
+
     /// The junction voltage ngspice's `DEVpnjlim` lets an iteration move to from `old` towards
     /// `new` (the mirrored form below the breakdown knee), with one change: the forward step
     /// `V_te(2 + ln(Δ/V_te − 2))` of `DEVpnjlim`, which steps backwards for

@@ -6,7 +6,7 @@ use dirac_components::{
     Capacitor, CircuitBuilder, CoupledInductors, CurrentSource, Diode, DiodeParameters, Inductor,
     PartError, Resistor, VoltageSource, Waveform,
 };
-use dirac_graph::{ConnectionId, GraphError, Interconnection, PortRef, Subsystem};
+use dirac_graph::{ConnectionId, GraphError, Interconnection, PortRef, Subsystem, SubsystemId};
 use dirac_sim::{
     Discretisation, Execution, IntegratorOptions, Probe, RunError, Signal, Simulation, Start,
 };
@@ -178,6 +178,7 @@ pub struct Circuit {
     /// diode parameters limited at the circuit temperature).
     pub warnings: Vec<String>,
     defaults: Vec<Signal>,
+    diodes: Vec<(String, SubsystemId, Diode)>,
     nodes: HashMap<String, ConnectionId>,
     branches: HashMap<String, Branch>,
     capacitors: Vec<String>,
@@ -286,6 +287,14 @@ impl Circuit {
             }
         }
         out
+    }
+
+    /// The diodes as built (at the circuit's temperature, with its `GMIN`): element name, part
+    /// and device, in card order.
+    pub fn diodes(&self) -> impl Iterator<Item = (&str, SubsystemId, &Diode)> {
+        self.diodes
+            .iter()
+            .map(|(name, s, d)| (name.as_str(), *s, d))
     }
 
     /// The contract's default signals (whatever `.print`/`.probe`/`.save` chose instead).
@@ -452,6 +461,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let mut branches: HashMap<String, Branch> = HashMap::new();
     let mut k_subsystem: HashMap<usize, (usize, String)> = HashMap::new();
     let mut capacitors = Vec::new();
+    let mut diodes = Vec::new();
     let located = |e: usize, source: PartError| {
         let origin = &netlist.origins[e];
         CircuitError::Part {
@@ -503,6 +513,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let mut shared = SharedParts::default();
     for (e, element) in netlist.elements.iter().enumerate() {
         let check = |part: Result<Subsystem, PartError>| part.map_err(|err| located(e, err));
+        let mut device = None;
         let (name, part, q, v) = match element {
             Element::R { name, value, .. } => (
                 name,
@@ -595,11 +606,15 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                         .map(|w| format!("diode `{name}`: {w}")),
                 );
                 let diode = built.diode.with_gmin(conditions.gmin);
+                device = Some(diode);
                 (name, diode.subsystem(name.clone()), none(2), none(2))
             }
             Element::K { .. } => continue,
         };
         let s = add(&mut circuit, part, q, v)?;
+        if let Some(diode) = device {
+            diodes.push((name.clone(), SubsystemId(s), diode));
+        }
         if let Some((a, b)) = element.terminals() {
             circuit.connect(name, "i", a, b)?;
         }
@@ -673,6 +688,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         conditions,
         warnings: notes,
         defaults: Vec::new(),
+        diodes,
         nodes,
         branches,
         capacitors,

@@ -242,7 +242,8 @@ fn stepping(
 /// `I_S = 1e-14`, no junction charge) stepped with the midpoint rule at h = 20 µs from rest over
 /// two periods. After every step: the diode relation `ī = i_D(v̄) + GMIN v̄` at the step means
 /// holds to round-off of its terms; KCL at both nodes holds to round-off; the diode dissipates
-/// (`R_S ī² + v̄ i_D(v̄) ≥ 0`); and the discrete power balance
+/// (`ī(v̄ + R_S ī) ≥ 0` from the solved current, `Diode::terminal_dissipation`); and the discrete
+/// power balance
 /// `−h V ī_V = h(R ī_R² + R_L ī_L² + diss_D) + ΔE_C` holds to round-off. The readout at `t_k`
 /// satisfies the same diode relation at `t_k`.
 ///
@@ -299,11 +300,10 @@ fn rectifier_steps_keep_the_relations() {
         let kcl_a = (i_r - i_d).abs() / i_r.abs().max(f64::MIN_POSITIVE);
         let kcl_out = (i_d - i_c - i_l).abs() / i_d.abs().max(i_c.abs()).max(i_l.abs());
         worst_kcl = worst_kcl.max(kcl_in.max(kcl_a).max(kcl_out));
+        // Passivity from the solved current: `dissipation` is ≥ 0 whatever its arguments.
+        let terminal = d.terminal_dissipation(i_d, m.vj, 0.0);
+        assert!(terminal >= 0.0, "step {k}: diode produces {terminal:e} W");
         let dissipation = d.dissipation(i_d, m.vj);
-        assert!(
-            dissipation >= 0.0,
-            "step {k}: diode produces {dissipation:e} W"
-        );
         let t_mid = (k as f64 + 0.5) * h;
         let source = -h * 10.0 * (2.0 * std::f64::consts::PI * 50.0 * t_mid).sin() * i_v;
         let stored = m.z[ic] * (2.0 * m.q0[ic] + m.z[ic]) / (2.0 * c);
@@ -346,7 +346,8 @@ fn rectifier_steps_keep_the_relations() {
 
 /// A diode with junction charge (`CJO` = 20 pF, `TT` = 50 ns, `RS` = 2 Ω) between a 1 kΩ source
 /// resistor and a 10 nF ‖ 10 kΩ load, driven by a 5 V, 100 kHz sine from rest. Every step:
-/// passivity of the diode, and the discrete power balance
+/// passivity of the diode (`ī(v̄_j + R_S ī) − v̄_j Δp_φ/h ≥ 0` to round-off of its two terms),
+/// and the discrete power balance
 /// `−h V ī_V = h(R ī_R² + R_L ī_L² + diss_D) + ΔE_C + v̄_j Δp_φ` to round-off (`p_φ` is the junction
 /// charge; the constraint impulses do no work since KCL holds exactly). The junction energy the
 /// steps account, `Σ v̄_j Δp_φ`, is the midpoint rule of `∫ v dQ_j`: it differs from the stored
@@ -403,11 +404,18 @@ fn junction_charge_energy_balance() {
             let [i_v, i_r, i_d, i_l] = m.currents[..] else {
                 unreachable!()
             };
-            let dissipation = d.dissipation(i_d, m.vj);
+            // Passivity from the solved current and junction charge (`dissipation` is ≥ 0
+            // whatever its arguments); the two terms cancel to round-off in reverse bias.
+            let i_c = (m.p1[phi] - m.p0[phi]) / h;
+            let terminal = d.terminal_dissipation(i_d, m.vj, i_c);
+            let terms = (i_d * (m.vj + d.series_resistance() * i_d))
+                .abs()
+                .max((m.vj * i_c).abs());
             assert!(
-                dissipation >= 0.0,
-                "step {k}: diode produces {dissipation:e} W"
+                terminal >= -RELATION_TOL * terms,
+                "step {k}: diode produces {terminal:e} W"
             );
+            let dissipation = d.dissipation(i_d, m.vj);
             let t_mid = (k as f64 + 0.5) * h;
             let source = -h * 5.0 * (2.0 * std::f64::consts::PI * freq * t_mid).sin() * i_v;
             let junction = m.vj * (m.p1[phi] - m.p0[phi]);
