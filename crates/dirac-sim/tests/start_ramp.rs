@@ -26,9 +26,9 @@ fn ladder(n: usize) -> (Interconnection, Vec<Signal>) {
     let (r, c) = ladder_values(n);
     let mut g = Interconnection::new();
     for i in 0..n {
-        g.add_subsystem(Resistor::new(r[i]).unwrap().subsystem(&format!("R{i}")))
+        g.add_subsystem(Resistor::new(r[i]).unwrap().subsystem(format!("R{i}")))
             .unwrap();
-        g.add_subsystem(Capacitor::new(c[i]).unwrap().subsystem(&format!("C{i}")))
+        g.add_subsystem(Capacitor::new(c[i]).unwrap().subsystem(format!("C{i}")))
             .unwrap();
     }
     let port = |g: &Interconnection, p: &str| g.port(p, "i").unwrap();
@@ -40,7 +40,7 @@ fn ladder(n: usize) -> (Interconnection, Vec<Signal>) {
         if i + 1 < n {
             ends.push((port(&g, &format!("R{}", i + 1)), -1.0));
         }
-        g.node(&format!("n{}", i + 1), ends).unwrap();
+        g.node(format!("n{}", i + 1), ends).unwrap();
     }
     let signals = (0..n)
         .map(|i| {
