@@ -111,7 +111,8 @@ pub struct IntegratorOptions {
 /// smaller for Gauss 2–4 (docs/math.md, "Start ramp").
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct StartRamp {
-    /// Halvings from `h/2` down to the smallest chunk `h·2^−levels` (at least 1).
+    /// Halvings from `h/2` down to the smallest chunk `h·2^−levels` (taken between 1 and
+    /// [`StartRamp::MAX_LEVELS`]).
     pub levels: u32,
     /// Equal substeps per chunk (at least 1).
     pub per_level: u32,
@@ -127,16 +128,24 @@ impl Default for StartRamp {
 }
 
 impl StartRamp {
+    /// Most levels used: a chunk below `h·2^−52` is below the rounding of `t₀ + h` and would add
+    /// only round-off.
+    pub const MAX_LEVELS: u32 = 52;
+
+    fn levels(&self) -> u32 {
+        self.levels.clamp(1, Self::MAX_LEVELS)
+    }
+
     /// Substeps the ramp takes: `per_level · (levels + 1)`.
     #[must_use]
     pub fn substeps(&self) -> usize {
-        self.per_level.max(1) as usize * (self.levels.max(1) as usize + 1)
+        self.per_level.max(1) as usize * (self.levels() as usize + 1)
     }
 
     /// Size of substep `j` (`0 ≤ j < substeps()`) as a fraction of `h`.
     #[must_use]
     pub fn fraction(&self, j: usize) -> f64 {
-        let levels = self.levels.max(1) as i32;
+        let levels = self.levels() as i32;
         let chunk = j / self.per_level.max(1) as usize;
         // Chunk 0 is 2^−levels; chunk c ≥ 1 is 2^−(levels − c + 1).
         let exponent = if chunk == 0 {

@@ -225,6 +225,13 @@ fn ramp_keeps_the_grid_and_is_counted() {
     }
     assert_eq!(plain_summary.ramp_substeps, 0);
     assert_eq!(StartRamp::default().substeps(), 99);
+    // Levels are taken between 1 and MAX_LEVELS: no substep of size 0.
+    let deep = StartRamp {
+        levels: 4000,
+        per_level: 1,
+    };
+    assert_eq!(deep.substeps(), StartRamp::MAX_LEVELS as usize + 1);
+    assert!((0..deep.substeps()).all(|j| deep.fraction(j) > 0.0));
 }
 
 /// Each ramp substep is an ordinary midpoint step of its own size, so the discrete power
