@@ -870,8 +870,9 @@ fn ladder_accuracy(
 }
 
 /// Scene F: the SciMLBenchmarks RC ladder (n = 1000) to t = 10 with midpoint and Gauss 2–4 at
-/// h = 1e-2 … 1e-4, and with the start ramp (`-ramp`) at h = 5e-2 … 1e-3. Two rows per run: `F` timed from the simulation's creation to the last step
-/// (the "solve": assembly, consistent start, stepping), `F-whole` from building the graph.
+/// h = 1e-2 … 1e-4, and with the start ramp (`-ramp`) at h = 5e-2 … 1e-3. Two rows per run: `F`
+/// timed from the simulation's creation to the last step (the "solve": assembly, consistent
+/// start, stepping), `F-whole` from building the graph.
 fn rc_ladder_scene(
     settings: &BenchOptions,
     emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,

@@ -212,7 +212,7 @@ D1 stiff spring chain, D2 double pendulum, D2-long the pendulum to t = 1e4, E He
 t = 1e4, F the SciMLBenchmarks RC ladder (n = 1000), CLI `dirac run` against the library on the
 seed and ladder netlists. Every run goes through the run layer (dirac_sim::Simulation). Methods: midpoint and Gauss-Galerkin of 2, 3,
 4 nodes (orders 2, 4, 6, 8), the opt-in affine step map on the linear scenes A and B, Yoshida
-compositions of the midpoint step on E. Long runs (D2-long, E) also write the running maximum of
+compositions of the midpoint step on E, the start ramp (-ramp) on F. Long runs (D2-long, E) also write the running maximum of
 the energy error per tenth of the interval to the --out file with .csv replaced by .drift.csv.
 CSV: scene,tool,method,setting,wall_s,steps,newton_iterations,error,energy_error
 The peers (scipy, SUNDIALS, ngspice) write the same columns: bench/peers/run.sh runs everything.")]
