@@ -119,6 +119,7 @@ pub(crate) fn sweep(args: &SweepArgs) -> Result<(), Failure> {
         h: args.h,
         t_end: args.t_end,
         signals: args.signals.as_deref().map(split_list),
+        start_ramp: None,
     };
     let outputs = if args.trajectories {
         Some(Outputs::Trajectories)

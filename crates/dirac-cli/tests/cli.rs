@@ -286,3 +286,67 @@ fn scene_record_requests_become_columns() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("force(n2)"));
     assert!(!refused.exists());
 }
+
+/// `--start-ramp` on a stiff two-section RC ladder started off its slow manifold (`v(n1) = 1`,
+/// `v(n2) = 3`, fast time constant about 1e-6 s, h = 0.01): the grid and the row count are
+/// those of the plain run, the JSON summary counts the ramp's 99 substeps, and at the end
+/// `v(n2) − v(n1)` is the quasi-static gap `R₂C₂ |v̇(n2)| ≤ 1e-3 · 1e-3 · 1.1 ≈ 1.1e-6` (the slow
+/// mode decays at rate about 1/(R₁(C₁ + C₂)) from about 1 V), where the plain run still rings
+/// with an O(1) gap (`|R(λh)| ≈ 1 − 4/(|λ|h)`, |λ|h ≈ 1e4, per step).
+#[test]
+fn start_ramp_damps_a_stiff_start_and_is_reported() {
+    let netlist = scratch("stiff_rc.cir");
+    std::fs::write(
+        &netlist,
+        "stiff RC ladder\nR1 0 n1 1\nC1 n1 0 1 IC=1\nR2 n1 n2 1e-3\nC2 n2 0 1e-3 IC=3\n.tran 0.01 0.5 uic\n.end\n",
+    )
+    .expect("netlist");
+    let run = |ramp: bool| {
+        let mut args = vec![
+            "run",
+            netlist.to_str().unwrap(),
+            "--signals",
+            "v(n1),v(n2)",
+            "--json-summary",
+            "--quiet",
+        ];
+        if ramp {
+            args.push("--start-ramp");
+        }
+        let output = dirac().args(&args).output().expect("runs");
+        assert!(output.status.success(), "{output:?}");
+        let rows: Vec<Vec<f64>> = String::from_utf8(output.stdout)
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|x| x.parse().unwrap()).collect())
+            .collect();
+        let stderr = String::from_utf8(output.stderr).unwrap();
+        let summary: serde_json::Value = stderr
+            .lines()
+            .find_map(|l| serde_json::from_str(l).ok())
+            .expect("a JSON summary");
+        (rows, summary)
+    };
+    let (plain, plain_summary) = run(false);
+    let (ramped, summary) = run(true);
+    assert_eq!(plain.len(), 51, "t = 0, 0.01, …, 0.5");
+    assert_eq!(ramped.len(), plain.len());
+    for (a, b) in plain.iter().zip(&ramped) {
+        assert_eq!(a[0], b[0], "the grid must not move");
+    }
+    assert_eq!(plain_summary["ramp_substeps"], 0);
+    assert_eq!(summary["ramp_substeps"], 99);
+    assert_eq!(summary["steps"], plain_summary["steps"]);
+    let gap = |rows: &[Vec<f64>]| {
+        let last = &rows[rows.len() - 1];
+        (last[2] - last[1]).abs()
+    };
+    println!(
+        "v(n2) − v(n1) at t = 0.5: plain {:.3e}, ramped {:.3e}",
+        gap(&plain),
+        gap(&ramped)
+    );
+    assert!(gap(&plain) > 0.1, "the control must ring");
+    assert!(gap(&ramped) <= 1.1e-6, "{}", gap(&ramped));
+}

@@ -147,6 +147,7 @@ fn settings(
         h,
         t_end,
         signals,
+        start_ramp: None,
     })
 }
 
@@ -207,6 +208,7 @@ fn summary_dict<'py>(
     d.set_item("readout_iterations", summary.readout_iterations)?;
     d.set_item("breakpoint_substeps", summary.breakpoint_substeps)?;
     d.set_item("step_cuts", summary.step_cuts)?;
+    d.set_item("ramp_substeps", summary.ramp_substeps)?;
     d.set_item("max_constraint_residual", summary.max_constraint_residual)?;
     d.set_item("wall_s", summary.wall_s)?;
     d.set_item("warnings", summary.warnings.clone())?;

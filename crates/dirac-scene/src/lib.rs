@@ -22,6 +22,7 @@
 //! h = 0.05                      # step size (required)
 //! t_end = 50.0                  # end time (required): round(t_end / h) steps
 //! initial = "given"             # given (q0/v0, made consistent) | equilibrium (steady state)
+//! start_ramp = false            # first step as 99 growing substeps: damps a stiff start (default off)
 //!
 //! # ── Parts: `name` (unique, no dots), `type` (a stock part), its parameters, q0/v0 ─────────────
 //! [[part]]
@@ -155,7 +156,7 @@
 //! assert_eq!(Scene::parse(&scene.to_toml().unwrap(), "again.toml").unwrap(), scene);
 //!
 //! let err = Scene::parse("[simulation]\nh = 0.1\nt_end = 1\nstep = 2\n", "bad.toml").unwrap_err();
-//! assert_eq!(err.to_string(), "bad.toml:4:1: unknown field `step`, expected one of `representation`, `splitting`, `scheme`, `discretisation`, `initial`, `order`, `h`, `t_end`");
+//! assert_eq!(err.to_string(), "bad.toml:4:1: unknown field `step`, expected one of `representation`, `splitting`, `scheme`, `discretisation`, `initial`, `order`, `start_ramp`, `h`, `t_end`");
 //! ```
 
 mod convert;

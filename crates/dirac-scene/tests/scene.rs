@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use dirac_core::Discretisation;
 use dirac_graph::{Representation, SubsystemId};
 use dirac_scene::{BuiltScene, RepresentationSpec, Scene, SceneError, SplittingSpec};
-use dirac_sim::{Execution, Probe, RunSummary, Simulation};
+use dirac_sim::{Execution, Probe, RunSummary, Simulation, StartRamp};
 
 /// Round-off allowance for order-one states over 1000 steps (as in the workspace's
 /// representation-equivalence tests).
@@ -1156,5 +1156,22 @@ fn row_zero_is_the_stated_initial_state_of_every_scene() {
                 "{row:?}"
             );
         }
+    }
+}
+
+/// `start_ramp = true` in `[simulation]` turns the start ramp on with its default levels; left
+/// out it stays off; either way the scene survives a TOML round trip unchanged.
+#[test]
+fn start_ramp_key_turns_the_ramp_on() {
+    let body =
+        "h = 0.1\nt_end = 1.0\n\n[[part]]\nname = \"A\"\ntype = \"mass\"\nm = 1.0\nq0 = 1.0\n";
+    for (key, expected) in [
+        ("start_ramp = true\n", Some(StartRamp::default())),
+        ("", None),
+    ] {
+        let scene = Scene::parse(&format!("[simulation]\n{key}{body}"), "ramp.toml").unwrap();
+        assert_eq!(scene.build().unwrap().options.start_ramp, expected);
+        let again = Scene::parse(&scene.to_toml().unwrap(), "again.toml").unwrap();
+        assert_eq!(again, scene);
     }
 }

@@ -92,6 +92,69 @@ pub struct IntegratorOptions {
     /// The Newton start of nonlinear steps (the solution is the same to the Newton tolerance;
     /// the iteration count differs).
     pub predictor: Predictor,
+    /// Split the first step into geometrically growing substeps (see [`StartRamp`]), so that
+    /// the fast modes of an initial state off the slow manifold are damped instead of ringing
+    /// through the run. Off by default.
+    pub start_ramp: Option<StartRamp>,
+}
+
+/// The start ramp: the first step `[t₀, t₀ + h]` taken as `per_level` equal substeps in each of
+/// the `levels + 1` chunks `h·2^−levels, h·2^−levels, h·2^−(levels−1), …, h/2` (which sum to
+/// `h`, so the output grid `t_k = t₀ + k h` is unchanged).
+///
+/// Midpoint and Gauss–Legendre steps are A-stable but not L-stable: a mode `e^{λt}` with
+/// `|λ| h ≫ 1` is multiplied by `|R(λh)| → 1` per step and rings for the whole run. On the
+/// ramp some substeps have `|λ δ|` near the value where `|R|` is smallest, so every mode with
+/// a time constant down to about a quarter of the smallest substep is damped by the product of
+/// `|R(λδᵢ)|` over the substeps: at most 1e-8 for the midpoint rule with the default
+/// (32 levels, 3 substeps per level: 99 substeps, 32 distinct sizes, floor about `h·2e−11`),
+/// smaller for Gauss 2–4 (docs/math.md, "Start ramp").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StartRamp {
+    /// Halvings from `h/2` down to the smallest chunk `h·2^−levels` (taken between 1 and
+    /// [`StartRamp::MAX_LEVELS`]).
+    pub levels: u32,
+    /// Equal substeps per chunk (at least 1).
+    pub per_level: u32,
+}
+
+impl Default for StartRamp {
+    fn default() -> Self {
+        Self {
+            levels: 32,
+            per_level: 3,
+        }
+    }
+}
+
+impl StartRamp {
+    /// Most levels used: a chunk below `h·2^−52` is below the rounding of `t₀ + h` and would add
+    /// only round-off.
+    pub const MAX_LEVELS: u32 = 52;
+
+    fn levels(&self) -> u32 {
+        self.levels.clamp(1, Self::MAX_LEVELS)
+    }
+
+    /// Substeps the ramp takes: `per_level · (levels + 1)`.
+    #[must_use]
+    pub fn substeps(&self) -> usize {
+        self.per_level.max(1) as usize * (self.levels() as usize + 1)
+    }
+
+    /// Size of substep `j` (`0 ≤ j < substeps()`) as a fraction of `h`.
+    #[must_use]
+    pub fn fraction(&self, j: usize) -> f64 {
+        let levels = self.levels() as i32;
+        let chunk = j / self.per_level.max(1) as usize;
+        // Chunk 0 is 2^−levels; chunk c ≥ 1 is 2^−(levels − c + 1).
+        let exponent = if chunk == 0 {
+            -levels
+        } else {
+            -(levels - chunk as i32 + 1)
+        };
+        2f64.powi(exponent) / f64::from(self.per_level.max(1))
+    }
 }
 
 impl IntegratorOptions {
@@ -109,7 +172,15 @@ impl IntegratorOptions {
             composition: Composition::single(),
             explicit: true,
             predictor: Predictor::Polynomial,
+            start_ramp: None,
         }
+    }
+
+    /// Ramps the first step up from tiny substeps (see [`StartRamp`]); `None` takes `h` at once.
+    #[must_use]
+    pub fn start_ramp(mut self, ramp: Option<StartRamp>) -> Self {
+        self.start_ramp = ramp;
+        self
     }
 
     /// Chooses the Newton start of nonlinear steps (see [`IntegratorOptions::predictor`]).
@@ -221,6 +292,8 @@ pub struct StepCounters {
     pub breakpoint_substeps: usize,
     /// Times a substep failed and was retried as two halves.
     pub step_cuts: usize,
+    /// Substeps of the start ramp ([`StartRamp`]; 0 without one).
+    pub ramp_substeps: usize,
 }
 
 /// Breakpoints closer than this fraction of `h` to a grid point or to each other are merged
@@ -642,7 +715,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
         self.impulse.clear();
         self.impulse.resize(self.constraints.count(), 0.0);
-        if let Affine::Map { x, p, x0, p0, z } = &mut self.affine {
+        let ramp = self.options.start_ramp.filter(|_| self.k == 0);
+        if let (None, Affine::Map { x, p, x0, p0, z }) = (ramp, &mut self.affine) {
             let n = self.q.len();
             z[..n].copy_from_slice(&self.q);
             z[n..].copy_from_slice(&self.p);
@@ -665,6 +739,38 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let h = self.options.h;
         let t_end = self.t0 + (self.k + 1) as f64 * h;
         let mut stats = NewtonStats::default();
+        match ramp {
+            Some(ramp) => {
+                // The substeps of the ramp, the last one ending on t_end exactly.
+                let pieces = ramp.substeps();
+                for j in 0..pieces {
+                    let size = ramp.fraction(j) * h;
+                    let end = if j + 1 == pieces {
+                        t_end
+                    } else {
+                        self.t + size
+                    };
+                    self.advance_to(size, end, &mut stats)?;
+                    self.counters.ramp_substeps += 1;
+                }
+            }
+            None => {
+                let size = t_end - self.t;
+                self.advance_to(size, t_end, &mut stats)?;
+            }
+        }
+        self.k += 1;
+        // t_k = t₀ + k h, not a running sum (which drifts by ~k·ε·h).
+        self.t = t_end;
+        self.stats.accumulate(&stats);
+        Ok(StepReport { newton: stats })
+    }
+
+    /// Advances from `t` to `end` by one substep of `size` (`end − t` up to rounding), split
+    /// at the source breakpoints inside it when [`IntegratorOptions::breakpoints`] is on.
+    fn advance_to(&mut self, size: f64, end: f64, stats: &mut NewtonStats) -> Result<(), SimError> {
+        let h = self.options.h;
+        let start = self.t;
         loop {
             let t = self.t;
             let mut corner = if self.options.breakpoints {
@@ -675,23 +781,23 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             while let Some(b) = corner.filter(|b| *b <= t + BREAKPOINT_SNAP * h) {
                 corner = self.model.next_breakpoint(b);
             }
-            match corner.filter(|b| *b < t_end - BREAKPOINT_SNAP * h) {
+            match corner.filter(|b| *b < end - BREAKPOINT_SNAP * h) {
                 Some(b) => {
                     self.counters.breakpoint_substeps += 1;
                     stats.accumulate(&self.advance(b - t, 0)?);
                     self.t = b;
                 }
                 None => {
-                    stats.accumulate(&self.advance(t_end - t, 0)?);
+                    // Unsplit, the substep keeps its exact size (the ramp's repeated sizes
+                    // then reuse one factorisation).
+                    let rest = if t == start { size } else { end - t };
+                    stats.accumulate(&self.advance(rest, 0)?);
                     break;
                 }
             }
         }
-        self.k += 1;
-        // t_k = t₀ + k h, not a running sum (which drifts by ~k·ε·h).
-        self.t = t_end;
-        self.stats.accumulate(&stats);
-        Ok(StepReport { newton: stats })
+        self.t = end;
+        Ok(())
     }
 
     /// Advances by `size` (every substep of the scheme, scaled), halving it up to

@@ -24,7 +24,9 @@ mod trajectory;
 pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
 pub use error::{SimError, Time};
-pub use integrator::{Integrator, IntegratorOptions, Predictor, Scheme, StepCounters, StepReport};
+pub use integrator::{
+    Integrator, IntegratorOptions, Predictor, Scheme, StartRamp, StepCounters, StepReport,
+};
 pub use linear::{AutoLu, SolverChoice};
 pub use modes::{
     FAST_DECAY_EXACT, MIN_STEPS_PER_PERIOD, MODAL_LIMIT, MethodResponse, Mode, ModeKind,

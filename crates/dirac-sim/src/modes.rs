@@ -288,7 +288,7 @@ impl NaturalModes {
                         "lingers"
                     };
                     out.push(format!(
-                        "the fastest damped mode{} has time constant {tau:.4e}, {:.3e} steps of h = {h:e}: the exact motion damps it by e^(-h/τ) = {exact:.2e} per step, but {} is not L-stable and damps it only by {r:.3} per step, so it {behaviour} for about {:.0} steps (inconsistent initial data, source corners); use a smaller h or start consistently",
+                        "the fastest damped mode{} has time constant {tau:.4e}, {:.3e} steps of h = {h:e}: the exact motion damps it by e^(-h/τ) = {exact:.2e} per step, but {} is not L-stable and damps it only by {r:.3} per step, so it {behaviour} for about {:.0} steps (inconsistent initial data, source corners); use a smaller h, start consistently, or damp the start with the start ramp (`--start-ramp`, scene key `start_ramp`)",
                         named(mode),
                         mode.steps(h),
                         options.discretisation,

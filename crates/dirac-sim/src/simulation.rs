@@ -135,6 +135,8 @@ pub struct RunSummary {
     pub breakpoint_substeps: usize,
     /// Substeps retried as two halves after a Newton failure.
     pub step_cuts: usize,
+    /// Substeps of the start ramp (`IntegratorOptions::start_ramp`; 0 without one).
+    pub ramp_substeps: usize,
     /// Largest discrete constraint residual over the steps (when tracked).
     pub max_constraint_residual: Option<f64>,
     /// Wall time of set-up and stepping, in seconds.
@@ -1813,6 +1815,7 @@ impl Engine {
                 summary.readout_iterations = e.readout.as_ref().map_or(0, |r| r.stats().iterations);
                 summary.breakpoint_substeps = counters.breakpoint_substeps;
                 summary.step_cuts = counters.step_cuts;
+                summary.ramp_substeps = counters.ramp_substeps;
             }
             Self::Staggered(e) => {
                 for part in e.staggered.parts() {
@@ -1822,6 +1825,7 @@ impl Engine {
                     summary.factorisations += stats.factorisations;
                     summary.breakpoint_substeps += counters.breakpoint_substeps;
                     summary.step_cuts += counters.step_cuts;
+                    summary.ramp_substeps += counters.ramp_substeps;
                 }
                 summary.steps = e.staggered.steps_taken();
                 summary.readout_iterations = e.readouts.iter().map(|r| r.stats().iterations).sum();

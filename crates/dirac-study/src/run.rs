@@ -6,7 +6,7 @@ use dirac_graph::{Assembler, Representation};
 use dirac_netlist::Circuit;
 use dirac_sim::{
     Execution, IntegratorOptions, NaturalModes, RunError, RunSummary, Scheme, Signal, Simulation,
-    Sink, Splitting, Start, Trajectory,
+    Sink, Splitting, Start, StartRamp, Trajectory,
 };
 
 use crate::model::Built;
@@ -242,7 +242,7 @@ impl Model {
         settings: &RunSettings,
     ) -> Result<(IntegratorOptions, f64), StudyError> {
         let name = self.name();
-        let (h, t_end, discretisation, scheme) = match &self.built {
+        let (h, t_end, discretisation, scheme, ramp) = match &self.built {
             Built::Netlist { circuit, .. } => {
                 let tran = circuit.tran_settings();
                 (
@@ -253,6 +253,7 @@ impl Model {
                         .clone()
                         .unwrap_or_else(Discretisation::midpoint),
                     Scheme::Plus,
+                    None,
                 )
             }
             Built::Scene { scene, .. } => (
@@ -260,6 +261,7 @@ impl Model {
                 Some(settings.t_end.unwrap_or(scene.t_end)),
                 scene.options.discretisation.clone(),
                 scene.options.scheme,
+                scene.options.start_ramp,
             ),
         };
         let missing = |setting| StudyError::MissingSetting {
@@ -282,8 +284,14 @@ impl Model {
             .method
             .map_or(discretisation, crate::Method::discretisation);
         let scheme = settings.scheme.unwrap_or(scheme);
+        let ramp = match settings.start_ramp {
+            Some(on) => on.then(StartRamp::default),
+            None => ramp,
+        };
         Ok((
-            IntegratorOptions::new(discretisation, h).scheme(scheme),
+            IntegratorOptions::new(discretisation, h)
+                .scheme(scheme)
+                .start_ramp(ramp),
             t_end,
         ))
     }

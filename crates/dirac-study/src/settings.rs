@@ -186,6 +186,9 @@ pub struct RunSettings {
     pub t_end: Option<f64>,
     /// Signals to record by name (default: the file's).
     pub signals: Option<Vec<String>>,
+    /// The start ramp on or off (default: the scene's `start_ramp`, off for netlists; see
+    /// [`dirac_sim::StartRamp`]).
+    pub start_ramp: Option<bool>,
 }
 
 /// Splits `a,v(x,y),b` at the commas outside parentheses (signal lists keep `v(a,b)` whole).

@@ -24,6 +24,7 @@ class RunSummary:
         readout_iterations: Newton updates of the readouts at the output times.
         breakpoint_substeps: substeps that ended on a source breakpoint.
         step_cuts: substeps retried as two halves after a Newton failure.
+        ramp_substeps: substeps of the start ramp (0 without one).
         max_constraint_residual: largest discrete constraint residual (when tracked).
         wall_s: wall time of set-up and stepping in the Rust run layer, in seconds.
         warnings: warnings of the set-up.
@@ -42,6 +43,7 @@ class RunSummary:
     readout_iterations: int
     breakpoint_substeps: int
     step_cuts: int
+    ramp_substeps: int
     max_constraint_residual: Optional[float]
     wall_s: float
     warnings: Tuple[str, ...]

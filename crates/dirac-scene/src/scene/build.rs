@@ -15,6 +15,7 @@ use dirac_graph::{
 use dirac_rigid::{COORDINATES, Joint, JointKind, Side, rotation_index};
 use dirac_sim::{
     Execution, IntegratorOptions, Probe, RunError, Scheme, Signal, Simulation, Splitting, Start,
+    StartRamp,
 };
 
 use super::error::{Location, Origin, SceneError, listed};
@@ -1296,7 +1297,9 @@ impl Scene {
             v0,
             given_q,
             given_v,
-            options: IntegratorOptions::new(discretisation, sim.h).scheme(scheme),
+            options: IntegratorOptions::new(discretisation, sim.h)
+                .scheme(scheme)
+                .start_ramp(sim.start_ramp.then(StartRamp::default)),
             execution,
             start,
             t_end: sim.t_end,

@@ -125,6 +125,11 @@ pub struct Simulation {
     /// for Gauss and Lobatto of degree `s`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub order: Option<usize>,
+    /// Take the first step as the start ramp's geometrically growing substeps
+    /// ([`dirac_sim::StartRamp`], default off): stiff modes of a start off the slow manifold
+    /// then decay instead of ringing.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub start_ramp: bool,
     /// Step size.
     pub h: f64,
     /// End time: the run takes `round(t_end / h)` steps.
