@@ -37,6 +37,7 @@ const NETLISTS: &[&str] = &[
     "diode_tripler.cir",
     "diode_pulse_charge.cir",
     "diode_500v.cir",
+    "diode_transformer.cir",
     "rectifier.cir",
 ];
 
