@@ -137,6 +137,7 @@ fn settings(
     h: Option<f64>,
     t_end: Option<f64>,
     signals: Option<Vec<String>>,
+    start_ramp: Option<bool>,
 ) -> Result<RunSettings, StudyError> {
     Ok(RunSettings {
         representation: representation
@@ -147,7 +148,7 @@ fn settings(
         h,
         t_end,
         signals,
-        start_ramp: None,
+        start_ramp,
     })
 }
 
@@ -333,7 +334,7 @@ impl PyModel {
 
     /// Runs the model with the GIL released; returns the signal names, the times and one
     /// column per signal (native `f64` bytes) and the run's summary.
-    #[pyo3(signature = (method = None, representation = None, scheme = None, h = None, t_end = None, signals = None, energy = false))]
+    #[pyo3(signature = (method = None, representation = None, scheme = None, h = None, t_end = None, signals = None, energy = false, start_ramp = None))]
     #[allow(clippy::too_many_arguments)]
     fn run<'py>(
         &self,
@@ -345,9 +346,18 @@ impl PyModel {
         t_end: Option<f64>,
         signals: Option<Vec<String>>,
         energy: bool,
+        start_ramp: Option<bool>,
     ) -> PyResult<RunResult<'py>> {
-        let settings =
-            settings(method, representation, scheme, h, t_end, signals).map_err(to_py)?;
+        let settings = settings(
+            method,
+            representation,
+            scheme,
+            h,
+            t_end,
+            signals,
+            start_ramp,
+        )
+        .map_err(to_py)?;
         let model = &self.inner;
         let outcome = py.detach(|| -> Result<_, StudyError> {
             let extra = energy.then(|| Signal::new(ENERGY, Probe::Energy));
@@ -394,7 +404,7 @@ impl PyModel {
         t_end: Option<f64>,
         signals: Option<Vec<String>>,
     ) -> PyResult<Vec<ComparisonRow>> {
-        let settings = settings(method, None, None, h, t_end, signals).map_err(to_py)?;
+        let settings = settings(method, None, None, h, t_end, signals, None).map_err(to_py)?;
         let model = &self.inner;
         let results = py.detach(|| model.compare(&settings)).map_err(to_py)?;
         Ok(results
@@ -464,7 +474,7 @@ impl PySweep {
         trajectories: bool,
     ) -> PyResult<Self> {
         let build = || -> Result<Sweep, StudyError> {
-            let settings = settings(method, representation, None, h, t_end, signals)?;
+            let settings = settings(method, representation, None, h, t_end, signals, None)?;
             let plan = Plan::given(names, points)?;
             let outputs = match (trajectories, outputs) {
                 (true, Some(_)) => {

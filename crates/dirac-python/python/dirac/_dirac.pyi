@@ -33,6 +33,7 @@ class Model:
         t_end: Optional[float] = None,
         signals: Optional[List[str]] = None,
         energy: bool = False,
+        start_ramp: Optional[bool] = None,
     ) -> Tuple[List[str], bytes, List[bytes], dict]: ...
     def compare(
         self,

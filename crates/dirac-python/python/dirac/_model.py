@@ -135,6 +135,7 @@ class Model:
         representation: Optional[str] = None,
         scheme: Optional[str] = None,
         energy: bool = False,
+        start_ramp: Optional[bool] = None,
     ) -> Trajectory:
         """Runs the model and returns its :class:`Trajectory`.
 
@@ -152,6 +153,9 @@ class Model:
             scheme: ``plus``, ``minus``, ``symmetric``.
             energy: also record the total energy for ``summary.energy_drift`` (costs a readout
                 of the velocities at every row).
+            start_ramp: take the first step as geometrically growing substeps, which damp the
+                fast modes of a stiff start off its slow manifold (``dirac run --start-ramp``;
+                ``None`` keeps the scene's ``start_ramp``, off for a netlist).
 
         Raises:
             InputError: bad settings or signal names, an inconsistent start.
@@ -167,6 +171,7 @@ class Model:
             t_end=t_end,
             signals=None if signals is None else list(signals),
             energy=energy,
+            start_ramp=start_ramp,
         )
         return Trajectory._from_run(names, t, data, summary)
 
