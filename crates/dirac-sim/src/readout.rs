@@ -83,9 +83,11 @@ pub struct Readout {
 /// `10³·ε`.
 pub const READOUT_PRECISION: f64 = 1e6 * f64::EPSILON;
 
-/// Pivots the readout's LU treats as zero: `ε²` of their (equilibrated) row. Larger tiny pivots
-/// are let through, and the unknowns they leave ill-determined are found by their round-off
-/// jitter instead (so one of them does not stop the readout of the others).
+/// Pivots the readout's LU treats as zero when its relations are nonlinear: `ε²` of their
+/// (equilibrated) row. Larger tiny pivots are let through, and the unknowns they leave
+/// ill-determined are found by their round-off jitter instead (so one of them does not stop the
+/// readout of the others). Linear relations keep the LU's own tolerance and are not judged: their
+/// conditioning is the same at every state.
 const READOUT_PIVOT_TOL: f64 = f64::EPSILON * f64::EPSILON;
 
 /// What the structural analysis of the readout system found: which unknowns and equations are
@@ -125,6 +127,13 @@ impl ReadoutPlan {
     /// See [`Readout::multiplier_determined`].
     pub(crate) fn multiplier_determined(&self, a: usize) -> bool {
         self.multiplier_determined[a]
+    }
+
+    /// Whether a solve can find a value ill-conditioned at its state (see
+    /// [`Readout::velocity_precise`]): only nonlinear relations are judged, since linear ones
+    /// keep one conditioning for the run and a singular one is refused by the LU.
+    pub(crate) fn judges_precision(&self) -> bool {
+        !self.constant
     }
 }
 
@@ -238,8 +247,12 @@ impl Readout {
         };
         Self {
             newton: Newton::new(
-                AutoLu::for_size(SolverChoice::Auto, plan.rows.len())
-                    .with_pivot_tolerance(READOUT_PIVOT_TOL),
+                if plan.constant {
+                    AutoLu::for_size(SolverChoice::Auto, plan.rows.len())
+                } else {
+                    AutoLu::for_size(SolverChoice::Auto, plan.rows.len())
+                        .with_pivot_tolerance(READOUT_PIVOT_TOL)
+                },
                 options,
             ),
             reduced: vec![0.0; plan.rows.len()],
@@ -294,6 +307,12 @@ impl Readout {
             Ok(stats) => {
                 self.stats.accumulate(&stats);
                 self.precise.fill(true);
+                if self.plan.constant {
+                    // Linear relations: their conditioning does not move with the state, and a
+                    // singular one is refused by the LU's pivot test, as before.
+                    system.scatter(&self.reduced);
+                    return Ok(());
+                }
                 let precision =
                     self.newton
                         .precision(&mut system, &self.reduced)

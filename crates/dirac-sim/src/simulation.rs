@@ -969,6 +969,14 @@ impl Simulation {
             }
         }
         let deferred = self.deferred_entries(&read);
+        // Step means are kept when a row may need them: a deferred value, or a readout whose
+        // nonlinear relations may leave a value ill-conditioned at some state.
+        let track = !deferred.is_empty()
+            || (!read.is_empty()
+                && self
+                    .engine
+                    .as_mut()
+                    .is_some_and(Engine::readout_judges_precision));
         let mut values = vec![0.0; signals.len()];
         let mut max_residual: f64 = 0.0;
         let fill = Fill {
@@ -1013,7 +1021,7 @@ impl Simulation {
             // A run of no steps whose row 0 needs a step's mean takes one step.
             if k < steps || !pending.is_empty() && means.taken == 0 {
                 max_residual = max_residual.max(self.step_with_mean(
-                    fill.readout,
+                    track,
                     &snapshot,
                     &mut before,
                     &mut means,
@@ -1762,6 +1770,15 @@ impl Engine {
             for (effort, row) in out.iter_mut().zip(&e.connection_rows) {
                 *effort = row.and_then(|r| impulses.get(r)).map(|i| i / h);
             }
+        }
+    }
+
+    /// Whether the readout judges the precision of its values (nonlinear relations; see
+    /// [`ReadoutPlan::judges_precision`]).
+    fn readout_judges_precision(&mut self) -> bool {
+        match self {
+            Self::Assembled(e) => e.plan().judges_precision(),
+            Self::Staggered(e) => e.readouts.iter().any(|r| r.plan().judges_precision()),
         }
     }
 

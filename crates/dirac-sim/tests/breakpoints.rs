@@ -2,7 +2,9 @@
 //! ordinary midpoint step of its own size, so the discrete power balance holds on every piece and
 //! every representation sees the same pieces (the same trajectory).
 
-use dirac_components::{Capacitor, ForceSource, Mass, Resistor, Spring, VoltageSource, Waveform};
+mod common;
+
+use dirac_components::{ForceSource, Mass, Spring, Waveform};
 use dirac_graph::{Interconnection, Representation};
 use dirac_sim::{Discretisation, Execution, IntegratorOptions, Probe, Signal, Simulation};
 
@@ -21,18 +23,7 @@ fn pieces_are_midpoint_steps_of_their_own_size() {
         (1.0, 0.3),
     ];
     let wave = Waveform::pwl(points.clone());
-    let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::new(wave.clone()).unwrap().subsystem("V"))
-        .unwrap();
-    g.add_subsystem(Resistor::new(r).unwrap().subsystem("R"))
-        .unwrap();
-    g.add_subsystem(Capacitor::new(c).unwrap().subsystem("C"))
-        .unwrap();
-    let port = |g: &Interconnection, p: &str| g.port(p, "i").unwrap();
-    let (pv, pr, pc) = (port(&g, "V"), port(&g, "R"), port(&g, "C"));
-    g.node("in", vec![(pv, -1.0), (pr, -1.0)]).unwrap();
-    g.node("out", vec![(pr, 1.0), (pc, -1.0)]).unwrap();
-    let signals = vec![Signal::new("q", Probe::position(&g, "C", "q").unwrap())];
+    let (g, signals) = common::source_rc(wave.clone(), r, c);
     let run = |landing: bool| {
         let mut sim = Simulation::new(
             g.clone(),

@@ -4,7 +4,9 @@
 //! L-stable). Checked against the exact solution of a stiff RC ladder, against the midpoint
 //! recursion written out by hand on a driven RC, and for the output grid and the run counters.
 
-use dirac_components::{Capacitor, Resistor, VoltageSource, Waveform};
+mod common;
+
+use dirac_components::{Capacitor, Resistor, Waveform};
 use dirac_graph::{Interconnection, Representation};
 use dirac_sim::{
     Discretisation, Execution, IntegratorOptions, Probe, RunSummary, Signal, Simulation, StartRamp,
@@ -243,18 +245,7 @@ fn ramp_keeps_the_grid_and_is_counted() {
 fn ramp_substeps_are_midpoint_steps_and_balance_power() {
     let (r, c, h) = (1e-3, 1.0, 0.1);
     let wave = Waveform::sin(0.0, 1.0, 1.0);
-    let mut g = Interconnection::new();
-    g.add_subsystem(VoltageSource::new(wave.clone()).unwrap().subsystem("V"))
-        .unwrap();
-    g.add_subsystem(Resistor::new(r).unwrap().subsystem("R"))
-        .unwrap();
-    g.add_subsystem(Capacitor::new(c).unwrap().subsystem("C"))
-        .unwrap();
-    let port = |g: &Interconnection, p: &str| g.port(p, "i").unwrap();
-    let (pv, pr, pc) = (port(&g, "V"), port(&g, "R"), port(&g, "C"));
-    g.node("in", vec![(pv, -1.0), (pr, -1.0)]).unwrap();
-    g.node("out", vec![(pr, 1.0), (pc, -1.0)]).unwrap();
-    let signals = vec![Signal::new("q", Probe::position(&g, "C", "q").unwrap())];
+    let (g, signals) = common::source_rc(wave.clone(), r, c);
     let ramp = StartRamp::default();
     let q0 = 2.0;
     let mut sim = Simulation::new(
