@@ -3,7 +3,8 @@
 use std::collections::HashMap;
 use std::fmt::Write;
 
-use dirac_netlist::{CircuitError, Element, Netlist, SourceSpec};
+use dirac_components::{Diode, DiodeParameters};
+use dirac_netlist::{CircuitError, DeviceConditions, DiodeModel, Element, Netlist, SourceSpec};
 
 use crate::{Scene, SceneError};
 
@@ -34,6 +35,54 @@ fn number(x: f64) -> String {
     } else {
         format!("{s}.0")
     }
+}
+
+/// A scene diode with the model's card at the circuit's temperature and `GMIN`: every key whose
+/// value differs from the scene's default.
+fn diode(model: &DiodeModel, conditions: DeviceConditions) -> String {
+    let c = &model.card;
+    let d = DiodeParameters::default();
+    let tnom = if model.tnom_given {
+        c.tnom
+    } else {
+        conditions.tnom
+    };
+    let mut out = String::from("type = \"diode\"");
+    let mut key = |name: &str, value: f64, default: f64| {
+        if value.to_bits() != default.to_bits() {
+            let _ = write!(out, "\n{name} = {}", number(value));
+        }
+    };
+    key("is", c.is, d.is);
+    key("n", c.n, d.n);
+    key("rs", c.rs, d.rs);
+    key("cjo", c.cjo, d.cjo);
+    key("vj", c.vj, d.vj);
+    key("m", c.m, d.m);
+    key("fc", c.fc, d.fc);
+    key("tt", c.tt, d.tt);
+    if let Some(bv) = c.bv {
+        key("bv", bv, f64::NAN); // NaN: a given value is always written
+    }
+    key("ibv", c.ibv, d.ibv);
+    if let Some(nbv) = c.nbv {
+        key("nbv", nbv, f64::NAN);
+    }
+    key("eg", c.eg, d.eg);
+    key("xti", c.xti, d.xti);
+    key("tcv", c.tcv, d.tcv);
+    key("trs1", c.trs[0], d.trs[0]);
+    key("trs2", c.trs[1], d.trs[1]);
+    key("ttt1", c.ttt[0], d.ttt[0]);
+    key("ttt2", c.ttt[1], d.ttt[1]);
+    key("tm1", c.tm[0], d.tm[0]);
+    key("tm2", c.tm[1], d.tm[1]);
+    key("area", c.area, d.area);
+    // The scene's `tnom` defaults to its `temp`, whose default is ngspice's 27 °C.
+    key("temp", conditions.temp, d.tnom);
+    key("tnom", tnom, conditions.temp);
+    key("gmin", conditions.gmin, Diode::GMIN);
+    out
 }
 
 fn waveform(spec: &SourceSpec) -> String {
@@ -96,6 +145,7 @@ fn waveform(spec: &SourceSpec) -> String {
 pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, ConvertError> {
     // Reuse the circuit builder's checks (coupling, nodes) so convert fails exactly where run would.
     dirac_netlist::build_circuit(netlist, file)?;
+    let conditions = DeviceConditions::read(netlist, file)?;
     let tran = netlist
         .tran
         .as_ref()
@@ -187,12 +237,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
             Element::I { source, .. } => {
                 format!("type = \"current_source\"\nwaveform = {}", waveform(source))
             }
-            Element::D { model, .. } => format!(
-                "type = \"diode\"\nis = {}\nn = {}\nrs = {}",
-                number(model.card.is),
-                number(model.card.n),
-                number(model.card.rs)
-            ),
+            Element::D { model, .. } => diode(model, conditions),
             Element::K { .. } => continue,
         };
         let _ = writeln!(out, "\n[[part]]\nname = \"{part}\"\n{body}");

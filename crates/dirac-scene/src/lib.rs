@@ -98,7 +98,7 @@
 //! | `voltage_source` | `waveform` | `q` | `i` |
 //! | `current_source` | `waveform` | `q`, `phi` | `i` |
 //! | `coupled_inductors` | `l1`, `l2` > 0, `k` ∈ [−1, 1] | `q1`, `q2` | `i1`, `i2` |
-//! | `diode` | `is` > 0, `n` (1), `temp` (°C, 27), `rs` (0) | `q`, `phi` | `i` |
+//! | `diode` | SPICE level-1 card, every key optional with ngspice's default: `is` (1e-14), `n` (1), `rs` (0), `cjo` (0), `vj` (1), `m` (0.5), `fc` (0.5), `tt` (0), `bv` (none), `ibv` (1e-3), `nbv` (`n`), `eg` (1.11), `xti` (3), `tnom` (°C, `temp`), `tcv`, `trs1`, `trs2`, `ttt1`, `ttt2`, `tm1`, `tm2` (0), `area` (1); `temp` (°C, 27), `gmin` (1e-12) | `q`, `phi` | `i` |
 //! | `saturating_inductor` | `l0` > 0, `l_inf` ∈ [0, l0], `i_sat` > 0 | `q` | `i` |
 //! | `mass` | `m` > 0 (a wall spring or damper is a coupling to a `ground`) | `x` | `x` |
 //! | `inertia` | `j` > 0 (torsion or friction to the frame: a coupling to a `ground`) | `theta` | `theta` |

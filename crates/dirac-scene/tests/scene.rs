@@ -606,6 +606,52 @@ fn error(text: &str) -> SceneError {
     }
 }
 
+/// The diode takes the SPICE card's keys; a value the card refuses is reported at its key's value,
+/// an unknown key by name.
+#[test]
+fn diode_card_errors_name_key_and_line() {
+    let diode = |keys: &str| {
+        error(&format!(
+            "{HEAD}[[part]]\nname = \"D1\"\ntype = \"diode\"\n{keys}"
+        ))
+    };
+    let cases = [
+        (
+            "is = 1e-14\ncjo = -1.0\n",
+            "bad.toml:9:7: part `D1` (diode): `cjo` = -1 must not be negative",
+        ),
+        (
+            "m = 1.0\n",
+            "bad.toml:8:5: part `D1` (diode): `m` = 1 must lie in [0, 1)",
+        ),
+        (
+            "bv = 0.0\n",
+            "bad.toml:8:6: part `D1` (diode): `bv` = 0 must be positive (the magnitude of the breakdown voltage)",
+        ),
+        (
+            "temp = 50.0\ntnom = -300.0\n",
+            "bad.toml:9:8: part `D1` (diode): `tnom` = -300 must be above absolute zero",
+        ),
+        (
+            "tnom = 20.0\ntemp = -300.0\n",
+            "bad.toml:9:8: part `D1` (diode): `temp` = -300 must be above absolute zero",
+        ),
+        (
+            "gmin = -1e-12\n",
+            "bad.toml:8:8: part `D1` (diode): `gmin` = -0.000000000001 must be non-negative and finite",
+        ),
+    ];
+    for (keys, message) in cases {
+        assert_eq!(diode(keys).to_string(), message, "{keys}");
+    }
+    let e = diode("cj0 = 1e-12\n");
+    assert!(
+        e.to_string()
+            .starts_with("bad.toml:8:1: unknown field `cj0`"),
+        "{e}"
+    );
+}
+
 /// Unknown keys and wrong types are reported at the exact key or value.
 #[test]
 fn syntax_errors_name_line_and_column() {

@@ -4,9 +4,9 @@
 use std::collections::{HashMap, HashSet};
 
 use dirac_components::{
-    Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, DiodeParameters,
-    ForceSource, Ground, IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError, Pendulum,
-    PlanarLinkage, Resistor, RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
+    Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource, Ground,
+    IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError, Pendulum, PlanarLinkage,
+    Resistor, RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
 };
 use dirac_core::Discretisation;
 use dirac_graph::{
@@ -525,20 +525,21 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
             zeros(2),
         ),
         PartKind::Diode(p) => {
-            // The scene's parameters are measured at the junction temperature `temp` (TNOM = temp);
-            // a refusal of the temperature adjustment is placed at `temp`.
+            // Built as a netlist's `D` element is; a refusal is placed at the key it names.
             let check = dirac_graph::Check::new("diode");
-            let card = DiodeParameters {
-                rs: check.non_negative("rs", p.rs).map_err(at)?,
-                tnom: p.temp,
-                ..DiodeParameters::new(
-                    check.positive("is", p.is).map_err(at)?,
-                    check.positive("n", p.n).map_err(at)?,
-                )
-            };
+            let gmin = check.non_negative("gmin", p.gmin).map_err(at)?;
+            let card = p.card();
             let diode = Diode::at_temperature(&card, p.temp)
-                .map_err(|e| at(check.fail("temp", e.value, e.reason)))?
-                .diode;
+                .map_err(|e| {
+                    let key = match e.parameter {
+                        "TEMP/TNOM" if e.value < p.temp => "tnom".to_string(),
+                        "TEMP/TNOM" => "temp".to_string(),
+                        name => name.to_ascii_lowercase(),
+                    };
+                    at(check.fail(&key, e.value, e.reason))
+                })?
+                .diode
+                .with_gmin(gmin);
             (diode.subsystem(name), zeros(2))
         }
         PartKind::SaturatingInductor(p) => (

@@ -568,30 +568,127 @@ pub struct SourceParams {
     pub waveform: WaveformSpec,
 }
 
-fn default_emission() -> f64 {
-    1.0
-}
-
-fn default_temp() -> f64 {
-    27.0
-}
-
-/// `diode`: `is` (A, > 0), `n` (default 1), `temp` (°C, default 27: the thermal voltage is
-/// `k·temp/q`), `rs` (Ω, default 0).
+/// `diode`: the SPICE level-1 card of [`dirac_components::DiodeParameters`] under its lower-case
+/// SPICE names, every key optional with ngspice's default (`is` 1e-14 A, `n` 1, `rs` 0, `cjo` 0,
+/// `vj` 1, `m` 0.5, `fc` 0.5, `tt` 0, `bv` none, `ibv` 1e-3, `nbv` = `n`, `eg` 1.11, `xti` 3,
+/// `tcv`, `trs1`, `trs2`, `ttt1`, `ttt2`, `tm1`, `tm2` 0, `area` 1), plus the junction
+/// temperature `temp` (°C, 27), the nominal temperature `tnom` (°C, default `temp`: the
+/// parameters are then taken as measured at the junction temperature) and `gmin` (S, 1e-12).
+/// The part is built by [`dirac_components::Diode::at_temperature`], as a netlist's `D` element.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(default, deny_unknown_fields)]
 pub struct DiodeParams {
-    /// Saturation current.
+    /// `IS`: saturation current (A).
     pub is: f64,
-    /// Emission coefficient.
-    #[serde(default = "default_emission")]
+    /// `N`: emission coefficient.
     pub n: f64,
-    /// Junction temperature (°C); the parameters are taken as measured at it.
-    #[serde(default = "default_temp")]
-    pub temp: f64,
-    /// Series resistance.
-    #[serde(default)]
+    /// `RS`: series resistance (Ω).
     pub rs: f64,
+    /// `CJO`: zero-bias depletion capacitance (F).
+    pub cjo: f64,
+    /// `VJ`: junction potential (V).
+    pub vj: f64,
+    /// `M`: grading coefficient.
+    pub m: f64,
+    /// `FC`: forward-bias depletion capacitance coefficient.
+    pub fc: f64,
+    /// `TT`: transit time (s).
+    pub tt: f64,
+    /// `BV`: reverse breakdown voltage (V, positive); none: no breakdown.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bv: Option<f64>,
+    /// `IBV`: current at the breakdown voltage (A).
+    pub ibv: f64,
+    /// `NBV`: breakdown emission coefficient; none: `n`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nbv: Option<f64>,
+    /// `EG`: activation energy (eV).
+    pub eg: f64,
+    /// `XTI`: saturation-current temperature exponent.
+    pub xti: f64,
+    /// `TNOM`: temperature at which the parameters were measured (°C); none: `temp`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tnom: Option<f64>,
+    /// `TCV`: linear temperature coefficient of `BV` (V/K).
+    pub tcv: f64,
+    /// `TRS1`: linear temperature coefficient of `RS` (1/K).
+    pub trs1: f64,
+    /// `TRS2`: quadratic temperature coefficient of `RS` (1/K²).
+    pub trs2: f64,
+    /// `TTT1`: linear temperature coefficient of `TT` (1/K).
+    pub ttt1: f64,
+    /// `TTT2`: quadratic temperature coefficient of `TT` (1/K²).
+    pub ttt2: f64,
+    /// `TM1`: linear temperature coefficient of `M` (1/K).
+    pub tm1: f64,
+    /// `TM2`: quadratic temperature coefficient of `M` (1/K²).
+    pub tm2: f64,
+    /// `AREA`: area factor scaling `IS` and `CJO` and dividing `RS`.
+    pub area: f64,
+    /// Junction temperature (°C).
+    pub temp: f64,
+    /// Conductance across the junction (S).
+    pub gmin: f64,
+}
+
+impl Default for DiodeParams {
+    fn default() -> Self {
+        let d = dirac_components::DiodeParameters::default();
+        Self {
+            is: d.is,
+            n: d.n,
+            rs: d.rs,
+            cjo: d.cjo,
+            vj: d.vj,
+            m: d.m,
+            fc: d.fc,
+            tt: d.tt,
+            bv: d.bv,
+            ibv: d.ibv,
+            nbv: d.nbv,
+            eg: d.eg,
+            xti: d.xti,
+            tnom: None,
+            tcv: d.tcv,
+            trs1: d.trs[0],
+            trs2: d.trs[1],
+            ttt1: d.ttt[0],
+            ttt2: d.ttt[1],
+            tm1: d.tm[0],
+            tm2: d.tm[1],
+            area: d.area,
+            temp: d.tnom,
+            gmin: dirac_components::Diode::GMIN,
+        }
+    }
+}
+
+impl DiodeParams {
+    /// The SPICE card these keys describe (`TNOM` = `temp` when `tnom` is not given).
+    #[must_use]
+    pub fn card(&self) -> dirac_components::DiodeParameters {
+        dirac_components::DiodeParameters {
+            is: self.is,
+            n: self.n,
+            rs: self.rs,
+            cjo: self.cjo,
+            vj: self.vj,
+            m: self.m,
+            fc: self.fc,
+            tt: self.tt,
+            bv: self.bv,
+            ibv: self.ibv,
+            nbv: self.nbv,
+            eg: self.eg,
+            xti: self.xti,
+            tnom: self.tnom.unwrap_or(self.temp),
+            tcv: self.tcv,
+            trs: [self.trs1, self.trs2],
+            ttt: [self.ttt1, self.ttt2],
+            tm: [self.tm1, self.tm2],
+            area: self.area,
+        }
+    }
 }
 
 /// `spring` to ground (free end at its coordinate): `k` (≥ 0), cubic `k3` (default 0), `rest`
