@@ -303,14 +303,15 @@ impl Readout {
             self.reduced.fill(0.0);
             system.at_zero = true;
         }
-        match self.newton.solve(&mut system, &mut self.reduced) {
-            Ok(stats) => {
+        let solved = self
+            .newton
+            .solve(&mut system, &mut self.reduced)
+            .and_then(|stats| {
                 self.stats.accumulate(&stats);
-                self.precise.fill(true);
                 if self.plan.constant {
                     // Linear relations: their conditioning does not move with the state, and a
-                    // singular one is refused by the LU's pivot test, as before.
-                    system.scatter(&self.reduced);
+                    // singular one is refused by the LU's pivot test, as before (`precise`
+                    // stays true).
                     return Ok(());
                 }
                 let precision =
@@ -320,30 +321,22 @@ impl Readout {
                             source,
                             residual: 0.0,
                             worst_equation: 0,
-                        });
-                match precision {
-                    Ok(Some(Precision { jitter, scale })) => {
-                        // Judged against the unknown's scale, but never below the largest
-                        // unknown's size: an unknown whose equations' terms all vanish (a body's
-                        // rate about a still axis) has no scale of its own, and only values
-                        // ill-conditioned against the whole readout are read from the steps.
-                        let largest = self.reduced.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-                        for ((&c, eta), s) in self.plan.cols.iter().zip(jitter).zip(scale) {
-                            self.precise[c] = *eta <= READOUT_PRECISION * s.max(largest);
-                        }
-                    }
-                    Ok(None) => {}
-                    Err(source) => {
-                        let (equation, likely_cause) = self.explain(model, constraints, &source);
-                        return Err(ReadoutError {
-                            step: None,
-                            t,
-                            source,
-                            equation,
-                            likely_cause,
-                        });
+                        })?;
+                self.precise.fill(true);
+                if let Some(Precision { jitter, scale }) = precision {
+                    // Judged against the unknown's scale, but never below the largest unknown's
+                    // size: an unknown whose equations' terms all vanish (a body's rate about a
+                    // still axis) has no scale of its own, and only values ill-conditioned
+                    // against the whole readout are read from the steps.
+                    let largest = self.reduced.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+                    for ((&c, eta), s) in self.plan.cols.iter().zip(jitter).zip(scale) {
+                        self.precise[c] = *eta <= READOUT_PRECISION * s.max(largest);
                     }
                 }
+                Ok(())
+            });
+        match solved {
+            Ok(()) => {
                 system.scatter(&self.reduced);
                 Ok(())
             }

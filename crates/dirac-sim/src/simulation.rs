@@ -920,10 +920,11 @@ impl Simulation {
     ///
     /// Values the algebraic relations cannot fix at `t_k` (index-2 quantities: the current of a
     /// capacitor across a voltage source, the potential between an inductor and a current source)
-    /// are the mean of the two steps around `t_k` (extrapolated from the first two and the last
-    /// two at the ends); asking for one delays each row by a step. So are values the relations
-    /// fix only through a coefficient lost in round-off at this state (a node potential behind an
-    /// off diode: [`crate::READOUT_PRECISION`]), row by row, with a warning naming the signal.
+    /// are read from the two steps around `t_k`, linear in time between where each step's mean
+    /// sits (the nearest two at the ends; no step is taken past `t_end`); asking for one delays
+    /// each row by a step. So are values the relations fix only through a coefficient lost among
+    /// the others at this state (a node potential behind an off diode:
+    /// [`crate::READOUT_PRECISION`]), row by row, with a warning naming the signal.
     ///
     /// # Errors
     /// Bad settings or signals, an inconsistent start, a step or readout that fails, or the sink.
@@ -962,12 +963,10 @@ impl Simulation {
         let names: Vec<String> = signals.iter().map(|s| s.name.clone()).collect();
         sink.begin(&names).map_err(RunError::Output)?;
         let per_signal = self.signal_entries(signals);
-        let mut read: Vec<Entry> = Vec::new();
-        for entry in per_signal.iter().flatten() {
-            if !read.contains(entry) {
-                read.push(*entry);
-            }
-        }
+        // Sorted, so that a row's ill-conditioned entries are looked up, not scanned for.
+        let mut read: Vec<Entry> = per_signal.iter().flatten().copied().collect();
+        read.sort_unstable();
+        read.dedup();
         let deferred = self.deferred_entries(&read);
         // Step means are kept when a row may need them: a deferred value, or a readout whose
         // nonlinear relations may leave a value ill-conditioned at some state.
@@ -1006,7 +1005,7 @@ impl Simulation {
             let t_k = self.t0 + k as f64 * h;
             completed.clone_from(&deferred);
             for entry in &imprecise {
-                if read.contains(entry) && !completed.contains(entry) {
+                if read.binary_search(entry).is_ok() && !completed.contains(entry) {
                     completed.push(*entry);
                 }
             }
@@ -1120,9 +1119,7 @@ impl Simulation {
         }
         self.step()?;
         if track {
-            let mut mean = means.recycle();
-            self.step_mean_into(before, self.options.h, &mut mean)?;
-            means.push(mean);
+            means.record(|mean| self.step_mean_into(before, self.options.h, mean))?;
         }
         Ok(self.last_residual)
     }
@@ -1306,22 +1303,21 @@ impl Means {
     /// and 1, which wait for step 2.
     const KEPT: usize = 4;
 
-    /// A mean to fill: the oldest one's buffers once [`Means::KEPT`] are held (it is no longer
-    /// needed), else new ones.
-    fn recycle(&mut self) -> StepMean {
-        if self.last.len() == Self::KEPT {
+    /// Records the next step's mean as `fill` writes it, into the buffers of the oldest one once
+    /// [`Means::KEPT`] are held (it is no longer needed).
+    fn record(
+        &mut self,
+        fill: impl FnOnce(&mut StepMean) -> Result<(), RunError>,
+    ) -> Result<(), RunError> {
+        let mut mean = if self.last.len() == Self::KEPT {
             self.last.pop_front().unwrap_or_default()
         } else {
             StepMean::default()
-        }
-    }
-
-    fn push(&mut self, mean: StepMean) {
-        if self.last.len() == Self::KEPT {
-            self.last.pop_front();
-        }
+        };
+        fill(&mut mean)?;
         self.last.push_back(mean);
         self.taken += 1;
+        Ok(())
     }
 
     /// The two steps `(a, a + 1)` whose means give `entry` at `t_k` (`None`: a single step).
@@ -1422,7 +1418,7 @@ impl FromSteps {
 }
 
 /// An entry of a snapshot filled from step means.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 enum Entry {
     Velocity(usize),
     Effort(usize),
@@ -1659,18 +1655,22 @@ impl Engine {
                     for (effort, row) in out.efforts.iter_mut().zip(&e.connection_rows) {
                         *effort = row.map(|r| lambda[r]);
                     }
-                    imprecise.extend(
-                        (0..parts)
-                            .filter(|&i| !readout.velocity_precise(i))
-                            .map(Entry::Velocity),
-                    );
-                    imprecise.extend(
-                        e.connection_rows
-                            .iter()
-                            .enumerate()
-                            .filter(|(_, row)| row.is_some_and(|r| !readout.multiplier_precise(r)))
-                            .map(|(c, _)| Entry::Effort(c)),
-                    );
+                    if readout.plan().judges_precision() {
+                        imprecise.extend(
+                            (0..parts)
+                                .filter(|&i| !readout.velocity_precise(i))
+                                .map(Entry::Velocity),
+                        );
+                        imprecise.extend(
+                            e.connection_rows
+                                .iter()
+                                .enumerate()
+                                .filter(|(_, row)| {
+                                    row.is_some_and(|r| !readout.multiplier_precise(r))
+                                })
+                                .map(|(c, _)| Entry::Effort(c)),
+                        );
+                    }
                 }
                 Ok(())
             }
