@@ -310,12 +310,13 @@ impl<S: LinearSolver> Newton<S> {
                     let (relative, equation) = self.relative_residual(system, x);
                     if fresh && relative <= self.options.residual_tol && self.factor().is_ok() {
                         stats.factorisations += 1;
-                        self.polish(x).map_err(|source| NewtonError::Linear {
+                        self.solve_update().map_err(|source| NewtonError::Linear {
                             source,
                             residual: rnorm,
                             worst_equation: worst,
                         })?;
                         stats.iterations += 1;
+                        self.apply_update(x);
                         return Ok(stats);
                     }
                     (relative, equation)
@@ -377,26 +378,14 @@ impl<S: LinearSolver> Newton<S> {
             exact_update = refresh;
             noise_known &= !refresh;
             previous_rnorm = rnorm;
-            for ((u, r), s) in self
-                .update
-                .iter_mut()
-                .zip(&self.residual)
-                .zip(&self.row_scale)
-            {
-                *u = r * s;
-            }
-            self.solver
-                .solve_in_place(&mut self.update)
-                .map_err(|source| NewtonError::Linear {
-                    source,
-                    residual: rnorm,
-                    worst_equation: worst,
-                })?;
+            self.solve_update().map_err(|source| NewtonError::Linear {
+                source,
+                residual: rnorm,
+                worst_equation: worst,
+            })?;
             stats.iterations += 1;
             if residual_converged {
-                for (xi, u) in x.iter_mut().zip(&self.update) {
-                    *xi -= u;
-                }
+                self.apply_update(x);
                 return Ok(stats);
             }
             let alpha = if reuse {
@@ -491,9 +480,9 @@ impl<S: LinearSolver> Newton<S> {
         }))
     }
 
-    /// One update from the factorisation at hand and the last residual, applied to `x` (the
-    /// polishing update of an iterate the residual test accepted).
-    fn polish(&mut self, x: &mut [f64]) -> Result<(), LinearSolveError> {
+    /// The Newton update from the factorisation at hand and the last residual, into `update`
+    /// (rows scaled as the factorisation's).
+    fn solve_update(&mut self) -> Result<(), LinearSolveError> {
         for ((u, r), s) in self
             .update
             .iter_mut()
@@ -502,11 +491,14 @@ impl<S: LinearSolver> Newton<S> {
         {
             *u = r * s;
         }
-        self.solver.solve_in_place(&mut self.update)?;
+        self.solver.solve_in_place(&mut self.update)
+    }
+
+    /// `x ← x − update`, the whole update.
+    fn apply_update(&self, x: &mut [f64]) {
         for (xi, u) in x.iter_mut().zip(&self.update) {
             *xi -= u;
         }
-        Ok(())
     }
 
     /// Fills `magnitude` with the size of every equation's terms at `x`,
