@@ -157,6 +157,15 @@ struct ModelArgs {
     /// Gauss are not L-stable). The grid t_k = k·h is unchanged.
     #[arg(long = "start-ramp")]
     start_ramp: bool,
+    /// Control the truncation error as SPICE does: a step whose estimated local error (charges
+    /// and fluxes, third divided differences) exceeds .options reltol/abstol/chgtol/trtol is
+    /// taken again as 2^m equal substeps on the same grid. On by default for netlists with
+    /// diodes.
+    #[arg(long, conflicts_with = "fixed_step")]
+    refine: bool,
+    /// Take every step at h: no truncation-error control (see --refine).
+    #[arg(long = "fixed-step")]
+    fixed_step: bool,
 }
 
 impl ModelArgs {
@@ -171,6 +180,11 @@ impl ModelArgs {
             t_end: self.t_end,
             signals: signals.map(split_list),
             start_ramp: self.start_ramp.then_some(true),
+            truncation: if self.refine {
+                Some(true)
+            } else {
+                self.fixed_step.then_some(false)
+            },
         }
     }
 }
@@ -542,6 +556,8 @@ fn summary_json(
         "breakpoint_substeps": summary.breakpoint_substeps,
         "step_cuts": summary.step_cuts,
         "ramp_substeps": summary.ramp_substeps,
+        "refinements": summary.refinements,
+        "substeps": summary.substeps,
         "max_constraint_residual": summary.max_constraint_residual,
         "wall_s": summary.wall_s,
         "peak_rss_kib": guard::peak_rss_kib(),

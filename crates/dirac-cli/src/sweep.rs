@@ -120,6 +120,7 @@ pub(crate) fn sweep(args: &SweepArgs) -> Result<(), Failure> {
         t_end: args.t_end,
         signals: args.signals.as_deref().map(split_list),
         start_ramp: None,
+        truncation: None,
     };
     let outputs = if args.trajectories {
         Some(Outputs::Trajectories)

@@ -9,6 +9,7 @@ use dirac_components::{
 use dirac_graph::{ConnectionId, GraphError, Interconnection, PortRef, Subsystem, SubsystemId};
 use dirac_sim::{
     Discretisation, Execution, IntegratorOptions, Probe, RunError, Signal, Simulation, Start,
+    TruncationControl,
 };
 use thiserror::Error;
 
@@ -172,6 +173,10 @@ pub struct Circuit {
     pub holds: Vec<(ConnectionId, f64)>,
     /// The discretisation `.options method=` maps to, if any.
     pub method: Option<Discretisation>,
+    /// The truncation-error tolerances of `.options reltol= abstol= chgtol= trtol=` (SPICE's
+    /// defaults otherwise); whether a run uses them by default is
+    /// [`Circuit::default_truncation`].
+    pub truncation: TruncationControl,
     /// Temperature and `GMIN` of the diodes.
     pub conditions: DeviceConditions,
     /// Notes on what the netlist asks that dirac does differently (`.options` it does not use,
@@ -287,6 +292,15 @@ impl Circuit {
             }
         }
         out
+    }
+
+    /// The truncation-error control a run uses unless told otherwise: on for a circuit with
+    /// diodes, whose switching instants need the short steps SPICE's step control takes there;
+    /// off for a linear circuit, whose midpoint steps at `h` already have the trapezoid rule's
+    /// error at the same step.
+    #[must_use]
+    pub fn default_truncation(&self) -> Option<TruncationControl> {
+        (!self.diodes.is_empty()).then_some(self.truncation)
     }
 
     /// The diodes as built (at the circuit's temperature, with its `GMIN`): element name, part
@@ -685,6 +699,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         op: netlist.op,
         holds,
         method: None,
+        truncation: TruncationControl::default(),
         conditions,
         warnings: notes,
         defaults: Vec::new(),
@@ -723,16 +738,45 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         }
         chosen
     };
-    circuit.read_options(netlist, file);
+    circuit.read_options(netlist, file)?;
     Ok(circuit)
 }
 
 impl Circuit {
-    /// Maps `.options method=` to a discretisation and notes every option dirac does not use.
-    fn read_options(&mut self, netlist: &Netlist, file: &str) {
+    /// Maps `.options method=` to a discretisation, reads the truncation-error tolerances and
+    /// notes every option dirac does not use.
+    ///
+    /// # Errors
+    /// A tolerance that is not a positive number.
+    fn read_options(&mut self, netlist: &Netlist, file: &str) -> Result<(), CircuitError> {
+        let mut control = TruncationControl::default();
         for option in &netlist.options {
             let at = format!("{file}:{}:{}", option.pos.line, option.pos.column);
-            match (option.key.as_str(), option.value.as_deref()) {
+            let key = option.key.as_str();
+            if let Some(slot) = match key {
+                "reltol" => Some(&mut control.reltol),
+                "abstol" => Some(&mut control.abstol),
+                "chgtol" => Some(&mut control.chgtol),
+                "trtol" => Some(&mut control.trtol),
+                _ => None,
+            } {
+                let text = option.value.as_deref().unwrap_or("");
+                *slot = crate::parse_spice_number(text)
+                    .filter(|v| *v > 0.0 && v.is_finite())
+                    .ok_or_else(|| CircuitError::BadOption {
+                        file: file.to_string(),
+                        line: option.pos.line,
+                        column: option.pos.column,
+                        message: format!("`{key}` needs a positive number, got `{text}`"),
+                    })?;
+                if self.diodes.is_empty() {
+                    self.warnings.push(format!(
+                        "{at}: `.options {key}` used only by the truncation-error control, which is off for a circuit without diodes (turn it on with --refine)"
+                    ));
+                }
+                continue;
+            }
+            match (key, option.value.as_deref()) {
                 ("method", Some("trap" | "trapezoidal")) => {
                     // On linear circuits the trapezoidal rule and the midpoint rule give the same
                     // charges (both second order, A-stable, not L-stable).
@@ -743,9 +787,11 @@ impl Circuit {
                 )),
                 ("temp" | "tnom" | "gmin", _) => {}
                 (key, _) => self.warnings.push(format!(
-                    "{at}: `.options {key}` ignored (dirac steps at the fixed .tran TSTEP with its own Newton tolerances)"
+                    "{at}: `.options {key}` ignored (dirac steps on the .tran TSTEP grid with its own Newton tolerances)"
                 )),
             }
         }
+        self.truncation = control;
+        Ok(())
     }
 }

@@ -138,6 +138,7 @@ fn settings(
     t_end: Option<f64>,
     signals: Option<Vec<String>>,
     start_ramp: Option<bool>,
+    refine: Option<bool>,
 ) -> Result<RunSettings, StudyError> {
     Ok(RunSettings {
         representation: representation
@@ -149,6 +150,7 @@ fn settings(
         t_end,
         signals,
         start_ramp,
+        truncation: refine,
     })
 }
 
@@ -209,6 +211,8 @@ fn summary_dict<'py>(
     d.set_item("readout_iterations", summary.readout_iterations)?;
     d.set_item("breakpoint_substeps", summary.breakpoint_substeps)?;
     d.set_item("step_cuts", summary.step_cuts)?;
+    d.set_item("refinements", summary.refinements)?;
+    d.set_item("substeps", summary.substeps)?;
     d.set_item("ramp_substeps", summary.ramp_substeps)?;
     d.set_item("max_constraint_residual", summary.max_constraint_residual)?;
     d.set_item("wall_s", summary.wall_s)?;
@@ -334,7 +338,7 @@ impl PyModel {
 
     /// Runs the model with the GIL released; returns the signal names, the times and one
     /// column per signal (native `f64` bytes) and the run's summary.
-    #[pyo3(signature = (method = None, representation = None, scheme = None, h = None, t_end = None, signals = None, energy = false, start_ramp = None))]
+    #[pyo3(signature = (method = None, representation = None, scheme = None, h = None, t_end = None, signals = None, energy = false, start_ramp = None, refine = None))]
     #[allow(clippy::too_many_arguments)]
     fn run<'py>(
         &self,
@@ -347,6 +351,7 @@ impl PyModel {
         signals: Option<Vec<String>>,
         energy: bool,
         start_ramp: Option<bool>,
+        refine: Option<bool>,
     ) -> PyResult<RunResult<'py>> {
         let settings = settings(
             method,
@@ -356,6 +361,7 @@ impl PyModel {
             t_end,
             signals,
             start_ramp,
+            refine,
         )
         .map_err(to_py)?;
         let model = &self.inner;
@@ -404,7 +410,8 @@ impl PyModel {
         t_end: Option<f64>,
         signals: Option<Vec<String>>,
     ) -> PyResult<Vec<ComparisonRow>> {
-        let settings = settings(method, None, None, h, t_end, signals, None).map_err(to_py)?;
+        let settings =
+            settings(method, None, None, h, t_end, signals, None, None).map_err(to_py)?;
         let model = &self.inner;
         let results = py.detach(|| model.compare(&settings)).map_err(to_py)?;
         Ok(results
@@ -474,7 +481,7 @@ impl PySweep {
         trajectories: bool,
     ) -> PyResult<Self> {
         let build = || -> Result<Sweep, StudyError> {
-            let settings = settings(method, representation, None, h, t_end, signals, None)?;
+            let settings = settings(method, representation, None, h, t_end, signals, None, None)?;
             let plan = Plan::given(names, points)?;
             let outputs = match (trajectories, outputs) {
                 (true, Some(_)) => {

@@ -12,6 +12,7 @@ use crate::composition::Composition;
 use crate::error::SimError;
 use crate::explicit::ExplicitStep;
 use crate::linear::{AutoLu, SolverChoice};
+use crate::truncation::{History, TruncationControl, Verdict};
 
 /// Relative size below which a reduced constraint row counts as linearly dependent.
 const REDUNDANCY_TOL: f64 = 1e-10;
@@ -96,6 +97,11 @@ pub struct IntegratorOptions {
     /// the fast modes of an initial state off the slow manifold are damped instead of ringing
     /// through the run. Off by default.
     pub start_ramp: Option<StartRamp>,
+    /// Redo a substep as `2^m` equal pieces when its estimated local truncation error exceeds
+    /// SPICE's tolerance (see [`TruncationControl`]): resolves a diode switching on inside a
+    /// step, as SPICE's step control does, while the output grid stays `t_k = t₀ + k h`. Off by
+    /// default; a netlist with diodes turns it on.
+    pub truncation: Option<TruncationControl>,
 }
 
 /// The start ramp: the first step `[t₀, t₀ + h]` taken as `per_level` equal substeps in each of
@@ -173,7 +179,16 @@ impl IntegratorOptions {
             explicit: true,
             predictor: Predictor::Polynomial,
             start_ramp: None,
+            truncation: None,
         }
+    }
+
+    /// Controls the truncation error by refining substeps (see
+    /// [`IntegratorOptions::truncation`]); `None` keeps every step at `h`.
+    #[must_use]
+    pub fn truncation(mut self, control: Option<TruncationControl>) -> Self {
+        self.truncation = control;
+        self
     }
 
     /// Ramps the first step up from tiny substeps (see [`StartRamp`]); `None` takes `h` at once.
@@ -283,6 +298,8 @@ pub struct Integrator<M, C> {
     /// Coordinates whose momentum is a constant of the model, with that constant (see
     /// [`Integrator::free_momenta`]).
     free_momenta: Vec<(usize, f64)>,
+    /// Accepted points of the judged components (with [`IntegratorOptions::truncation`]).
+    history: Option<History>,
 }
 
 /// How often steps were split: at source breakpoints and after Newton failures.
@@ -294,6 +311,12 @@ pub struct StepCounters {
     pub step_cuts: usize,
     /// Substeps of the start ramp ([`StartRamp`]; 0 without one).
     pub ramp_substeps: usize,
+    /// Substeps the truncation-error test rejected and redone as `2^m` pieces
+    /// ([`IntegratorOptions::truncation`]).
+    pub refinements: usize,
+    /// Substeps accepted, of every kind (a step at `h`, a piece of a split step, a breakpoint
+    /// substep, a ramp substep): the time points of the run after `t₀`.
+    pub substeps: usize,
 }
 
 /// Breakpoints closer than this fraction of `h` to a grid point or to each other are merged
@@ -526,6 +549,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             saved_impulse: Vec::new(),
             counters: StepCounters::default(),
             free_momenta: Vec::new(),
+            history: None,
         })
     }
 
@@ -622,6 +646,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.t0 = t;
         self.t = t;
         self.k = 0;
+        self.start_history();
         Ok(())
     }
 
@@ -650,6 +675,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.t0 = t;
         self.t = t;
         self.k = 0;
+        self.start_history();
         Ok(())
     }
 
@@ -683,6 +709,16 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             .filter(|&i| !involved[i])
             .map(|i| (i, p[i]))
             .collect()
+    }
+
+    /// Starts the truncation-error history at the current state (see
+    /// [`IntegratorOptions::truncation`]); none when the control is off or nothing stores energy.
+    fn start_history(&mut self) {
+        self.history = self.options.truncation.and_then(|_| {
+            let mut history = History::for_model(&self.model, &self.q, &self.v0);
+            history.restart(self.t, &self.q, &self.p);
+            (!history.is_empty()).then_some(history)
+        });
     }
 
     /// Puts the constant momenta back after a substep (see [`Integrator::free_momenta`]).
@@ -732,6 +768,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             Self::add_impulse(&mut self.impulse, stage);
             self.k += 1;
             self.t = self.t0 + self.k as f64 * self.options.h;
+            self.counters.substeps += 1;
             return Ok(StepReport {
                 newton: NewtonStats::default(),
             });
@@ -786,6 +823,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                     self.counters.breakpoint_substeps += 1;
                     stats.accumulate(&self.advance(b - t, 0)?);
                     self.t = b;
+                    // A source's derivative jumps here: differences across it are no estimate.
+                    if let Some(history) = &mut self.history {
+                        history.restart(b, &self.q, &self.p);
+                    }
                 }
                 None => {
                     // Unsplit, the substep keeps its exact size (the ramp's repeated sizes
@@ -833,7 +874,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             }
         }
         let error = match result {
-            Ok(()) => return Ok(stats),
+            Ok(()) => return self.accept_or_refine(size, depth, t, saved, stats),
             Err(e) => e,
         };
         let retry = matches!(
@@ -868,6 +909,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 other => other,
             });
         }
+        self.restore(saved, t);
+        self.counters.step_cuts += 1;
+        self.advance_in_pieces(size, depth, 1, t, stats)
+    }
+
+    /// Puts back the state before a failed or rejected attempt at time `t`.
+    fn restore(&mut self, saved: Option<(Vec<f64>, Vec<f64>, Vec<f64>)>, t: f64) {
         match saved {
             None => {
                 self.q.copy_from_slice(&self.saved_q);
@@ -881,13 +929,55 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             }
         }
         self.t = t;
-        self.counters.step_cuts += 1;
-        let half = 0.5 * size;
-        let first = self.advance(half, depth + 1)?;
-        self.t = t + half;
-        let second = self.advance(half, depth + 1)?;
-        stats.accumulate(&first);
-        stats.accumulate(&second);
+    }
+
+    /// Advances from `t` by `size` as `2^halvings` equal pieces, each one [`Integrator::advance`]
+    /// at depth `depth + halvings`, adding their cost to `stats`.
+    fn advance_in_pieces(
+        &mut self,
+        size: f64,
+        depth: u32,
+        halvings: u32,
+        t: f64,
+        mut stats: NewtonStats,
+    ) -> Result<NewtonStats, SimError> {
+        let pieces = 1u64 << halvings;
+        let piece = size / pieces as f64;
+        for j in 0..pieces {
+            self.t = t + j as f64 * piece;
+            stats.accumulate(&self.advance(piece, depth + halvings)?);
+        }
+        Ok(stats)
+    }
+
+    /// After a solved substep of `size` from `t`: keeps it, or, when the truncation-error test
+    /// rejects it (and `depth` leaves room), restores the state and takes it as `2^m` pieces.
+    fn accept_or_refine(
+        &mut self,
+        size: f64,
+        depth: u32,
+        t: f64,
+        saved: Option<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+        stats: NewtonStats,
+    ) -> Result<NewtonStats, SimError> {
+        let verdict = match (&self.history, &self.options.truncation) {
+            (Some(history), Some(rule)) if depth < rule.max_depth => {
+                match history.judge(rule, t + size, &self.q, &self.p) {
+                    Verdict::Split(m) => Some(m.min(rule.max_depth - depth)),
+                    Verdict::Accept => None,
+                }
+            }
+            _ => None,
+        };
+        if let Some(halvings) = verdict {
+            self.restore(saved, t);
+            self.counters.refinements += 1;
+            return self.advance_in_pieces(size, depth, halvings, t, stats);
+        }
+        self.counters.substeps += 1;
+        if let Some(history) = &mut self.history {
+            history.push(t + size, &self.q, &self.p);
+        }
         Ok(stats)
     }
 
@@ -1131,6 +1221,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         // The explicit path is exact and as cheap; the rounded affine map drifts (see
         // [`IntegratorOptions::affine_map`]).
         let qualifies = self.options.affine_map
+            && self.options.truncation.is_none()
             && self.explicit.is_none()
             && self.stages.len() == 1
             && self.model.is_autonomous()

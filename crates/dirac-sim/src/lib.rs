@@ -20,6 +20,7 @@ mod steady;
 #[cfg(test)]
 mod test_models;
 mod trajectory;
+mod truncation;
 
 pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
@@ -39,3 +40,4 @@ pub use simulation::{Execution, RunError, RunSummary, Simulation, Start};
 pub use staggered::{Splitting, Staggered};
 pub use steady::{SteadyState, SteadyStateError};
 pub use trajectory::{Sink, Trajectory};
+pub use truncation::TruncationControl;

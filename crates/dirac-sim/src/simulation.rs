@@ -137,6 +137,12 @@ pub struct RunSummary {
     pub step_cuts: usize,
     /// Substeps of the start ramp (`IntegratorOptions::start_ramp`; 0 without one).
     pub ramp_substeps: usize,
+    /// Substeps the truncation-error test rejected and took again in pieces
+    /// (`IntegratorOptions::truncation`; 0 without it).
+    pub refinements: usize,
+    /// Substeps accepted, of every kind: the run's time points after `t₀` (equal to `steps`
+    /// when no step was split).
+    pub substeps: usize,
     /// Largest discrete constraint residual over the steps (when tracked).
     pub max_constraint_residual: Option<f64>,
     /// Wall time of set-up and stepping, in seconds.
@@ -1833,6 +1839,8 @@ impl Engine {
                 summary.breakpoint_substeps = counters.breakpoint_substeps;
                 summary.step_cuts = counters.step_cuts;
                 summary.ramp_substeps = counters.ramp_substeps;
+                summary.refinements = counters.refinements;
+                summary.substeps = counters.substeps;
             }
             Self::Staggered(e) => {
                 for part in e.staggered.parts() {
@@ -1843,6 +1851,8 @@ impl Engine {
                     summary.breakpoint_substeps += counters.breakpoint_substeps;
                     summary.step_cuts += counters.step_cuts;
                     summary.ramp_substeps += counters.ramp_substeps;
+                    summary.refinements += counters.refinements;
+                    summary.substeps += counters.substeps;
                 }
                 summary.steps = e.staggered.steps_taken();
                 summary.readout_iterations = e.readouts.iter().map(|r| r.stats().iterations).sum();

@@ -6,7 +6,7 @@ use dirac_graph::{Assembler, Representation};
 use dirac_netlist::Circuit;
 use dirac_sim::{
     Execution, IntegratorOptions, NaturalModes, RunError, RunSummary, Scheme, Signal, Simulation,
-    Sink, Splitting, Start, StartRamp, Trajectory,
+    Sink, Splitting, Start, StartRamp, Trajectory, TruncationControl,
 };
 
 use crate::model::Built;
@@ -242,7 +242,7 @@ impl Model {
         settings: &RunSettings,
     ) -> Result<(IntegratorOptions, f64), StudyError> {
         let name = self.name();
-        let (h, t_end, discretisation, scheme, ramp) = match &self.built {
+        let (h, t_end, discretisation, scheme, ramp, truncation) = match &self.built {
             Built::Netlist { circuit, .. } => {
                 let tran = circuit.tran_settings();
                 (
@@ -254,6 +254,10 @@ impl Model {
                         .unwrap_or_else(Discretisation::midpoint),
                     Scheme::Plus,
                     None,
+                    match settings.truncation {
+                        Some(on) => on.then_some(circuit.truncation),
+                        None => circuit.default_truncation(),
+                    },
                 )
             }
             Built::Scene { scene, .. } => (
@@ -262,6 +266,9 @@ impl Model {
                 scene.options.discretisation.clone(),
                 scene.options.scheme,
                 scene.options.start_ramp,
+                settings
+                    .truncation
+                    .and_then(|on| on.then(TruncationControl::default)),
             ),
         };
         let missing = |setting| StudyError::MissingSetting {
@@ -291,7 +298,8 @@ impl Model {
         Ok((
             IntegratorOptions::new(discretisation, h)
                 .scheme(scheme)
-                .start_ramp(ramp),
+                .start_ramp(ramp)
+                .truncation(truncation),
             t_end,
         ))
     }

@@ -189,6 +189,9 @@ pub struct RunSettings {
     /// The start ramp on or off (default: the scene's `start_ramp`, off for netlists; see
     /// [`dirac_sim::StartRamp`]).
     pub start_ramp: Option<bool>,
+    /// Truncation-error control on or off (default: on for netlists with diodes, with the
+    /// netlist's `.options` tolerances, off otherwise; see [`dirac_sim::TruncationControl`]).
+    pub truncation: Option<bool>,
 }
 
 /// Splits `a,v(x,y),b` at the commas outside parentheses (signal lists keep `v(a,b)` whole).

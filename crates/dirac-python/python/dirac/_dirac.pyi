@@ -34,6 +34,7 @@ class Model:
         signals: Optional[List[str]] = None,
         energy: bool = False,
         start_ramp: Optional[bool] = None,
+        refine: Optional[bool] = None,
     ) -> Tuple[List[str], bytes, List[bytes], dict]: ...
     def compare(
         self,

@@ -136,6 +136,7 @@ class Model:
         scheme: Optional[str] = None,
         energy: bool = False,
         start_ramp: Optional[bool] = None,
+        refine: Optional[bool] = None,
     ) -> Trajectory:
         """Runs the model and returns its :class:`Trajectory`.
 
@@ -156,6 +157,9 @@ class Model:
             start_ramp: take the first step as geometrically growing substeps, which damp the
                 fast modes of a stiff start off its slow manifold (``dirac run --start-ramp``;
                 ``None`` keeps the scene's ``start_ramp``, off for a netlist).
+            refine: control the truncation error as SPICE does, taking a step whose estimated
+                local error is too large again as 2^m substeps on the same grid (``dirac run
+                --refine``/``--fixed-step``; ``None``: on for a netlist with diodes, else off).
 
         Raises:
             InputError: bad settings or signal names, an inconsistent start.
@@ -172,6 +176,7 @@ class Model:
             signals=None if signals is None else list(signals),
             energy=energy,
             start_ramp=start_ramp,
+            refine=refine,
         )
         return Trajectory._from_run(names, t, data, summary)
 

@@ -1,0 +1,234 @@
+//! Truncation-error control on the fixed output grid, as SPICE does it (`CKTterr`): after a
+//! substep, the local error of every energy-storing state component is estimated from its
+//! third divided difference over the last four accepted points; a substep whose estimate exceeds
+//! the tolerance is taken again as `2^m` equal pieces, which end on the same grid point.
+//!
+//! The components judged are the ones SPICE judges: a capacitor's charge (a position with a
+//! potential, `∂²L/∂q² ≠ 0` on its diagonal) and an inductor's flux or a junction's charge (a
+//! momentum with a mass, `∂²L/∂v² ≠ 0`). Branch charges of resistors and sources, which store no
+//! energy, are not judged: their offsets are arbitrary.
+
+use dirac_core::{LagrangianHessian, Model};
+
+/// Tolerances of the truncation-error test, with SPICE's names and defaults (ngspice 39 manual,
+/// `.options`): a substep of size `s` passes when, for every judged component `x`,
+/// `(0.9 s)² · |x[t₀, t₁, t₂, t₃]| / 12 ≤ TRTOL · tol`, where `x[…]` is the third divided
+/// difference over the last four points, `1/12` the trapezoid rule's error constant and
+/// `tol = max(ABSTOL + RELTOL·|ẋ|, RELTOL·max(|x|, CHGTOL)/s)` (`ẋ` the larger of the last two
+/// chord rates). This is ngspice's test: it takes the step `del = √(TRTOL·tol·12/|x[…]|)` next and
+/// rejects the step just taken when `del < 0.9 s`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TruncationControl {
+    /// `RELTOL`: relative tolerance (default 1e-3).
+    pub reltol: f64,
+    /// `ABSTOL`: absolute tolerance on the rate of a judged component, a current for a charge
+    /// (default 1e-12).
+    pub abstol: f64,
+    /// `CHGTOL`: smallest charge (or flux) the relative tolerance is taken of (default 1e-14).
+    pub chgtol: f64,
+    /// `TRTOL`: factor by which the divided-difference estimate overstates the error (default 7).
+    pub trtol: f64,
+    /// Most halvings of a grid step (default 10: substeps down to `h/1024`). A substep at this
+    /// depth is accepted whatever its estimate.
+    pub max_depth: u32,
+}
+
+impl Default for TruncationControl {
+    fn default() -> Self {
+        Self {
+            reltol: 1e-3,
+            abstol: 1e-12,
+            chgtol: 1e-14,
+            trtol: 7.0,
+            max_depth: 10,
+        }
+    }
+}
+
+/// Rejections above this many halvings at once are capped (a step `2^12` times too long).
+const MOST_HALVINGS: u32 = 12;
+
+/// What the test says of a substep.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Verdict {
+    /// Keep it.
+    Accept,
+    /// Take it again as `2^m` equal pieces (`m ≥ 1`).
+    Split(u32),
+}
+
+/// The judged components and their last accepted values.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct History {
+    /// Judged positions (capacitor charges).
+    positions: Vec<usize>,
+    /// Judged momenta (inductor fluxes, junction charges).
+    momenta: Vec<usize>,
+    /// Up to three accepted points `(t, x)`, oldest first; the last is the current state.
+    points: Vec<(f64, Vec<f64>)>,
+}
+
+impl History {
+    /// The energy-storing components of `model` at `(q, v)`: positions whose diagonal of
+    /// `∂²L/∂q²` and momenta whose diagonal of `∂²L/∂v²` is nonzero there.
+    pub(crate) fn for_model<M: Model>(model: &M, q: &[f64], v: &[f64]) -> Self {
+        let mut hessian = LagrangianHessian::default();
+        hessian.begin();
+        model.lagrangian_hessian(q, v, &mut hessian);
+        let n = q.len();
+        let diagonal = |block: &dirac_solve::Triplets| {
+            let mut on = vec![false; n];
+            for (i, j, value) in block.iter() {
+                if i == j && value != 0.0 {
+                    on[i] = true;
+                }
+            }
+            (0..n).filter(|&i| on[i]).collect::<Vec<_>>()
+        };
+        Self {
+            positions: diagonal(&hessian.qq),
+            momenta: diagonal(&hessian.vv),
+            points: Vec::with_capacity(3),
+        }
+    }
+
+    /// Whether nothing is judged.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.positions.is_empty() && self.momenta.is_empty()
+    }
+
+    /// Forgets the past and starts from `(t, q, p)` (at the start and after a source corner,
+    /// where the divided differences would span a jump in a derivative). The next two substeps
+    /// are not judged.
+    pub(crate) fn restart(&mut self, t: f64, q: &[f64], p: &[f64]) {
+        self.points.clear();
+        self.push(t, q, p);
+    }
+
+    /// Records the accepted state `(t, q, p)`.
+    pub(crate) fn push(&mut self, t: f64, q: &[f64], p: &[f64]) {
+        let mut x = if self.points.len() == 3 {
+            self.points.remove(0).1
+        } else {
+            Vec::with_capacity(self.positions.len() + self.momenta.len())
+        };
+        x.clear();
+        x.extend(self.positions.iter().map(|&i| q[i]));
+        x.extend(self.momenta.iter().map(|&i| p[i]));
+        self.points.push((t, x));
+    }
+
+    /// Judges the substep that ended at `(t, q, p)` after the last recorded point.
+    pub(crate) fn judge(&self, rule: &TruncationControl, t: f64, q: &[f64], p: &[f64]) -> Verdict {
+        let [(t0, x0), (t1, x1), (t2, x2)] = match self.points.as_slice() {
+            [a, b, c] => [a, b, c],
+            _ => return Verdict::Accept,
+        };
+        let s = t - t2;
+        if s <= 0.0 {
+            return Verdict::Accept;
+        }
+        let current = self
+            .positions
+            .iter()
+            .map(|&i| q[i])
+            .chain(self.momenta.iter().map(|&i| p[i]));
+        // The smallest step any component allows, as ngspice computes it.
+        let mut allowed = f64::INFINITY;
+        for (j, x3) in current.enumerate() {
+            let d01 = (x1[j] - x0[j]) / (t1 - t0);
+            let d12 = (x2[j] - x1[j]) / (t2 - t1);
+            let d23 = (x3 - x2[j]) / s;
+            let d012 = (d12 - d01) / (t2 - t0);
+            let d123 = (d23 - d12) / (t - t1);
+            let d0123 = (d123 - d012) / (t - t0);
+            let rate = d23.abs().max(d12.abs());
+            let size = x3.abs().max(x2[j].abs()).max(rule.chgtol);
+            let tol = (rule.abstol + rule.reltol * rate).max(rule.reltol * size / s);
+            let del = (rule.trtol * tol / (d0123.abs() / 12.0).max(rule.abstol)).sqrt();
+            // A NaN estimate (never from a converged step) is no reason to refine.
+            if del < allowed {
+                allowed = del;
+            }
+        }
+        if allowed >= 0.9 * s {
+            Verdict::Accept
+        } else {
+            let halvings = (s / allowed).log2().ceil().max(1.0);
+            Verdict::Split((halvings as u32).min(MOST_HALVINGS))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A history of one component `x(t)` at `ts`, judged at the last time.
+    fn judged(x: impl Fn(f64) -> f64, ts: &[f64], rule: &TruncationControl) -> Verdict {
+        let mut h = History {
+            positions: vec![0],
+            ..History::default()
+        };
+        let (last, past) = ts.split_last().unwrap();
+        for &t in past {
+            h.push(t, &[x(t)], &[]);
+        }
+        h.judge(rule, *last, &[x(*last)], &[])
+    }
+
+    #[test]
+    fn a_quadratic_charge_is_never_refined() {
+        // The third divided difference of a quadratic is zero: no error to control, whatever
+        // the spacing.
+        let rule = TruncationControl::default();
+        let v = judged(
+            |t| 3.0 * t * t - t + 1e-3,
+            &[0.0, 1e-3, 1.5e-3, 5e-3],
+            &rule,
+        );
+        assert_eq!(v, Verdict::Accept);
+    }
+
+    #[test]
+    fn the_split_is_what_ngspice_would_step_next() {
+        // x = a t³ at t = −3s, −2s, −s, 0: x[t₀..t₃] = a, the chord rates are 7a s² and a s², and
+        // |x| ≤ a s³, so tol = ABSTOL + RELTOL·7a s² (the charge term RELTOL·a s² is smaller) and
+        // ngspice's next step is del = √(TRTOL·12·tol/a) = s·√(84·7·RELTOL) once ABSTOL is
+        // negligible (a = 1e6, s = 1e-3: 7e-3 against 1e-12).
+        let (a, s) = (1e6, 1e-3);
+        let ts = [-3.0 * s, -2.0 * s, -s, 0.0];
+        let x = |t: f64| a * t * t * t;
+        for (reltol, expected) in [
+            // del = 0.767 s < 0.9 s: one halving.
+            (1e-3, Verdict::Split(1)),
+            // del = 0.242 s: s/del = 4.1, so 2^3 pieces.
+            (1e-4, Verdict::Split(3)),
+            // del = 2.42 s: kept.
+            (1e-2, Verdict::Accept),
+        ] {
+            let rule = TruncationControl {
+                reltol,
+                ..TruncationControl::default()
+            };
+            assert_eq!(judged(x, &ts, &rule), expected, "reltol {reltol}");
+        }
+    }
+
+    #[test]
+    fn fewer_than_three_past_points_are_not_judged() {
+        let rule = TruncationControl::default();
+        let v = judged(|t| 1e9 * t.powi(5), &[0.0, 1.0, 2.0], &rule);
+        assert_eq!(v, Verdict::Accept);
+    }
+
+    #[test]
+    fn a_kink_is_refined_down_to_its_scale() {
+        // A charge whose current switches on at t = 2.5 ms (a diode starting to conduct into a
+        // capacitor): the step across the kink is refined.
+        let rule = TruncationControl::default();
+        let x = |t: f64| 1e-4 * (t - 2.5e-3).max(0.0).powi(2) / 1e-6 + 1e-9;
+        let v = judged(x, &[0.0, 1e-3, 2e-3, 3e-3], &rule);
+        assert!(matches!(v, Verdict::Split(m) if m >= 1), "{v:?}");
+    }
+}
