@@ -795,9 +795,15 @@ fn signals(case: &Case, dirac: &Table) -> Vec<Signal> {
 
 /// The four runs of `case`.
 fn run_case(case: &Case) -> Runs {
+    run_case_in(case, case.file.trim_end_matches(".cir"))
+}
+
+/// [`run_case`] in the scratch directory `tag` (a test running beside another on the same case
+/// needs its own).
+fn run_case_in(case: &Case, tag: &str) -> Runs {
     let path = repo("examples/netlists").join(case.file);
     let deck = Deck::read(std::fs::read_to_string(&path).expect("netlist"));
-    let scratch = Scratch::new(case.file.trim_end_matches(".cir"));
+    let scratch = Scratch::new(tag);
     let dirac = run_dirac(&path, &scratch.0.join("dirac.csv"));
     let vectors = vectors(case, &dirac);
     let h = deck.tstep;
@@ -1178,7 +1184,7 @@ fn control_fixed_step_rectifier_fails() {
         .iter()
         .find(|c| c.file == "rectifier.cir")
         .expect("rectifier.cir is a judged case");
-    let runs = run_case(case);
+    let runs = run_case_in(case, "rectifier-refined");
     let refined = judge(case, &runs);
     let scratch = Scratch::new("rectifier-fixed-step");
     let fixed = judge(

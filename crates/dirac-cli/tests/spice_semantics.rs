@@ -350,3 +350,40 @@ fn transformer_rectifier_reads_the_secondary_behind_an_off_diode() {
     );
     eprintln!("transformer: {checked} off rows, worst |v(s) − (M/L1)·v(a)| = {worst:.2e} V");
 }
+
+/// The same transformer rectifier under gauss2: a Gauss method does not damp a mode faster than
+/// the step (`R(∞) = +1`), and when the diode switches off the winding keeps a current of about
+/// 5.6 µA that decays only like `1/k` over the steps (the exact one vanishes within 1e-16 s):
+/// the state then puts `v(s)` 0.94 V above `v(out)` while the open secondary is near −17 V. The run
+/// must not pass that silently: the state at t_k and the means of the steps around it disagree by
+/// more than the value itself, and the run says so, naming `v(s)`. The midpoint rule's run of the
+/// same file (whose stiff mode alternates and averages out, as the test above checks) must not
+/// warn: the check does not fire on a resolved run.
+#[test]
+fn a_mode_the_method_does_not_damp_is_reported_not_written_silently() {
+    let path = repo("examples/netlists/diode_transformer.cir");
+    let run = |method: &str| {
+        let out = scratch(&format!("diode_transformer_{method}.csv"));
+        let run = dirac(&[
+            "run",
+            path.to_str().expect("path"),
+            "--method",
+            method,
+            "--out",
+            out.to_str().expect("path"),
+        ]);
+        let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+        assert!(run.status.success(), "{method}: {stderr}");
+        stderr
+    };
+    let disagree = "the state at t_k and the steps around it disagree";
+    let gauss2 = run("gauss2");
+    assert!(
+        gauss2
+            .lines()
+            .any(|l| l.contains("`v(s)`") && l.contains(disagree)),
+        "gauss2 must warn about v(s): {gauss2}"
+    );
+    let midpoint = run("midpoint");
+    assert!(!midpoint.contains(disagree), "midpoint: {midpoint}");
+}

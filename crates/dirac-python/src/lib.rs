@@ -137,8 +137,6 @@ fn settings(
     h: Option<f64>,
     t_end: Option<f64>,
     signals: Option<Vec<String>>,
-    start_ramp: Option<bool>,
-    refine: Option<bool>,
 ) -> Result<RunSettings, StudyError> {
     Ok(RunSettings {
         representation: representation
@@ -149,8 +147,7 @@ fn settings(
         h,
         t_end,
         signals,
-        start_ramp,
-        truncation: refine,
+        ..RunSettings::default()
     })
 }
 
@@ -353,17 +350,13 @@ impl PyModel {
         start_ramp: Option<bool>,
         refine: Option<bool>,
     ) -> PyResult<RunResult<'py>> {
-        let settings = settings(
-            method,
-            representation,
-            scheme,
-            h,
-            t_end,
-            signals,
-            start_ramp,
-            refine,
-        )
-        .map_err(to_py)?;
+        let settings = settings(method, representation, scheme, h, t_end, signals)
+            .map(|s| RunSettings {
+                start_ramp,
+                truncation: refine,
+                ..s
+            })
+            .map_err(to_py)?;
         let model = &self.inner;
         let outcome = py.detach(|| -> Result<_, StudyError> {
             let extra = energy.then(|| Signal::new(ENERGY, Probe::Energy));
@@ -410,8 +403,7 @@ impl PyModel {
         t_end: Option<f64>,
         signals: Option<Vec<String>>,
     ) -> PyResult<Vec<ComparisonRow>> {
-        let settings =
-            settings(method, None, None, h, t_end, signals, None, None).map_err(to_py)?;
+        let settings = settings(method, None, None, h, t_end, signals).map_err(to_py)?;
         let model = &self.inner;
         let results = py.detach(|| model.compare(&settings)).map_err(to_py)?;
         Ok(results
@@ -481,7 +473,7 @@ impl PySweep {
         trajectories: bool,
     ) -> PyResult<Self> {
         let build = || -> Result<Sweep, StudyError> {
-            let settings = settings(method, representation, None, h, t_end, signals, None, None)?;
+            let settings = settings(method, representation, None, h, t_end, signals)?;
             let plan = Plan::given(names, points)?;
             let outputs = match (trajectories, outputs) {
                 (true, Some(_)) => {

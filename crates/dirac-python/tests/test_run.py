@@ -78,6 +78,21 @@ def test_start_ramp_reaches_the_run_as_on_the_command_line(cli, tmp_path):
     assert gap(ramped) <= 1.1e-6 < 1e-2 <= gap(plain), (gap(ramped), gap(plain))
 
 
+def test_refine_reaches_the_run_as_on_the_command_line(cli):
+    # rectifier.cir has a diode, so the truncation-error control is on by default: its rows are
+    # the CLI's, and refine=False gives the CLI's --fixed-step rows, with no substep added.
+    path = EXAMPLES / "netlists" / "rectifier.cir"
+    refined = dirac.run(path)
+    assert refined.to_csv() == cli("run", path, "--quiet").stdout.decode()
+    assert refined.summary.refinements > 0
+    assert refined.summary.substeps > refined.summary.steps
+    fixed = dirac.run(path, refine=False)
+    assert fixed.to_csv() == cli("run", path, "--quiet", "--fixed-step").stdout.decode()
+    assert fixed.summary.refinements == 0
+    assert fixed.summary.substeps == fixed.summary.steps
+    assert fixed.to_csv() != refined.to_csv()
+
+
 def test_seed_loop_against_the_exact_solution():
     trajectory = dirac.run(EXAMPLES / "scenes" / "seed_rlc.toml")
     L, C, R = 0.75, 3.0, 0.1

@@ -25,6 +25,8 @@ class RunSummary:
         breakpoint_substeps: substeps that ended on a source breakpoint.
         step_cuts: substeps retried as two halves after a Newton failure.
         ramp_substeps: substeps of the start ramp (0 without one).
+        refinements: substeps the truncation-error control rejected and took again in pieces.
+        substeps: substeps accepted, of every kind (the run's time points after the start).
         max_constraint_residual: largest discrete constraint residual (when tracked).
         wall_s: wall time of set-up and stepping in the Rust run layer, in seconds.
         warnings: warnings of the set-up.
@@ -44,6 +46,8 @@ class RunSummary:
     breakpoint_substeps: int
     step_cuts: int
     ramp_substeps: int
+    refinements: int
+    substeps: int
     max_constraint_residual: Optional[float]
     wall_s: float
     warnings: Tuple[str, ...]
