@@ -381,3 +381,70 @@ fn the_checker_fails_a_diode_that_produces_energy_or_a_wrong_balance() {
     println!("junction charge change dropped: balance {:.2e}", a.balance);
     assert!(a.balance > RELATION_TOL && verdict(&a).is_err(), "{a:?}");
 }
+
+/// The default run refines some steps (the truncation-error control): such a step must be the
+/// midpoint rule over its pieces. From the same state, `2^m` steps of `h/2^m` by an independent
+/// fixed-step integrator of the same model end where the refined step ends, to Newton's
+/// round-off; so the per-step passivity and power balance checked above at fixed steps (an
+/// identity of each midpoint step, whatever its size) hold on every piece of the default run.
+/// Steps refined more than once (pieces of unequal size) are left out. Measured: 3 of the
+/// rectifier's 5 refined steps replayed, worst relative difference 1.4e-14.
+#[test]
+fn a_refined_step_is_the_midpoint_rule_over_its_pieces() {
+    use dirac_sim::{Integrator, IntegratorOptions};
+    let model = netlist("rectifier.cir");
+    let plan = model
+        .plan(&RunSettings::default())
+        .expect("the file's own settings");
+    assert!(
+        plan.options.truncation.is_some(),
+        "a netlist with a diode refines by default"
+    );
+    let h = plan.options.h;
+    let steps = (plan.t_end / h).round() as usize;
+    let mut sim = model
+        .simulation(plan.execution, plan.options.clone(), model.start())
+        .expect("simulation");
+    sim.prepare().expect("prepare");
+    let (mut checked, mut worst) = (0, 0.0_f64);
+    for _ in 0..steps {
+        let (t0, q0, p0) = (sim.time(), sim.positions(), sim.momenta());
+        let before = sim.summary();
+        sim.step().expect("step");
+        let after = sim.summary();
+        let pieces = after.substeps - before.substeps;
+        if after.refinements != before.refinements + 1 || !pieces.is_power_of_two() {
+            continue;
+        }
+        let (_, integrator) = sim.assembled().expect("assembled");
+        let options = IntegratorOptions {
+            h: h / pieces as f64,
+            truncation: None,
+            ..plan.options.clone()
+        };
+        let mut fixed = Integrator::new(
+            integrator.model().clone(),
+            integrator.constraints().clone(),
+            options,
+        )
+        .expect("integrator");
+        fixed.set_state(&q0, &p0, t0).expect("state");
+        for _ in 0..pieces {
+            fixed.step().expect("piece");
+        }
+        let (q1, p1) = (sim.positions(), sim.momenta());
+        for (a, b) in q1.iter().chain(&p1).zip(fixed.q().iter().chain(fixed.p())) {
+            let scale = a.abs().max(b.abs()).max(f64::MIN_POSITIVE);
+            worst = worst.max((a - b).abs() / scale.max(1e-12));
+        }
+        checked += 1;
+    }
+    println!(
+        "rectifier: {checked} refined steps replayed as fixed pieces, worst relative difference {worst:.1e}"
+    );
+    assert!(checked >= 2, "refined steps found: {checked}");
+    assert!(
+        worst <= 1e-9,
+        "a refined step differs from its pieces by {worst:e}"
+    );
+}
