@@ -724,7 +724,15 @@ impl Model for Diode {
         if step == 0.0 {
             return 1.0;
         }
-        let limited = self.limit_junction_voltage(old + step, old);
+        let new = old + step;
+        let limited = self.limit_junction_voltage(new, old);
+        // Not limited: the whole update. `(new − old)/step` would differ from 1 by the rounding
+        // of `old + step`, which for an update of a few ulps of `old` is tens of percent, and
+        // Newton would keep damping an iterate already at round-off (a ladder of 50 diodes,
+        // whose far junctions settle at 1e-26 updates, failed its first step that way).
+        if limited == new {
+            return 1.0;
+        }
         let alpha = (limited - old) / step;
         // Outside (0, 1] only for unusual parameters (V_crit below zero); the update is then
         // left alone.
@@ -1143,6 +1151,14 @@ mod tests {
         };
         assert_eq!(alpha_at(0.0, -500.0), 1.0 / 500.0);
         assert_eq!(alpha_at(0.6, 0.61), 1.0);
+        // An update of 1.3 ulps is not limited: the whole of it, although `(old + step) − old`
+        // rounds to 1 ulp (a fraction 0.77, which kept Newton damping an iterate at round-off).
+        let step = 1.3 * f64::EPSILON * 0.25;
+        assert_ne!((0.3 + step) - 0.3, step);
+        assert_eq!(
+            d.update_fraction(&[0.0; 2], &[0.0, 0.3], &[0.0; 2], &[0.0, step]),
+            1.0
+        );
         // Below the breakdown knee the mirrored limit applies.
         let z = at(
             &DiodeParameters {

@@ -83,6 +83,14 @@ pub struct Readout {
 /// `10³·ε`.
 pub const READOUT_PRECISION: f64 = 1e6 * f64::EPSILON;
 
+/// Newton iterations a readout may take. A junction approached from a forward voltage above
+/// its solution descends by about one `N·V_t` per exact Newton iteration (SPICE's `pnjlim`
+/// limits only rises above `V_crit`, so nothing speeds the descent): a guess 1 V high with
+/// `N = 1.8` takes 22 iterations, which the steps' limit of 25 left no room for
+/// (`diode_transformer.cir`'s readout at t = 63.9 ms, once the limiter stopped damping
+/// unlimited updates at random). 100 covers 4 V at that slope; a readout iteration is cheap.
+const READOUT_ITERATIONS: usize = 100;
+
 /// Pivots the readout's LU treats as zero when its relations are nonlinear: `ε²` of their
 /// (equilibrated) row. Larger tiny pivots are let through, and the unknowns they leave
 /// ill-determined are found by their round-off jitter instead (so one of them does not stop the
@@ -243,6 +251,7 @@ impl Readout {
         let options = NewtonOptions {
             reuse_jacobian: false,
             update_tol: 1e-13,
+            max_iterations: READOUT_ITERATIONS,
             ..NewtonOptions::default()
         };
         Self {
