@@ -3,8 +3,9 @@
 //! landed, steps cut) shows in review as a snapshot diff.
 //!
 //! Each file runs as `dirac run FILE` runs it: a scene with its own settings, a netlist with its
-//! `.tran` step and end, its `.options method=` (else the midpoint rule) and its start (the given
-//! values with `UIC`, else the operating point), in the monolithic representation; a netlist
+//! `.tran` step and end, its `.options method=` (else the midpoint rule), its truncation-error
+//! control (on with diodes) and its start (the given values with `UIC`, else the operating
+//! point), in the monolithic representation; a netlist
 //! without `.tran` as `dirac op` runs it (the operating point alone). The counters
 //! are integers of a deterministic computation, so the snapshots are exact; wall time is left out.
 //!
@@ -30,13 +31,15 @@ fn bundled(dir: &str) -> Vec<PathBuf> {
 
 fn counters(summary: &RunSummary) -> String {
     format!(
-        "steps: {}\nnewton_iterations: {}\nfactorisations: {}\nreadout_iterations: {}\nbreakpoint_substeps: {}\nstep_cuts: {}\n",
+        "steps: {}\nnewton_iterations: {}\nfactorisations: {}\nreadout_iterations: {}\nbreakpoint_substeps: {}\nstep_cuts: {}\nrefinements: {}\nsubsteps: {}\n",
         summary.steps,
         summary.newton_iterations,
         summary.factorisations,
         summary.readout_iterations,
         summary.breakpoint_substeps,
-        summary.step_cuts
+        summary.step_cuts,
+        summary.refinements,
+        summary.substeps
     )
 }
 
@@ -83,7 +86,7 @@ fn netlist_counters() {
         let mut sim = circuit
             .simulation(
                 Execution::Assembled(Representation::Monolithic),
-                IntegratorOptions::new(method, h),
+                IntegratorOptions::new(method, h).truncation(circuit.default_truncation()),
                 start,
             )
             .expect("simulation");
