@@ -13,7 +13,7 @@ use dirac_sim::{
 };
 use thiserror::Error;
 
-use crate::{Element, Netlist, SourceSpec, Tran};
+use crate::{Element, Netlist, OptionCard, SourceSpec, Tran};
 
 /// A netlist that cannot be turned into a circuit model.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -121,12 +121,7 @@ impl DeviceConditions {
             if !matches!(key, "temp" | "tnom" | "gmin") {
                 continue;
             }
-            let fail = |message: String| CircuitError::BadOption {
-                file: file.to_string(),
-                line: option.pos.line,
-                column: option.pos.column,
-                message,
-            };
+            let fail = |message| bad_option(file, option, message);
             let text = option.value.as_deref().unwrap_or("");
             let value = crate::parse_spice_number(text)
                 .ok_or_else(|| fail(format!("`{key}` needs a number, got `{text}`")))?;
@@ -143,6 +138,16 @@ impl DeviceConditions {
             }
         }
         Ok(out)
+    }
+}
+
+/// The error for an `.options` value, at the card's position.
+fn bad_option(file: &str, option: &OptionCard, message: String) -> CircuitError {
+    CircuitError::BadOption {
+        file: file.to_string(),
+        line: option.pos.line,
+        column: option.pos.column,
+        message,
     }
 }
 
@@ -763,11 +768,12 @@ impl Circuit {
                 let text = option.value.as_deref().unwrap_or("");
                 *slot = crate::parse_spice_number(text)
                     .filter(|v| *v > 0.0 && v.is_finite())
-                    .ok_or_else(|| CircuitError::BadOption {
-                        file: file.to_string(),
-                        line: option.pos.line,
-                        column: option.pos.column,
-                        message: format!("`{key}` needs a positive number, got `{text}`"),
+                    .ok_or_else(|| {
+                        bad_option(
+                            file,
+                            option,
+                            format!("`{key}` needs a positive number, got `{text}`"),
+                        )
                     })?;
                 if self.diodes.is_empty() {
                     self.warnings.push(format!(

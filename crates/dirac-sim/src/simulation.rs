@@ -1130,10 +1130,12 @@ impl Simulation {
         before: &mut Vec<f64>,
         means: &mut Means,
     ) -> Result<f64, RunError> {
-        if track {
-            before.clone_from(&snapshot.q);
+        if !track {
+            self.step()?;
+            return Ok(self.last_residual);
         }
-        let splits = self.engine.as_ref().map_or(0, Engine::splits);
+        before.clone_from(&snapshot.q);
+        let substeps = self.engine.as_ref().map_or(0, Engine::substeps);
         let (t, h) = (self.time(), self.options.h);
         // A source corner inside the step or on either end of it (a corner on a grid point
         // splits no step) makes its mean no smooth sample either.
@@ -1143,13 +1145,12 @@ impl Simulation {
             .and_then(|e| e.next_breakpoint(t - BREAKPOINT_MARGIN * h))
             .is_some_and(|b| b <= t + (1.0 + BREAKPOINT_MARGIN) * h);
         self.step()?;
-        if track {
-            let split = corner || self.engine.as_ref().map_or(0, Engine::splits) != splits;
-            means.record(|mean| {
-                mean.split = split;
-                self.step_mean_into(before, self.options.h, mean)
-            })?;
-        }
+        // Taken in one substep, or split (a breakpoint, a cut, a refinement, the ramp).
+        let split = corner || self.engine.as_ref().map_or(0, Engine::substeps) != substeps + 1;
+        means.record(|mean| {
+            mean.split = split;
+            self.step_mean_into(before, h, mean)
+        })?;
         Ok(self.last_residual)
     }
 
@@ -2007,14 +2008,13 @@ impl Engine {
         }
     }
 
-    /// Substeps so far that split a step: breakpoint substeps, cuts and refinements.
-    fn splits(&self) -> usize {
-        let mut summary = RunSummary::default();
-        self.add_counters(&mut summary);
-        summary.breakpoint_substeps
-            + summary.step_cuts
-            + summary.refinements
-            + summary.ramp_substeps
+    /// Substeps accepted so far (`StepCounters::substeps`; 0 for a staggered run, whose step
+    /// means are not compared).
+    fn substeps(&self) -> usize {
+        match self {
+            Self::Assembled(e) => e.integrator.counters().substeps,
+            Self::Staggered(_) => 0,
+        }
     }
 
     fn add_counters(&self, summary: &mut RunSummary) {

@@ -113,9 +113,16 @@ impl History {
             Vec::with_capacity(self.positions.len() + self.momenta.len())
         };
         x.clear();
-        x.extend(self.positions.iter().map(|&i| q[i]));
-        x.extend(self.momenta.iter().map(|&i| p[i]));
+        x.extend(self.judged(q, p));
         self.points.push((t, x));
+    }
+
+    /// The judged components of `(q, p)`, positions first.
+    fn judged<'a>(&'a self, q: &'a [f64], p: &'a [f64]) -> impl Iterator<Item = f64> + 'a {
+        self.positions
+            .iter()
+            .map(|&i| q[i])
+            .chain(self.momenta.iter().map(|&i| p[i]))
     }
 
     /// Judges the substep that ended at `(t, q, p)` after the last recorded point.
@@ -128,14 +135,9 @@ impl History {
         if s <= 0.0 {
             return Verdict::Accept;
         }
-        let current = self
-            .positions
-            .iter()
-            .map(|&i| q[i])
-            .chain(self.momenta.iter().map(|&i| p[i]));
         // The smallest step any component allows, as ngspice computes it.
         let mut allowed = f64::INFINITY;
-        for (j, x3) in current.enumerate() {
+        for (j, x3) in self.judged(q, p).enumerate() {
             let d01 = (x1[j] - x0[j]) / (t1 - t0);
             let d12 = (x2[j] - x1[j]) / (t2 - t1);
             let d23 = (x3 - x2[j]) / s;
