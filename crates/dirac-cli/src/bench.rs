@@ -136,6 +136,8 @@ pub struct BenchOptions {
     pub quick: bool,
     /// Ladder sizes for scene C.
     pub sections: Vec<usize>,
+    /// Only these methods of a fixed-step scene (all when empty).
+    pub methods: Vec<String>,
 }
 
 /// A Galerkin–Gauss discretisation of `s` nodes (order 2s), optionally applied as an affine map.
@@ -182,20 +184,45 @@ fn ramped(s: usize) -> Method {
     }
 }
 
-/// Yoshida's composition of `order` (4, 6, 8) of the midpoint step.
-fn composed_midpoint(order: usize) -> Method {
-    let composition = match order {
-        4 => Composition::yoshida4(),
-        6 => Composition::yoshida6(),
-        _ => Composition::yoshida8(),
-    };
+/// The stock compositions by the name they take in a method's name (`yoshida4`, …, `kahan-li8`).
+fn compositions() -> [(&'static str, Composition); 5] {
+    [
+        ("yoshida4", Composition::yoshida4()),
+        ("yoshida6", Composition::yoshida6()),
+        ("yoshida8", Composition::yoshida8()),
+        ("kahan-li6", Composition::kahan_li6()),
+        ("kahan-li8", Composition::kahan_li8()),
+    ]
+}
+
+/// A composition of the midpoint step (implicit), named `midpoint-<composition>`.
+fn composed_midpoint(name: &str, composition: Composition) -> Method {
     Method {
-        name: format!("midpoint-yoshida{}", composition.order()),
+        name: format!("midpoint-{name}"),
         discretisation: Discretisation::midpoint(),
         affine: false,
         composition,
         ramp: None,
     }
+}
+
+/// Störmer–Verlet (the trapezoid rule, stepped explicitly on a separable model), alone
+/// (`verlet`) or composed (`verlet-<composition>`).
+fn verlet(name: Option<&str>, composition: Composition) -> Method {
+    Method {
+        name: name.map_or_else(|| "verlet".to_string(), |n| format!("verlet-{n}")),
+        discretisation: Discretisation::trapezoid(),
+        affine: false,
+        composition,
+        ramp: None,
+    }
+}
+
+/// The midpoint compositions of the long runs (every stock composition).
+fn midpoint_compositions() -> impl Iterator<Item = Method> {
+    compositions()
+        .into_iter()
+        .map(|(name, c)| composed_midpoint(name, c))
 }
 
 /// What a timed run hands back for error evaluation.
@@ -228,9 +255,11 @@ fn integrate(
     sim.prepare()?;
     let n = q0.len();
     let mut states = Vec::with_capacity(if every { (steps + 1) * 2 * n } else { 2 * n });
-    let record = |sim: &Simulation, states: &mut Vec<f64>| {
-        states.extend(sim.positions());
-        states.extend(sim.momenta());
+    let (mut q, mut p) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let mut record = |sim: &Simulation, states: &mut Vec<f64>| {
+        sim.state_into(&mut q, &mut p);
+        states.extend_from_slice(&q);
+        states.extend_from_slice(&p);
     };
     if every {
         record(&sim, &mut states);
@@ -586,7 +615,7 @@ impl FixedStepScene for SceneD2Long {
     }
     fn methods(&self) -> Vec<Method> {
         let mut m: Vec<Method> = (1..=4).map(|s| gauss(s, false)).collect();
-        m.extend([4, 6, 8].map(composed_midpoint));
+        m.extend(midpoint_compositions());
         m
     }
     fn steps(&self, quick: bool) -> Vec<usize> {
@@ -650,7 +679,14 @@ impl FixedStepScene for SceneE {
     }
     fn methods(&self) -> Vec<Method> {
         let mut m: Vec<Method> = (1..=4).map(|s| gauss(s, false)).collect();
-        m.extend([4, 6, 8].map(composed_midpoint));
+        m.extend(midpoint_compositions());
+        // Separable: the trapezoid rule runs explicitly (no Newton iteration).
+        m.push(verlet(None, Composition::single()));
+        m.extend(
+            compositions()
+                .into_iter()
+                .map(|(name, c)| verlet(Some(name), c)),
+        );
         m
     }
     fn steps(&self, quick: bool) -> Vec<usize> {
@@ -693,7 +729,26 @@ fn sweep(
     emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,
 ) -> Result<(), BenchError> {
     let repeats = if options.quick { 1 } else { 3 };
-    for method in scene.methods() {
+    let all = scene.methods();
+    if let Some(unknown) = options
+        .methods
+        .iter()
+        .find(|name| !all.iter().any(|m| &m.name == *name))
+    {
+        return Err(BenchError::UnknownMethod {
+            scene: scene.label(),
+            name: unknown.clone(),
+            known: all
+                .iter()
+                .map(|m| m.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    }
+    let chosen = all
+        .into_iter()
+        .filter(|m| options.methods.is_empty() || options.methods.contains(&m.name));
+    for method in chosen {
         let mut previous = f64::INFINITY;
         for n in scene.steps_for(&method, options.quick) {
             let h = scene.t_end() / n as f64;
@@ -1140,6 +1195,13 @@ pub enum BenchError {
     /// Writing the CSV or a temporary file failed.
     #[error("writing the CSV: {0}")]
     Io(#[from] std::io::Error),
+    /// `--methods` names a method the scene does not run.
+    #[error("--methods: scene {scene} has no method `{name}` (its methods: {known})")]
+    UnknownMethod {
+        scene: &'static str,
+        name: String,
+        known: String,
+    },
 }
 
 /// Runs the sweep of `scene`, handing each row to `emit` as it is measured.

@@ -226,7 +226,8 @@ D1 stiff spring chain, D2 double pendulum, D2-long the pendulum to t = 1e4, E He
 t = 1e4, F the SciMLBenchmarks RC ladder (n = 1000), CLI `dirac run` against the library on the
 seed and ladder netlists. Every run goes through the run layer (dirac_sim::Simulation). Methods: midpoint and Gauss-Galerkin of 2, 3,
 4 nodes (orders 2, 4, 6, 8), the opt-in affine step map on the linear scenes A and B, Yoshida
-compositions of the midpoint step on E, the start ramp (-ramp) on F. Long runs (D2-long, E) also write the running maximum of
+compositions (yoshida4/6/8, kahan-li6/8) of the midpoint step on D2-long and E and of explicit Stormer-Verlet
+on E (verlet, verlet-yoshida6, ...), the start ramp (-ramp) on F. Long runs (D2-long, E) also write the running maximum of
 the energy error per tenth of the interval to the --out file with .csv replaced by .drift.csv.
 CSV: scene,tool,method,setting,wall_s,steps,newton_iterations,error,energy_error
 The peers (scipy, SUNDIALS, ngspice) write the same columns: bench/peers/run.sh runs everything.")]
@@ -250,6 +251,10 @@ struct BenchArgs {
         default_value = "10,100,1000,10000,100000"
     )]
     sections: Vec<usize>,
+    /// Only these methods of a fixed-step scene (A, B, D1, D2, D2-long, E), comma-separated
+    /// (e.g. `gauss4,verlet-yoshida6`); all by default.
+    #[arg(long, value_delimiter = ',')]
+    methods: Vec<String>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -795,6 +800,7 @@ fn bench_command(args: &BenchArgs) -> Result<(), Failure> {
     let options = bench::BenchOptions {
         quick: args.quick,
         sections: args.sections.clone(),
+        methods: args.methods.clone(),
     };
     let mut out = Output::open(args.out.as_deref())?;
     writeln!(out.writer, "{}", bench::HEADER)
@@ -806,7 +812,10 @@ fn bench_command(args: &BenchArgs) -> Result<(), Failure> {
         rows.push(row);
         Ok(())
     })
-    .map_err(|e| Failure::Numerical(e.to_string()))?;
+    .map_err(|e| match e {
+        bench::BenchError::UnknownMethod { .. } => Failure::Input(e.to_string()),
+        _ => Failure::Numerical(e.to_string()),
+    })?;
     out.commit()?;
     let drift: Vec<String> = rows.iter().filter_map(bench::BenchRow::drift_csv).collect();
     if let (Some(path), false) = (&args.out, drift.is_empty()) {

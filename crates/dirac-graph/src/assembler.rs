@@ -741,13 +741,21 @@ impl AssembledSystem {
     /// the momenta of the constraint form that equal the monolithic ones (MATH §6).
     #[must_use]
     pub fn subsystem_momenta(&self, p: &[f64]) -> Vec<f64> {
-        let mut out = p[..self.subsystem_coordinates()].to_vec();
+        let mut out = Vec::new();
+        self.subsystem_momenta_into(p, &mut out);
+        out
+    }
+
+    /// [`AssembledSystem::subsystem_momenta`] into `out` (reusing its buffer, so a caller
+    /// reading every step allocates nothing).
+    pub fn subsystem_momenta_into(&self, p: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        out.extend_from_slice(&p[..self.subsystem_coordinates()]);
         for (e, partner) in &self.endpoints {
             for &(i, c) in partner {
                 out[i] += c * p[*e];
             }
         }
-        out
     }
 }
 

@@ -1,6 +1,6 @@
 //! The Hénon–Heiles system: a separable two-degree-of-freedom Hamiltonian, benchmark scene E.
 
-use dirac_core::{GenericModel, LagrangianHessian, Model};
+use dirac_core::{GenericModel, LagrangianHessian, Model, Triplets};
 use num_dual::DualNum;
 
 /// Hénon–Heiles, `L = ½|v|² − V(q)` with
@@ -72,6 +72,13 @@ impl Model for HenonHeiles {
     }
     fn coordinate_name(&self, i: usize) -> String {
         ["q1", "q2"][i].to_string()
+    }
+    /// Separable: `M = I`, a position-dependent potential, no force (Störmer–Verlet applies).
+    fn separable(&self) -> Option<Triplets> {
+        let mut mass = Triplets::new();
+        mass.add(0, 0, 1.0);
+        mass.add(1, 1, 1.0);
+        Some(mass)
     }
 }
 

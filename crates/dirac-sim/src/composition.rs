@@ -4,12 +4,18 @@
 ///
 /// A composition of variational steps is variational (each factor is the discrete flow of a discrete
 /// Lagrangian), and a symmetric composition (`γᵢ = γ_{m+1−i}`) of a symmetric step of order 2 has
-/// order 4, 6 or 8 with the coefficients below (Yoshida 1990, *Construction of higher order
-/// symplectic integrators*, Phys. Lett. A 150: the triple jump and the solutions "A" of its
-/// tables 1 and 2). Negative `γᵢ` step backwards in time.
+/// order 4, 6 or 8 with the coefficients below: Yoshida 1990, *Construction of higher order
+/// symplectic integrators*, Phys. Lett. A 150 (the triple jump and the solutions "A" of its
+/// tables 1 and 2), and Kahan & Li 1997, *Composition constants for raising the orders of
+/// unconventional schemes for ordinary differential equations*, Math. Comp. 66 (`s9odr6a`,
+/// `s17odr8a`, as printed in Hairer, Lubich & Wanner, *Geometric Numerical Integration*, §V.3.2),
+/// whose error constants are much smaller for two more stages. Negative `γᵢ` step backwards in
+/// time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Composition {
     gammas: Vec<f64>,
+    /// Order of the composition of a symmetric order-2 step.
+    order: usize,
 }
 
 impl Default for Composition {
@@ -22,7 +28,10 @@ impl Composition {
     /// No composition: one step of size `h`.
     #[must_use]
     pub fn single() -> Self {
-        Self { gammas: vec![1.0] }
+        Self {
+            gammas: vec![1.0],
+            order: 2,
+        }
     }
 
     /// Yoshida's triple jump: order 4 from a symmetric step of order 2 (3 stages).
@@ -32,41 +41,83 @@ impl Composition {
         let g1 = 1.0 / (2.0 - c);
         Self {
             gammas: vec![g1, -c * g1, g1],
+            order: 4,
         }
     }
 
     /// Yoshida's order-6 composition, solution A (7 stages).
     #[must_use]
     pub fn yoshida6() -> Self {
-        Self::symmetric(&[
-            -1.177_679_984_178_87,
-            0.235_573_213_359_357,
-            0.784_513_610_477_560,
-        ])
+        Self::symmetric(
+            6,
+            &[
+                -1.177_679_984_178_87,
+                0.235_573_213_359_357,
+                0.784_513_610_477_560,
+            ],
+        )
     }
 
     /// Yoshida's order-8 composition, solution A (15 stages).
     #[must_use]
     pub fn yoshida8() -> Self {
-        Self::symmetric(&[
-            -1.615_823_741_500_97,
-            -2.446_991_823_705_24,
-            -0.007_169_894_197_081_20,
-            2.440_027_326_167_35,
-            0.157_739_928_123_617,
-            1.820_206_309_707_14,
-            1.042_426_208_699_91,
-        ])
+        Self::symmetric(
+            8,
+            &[
+                -1.615_823_741_500_97,
+                -2.446_991_823_705_24,
+                -0.007_169_894_197_081_20,
+                2.440_027_326_167_35,
+                0.157_739_928_123_617,
+                1.820_206_309_707_14,
+                1.042_426_208_699_91,
+            ],
+        )
     }
 
-    /// The symmetric composition `w_k … w_1 w_0 w_1 … w_k` from Yoshida's `w_1 … w_k`
-    /// (`w_0 = 1 − 2 Σ wᵢ`), in his table order (`w_1` first).
-    fn symmetric(w: &[f64]) -> Self {
+    /// Kahan and Li's order-6 composition `s9odr6a` (9 stages).
+    #[must_use]
+    #[allow(clippy::excessive_precision)] // the published 26 digits, rounded by the compiler
+    pub fn kahan_li6() -> Self {
+        Self::symmetric(
+            6,
+            &[
+                0.082_213_596_293_550_800_231_490_45,
+                -0.706_246_172_557_639_359_809_964_82,
+                0.332_599_136_789_359_438_599_748_64,
+                0.392_161_444_007_314_139_279_250_56,
+            ],
+        )
+    }
+
+    /// Kahan and Li's order-8 composition `s17odr8a` (17 stages).
+    #[must_use]
+    #[allow(clippy::excessive_precision)] // the published 26 digits, rounded by the compiler
+    pub fn kahan_li8() -> Self {
+        Self::symmetric(
+            8,
+            &[
+                0.295_011_723_609_310_298_870_966_24,
+                0.258_374_387_686_322_047_293_979_11,
+                0.184_539_640_978_315_707_091_832_54,
+                -0.395_903_894_133_237_577_336_231_54,
+                0.158_841_906_555_155_600_896_210_75,
+                -0.389_474_962_644_847_286_408_078_60,
+                0.561_162_981_775_108_384_561_964_41,
+                0.130_202_483_088_890_080_878_817_63,
+            ],
+        )
+    }
+
+    /// The symmetric composition `w_k … w_1 w_0 w_1 … w_k` of the given `order` from `w_1 … w_k`
+    /// (`w_0 = 1 − 2 Σ wᵢ`, so the step advances by `h` exactly up to rounding), `w_1` next to
+    /// the centre.
+    fn symmetric(order: usize, w: &[f64]) -> Self {
         let w0 = 1.0 - 2.0 * w.iter().sum::<f64>();
         let mut gammas: Vec<f64> = w.iter().rev().copied().collect();
         gammas.push(w0);
         gammas.extend(w.iter().copied());
-        Self { gammas }
+        Self { gammas, order }
     }
 
     /// A composition with the given fractions of `h`.
@@ -82,7 +133,7 @@ impl Composition {
         if (sum - 1.0).abs() > 1e-12 {
             return Err(CompositionError::Sum(sum));
         }
-        Ok(Self { gammas })
+        Ok(Self { gammas, order: 2 })
     }
 
     /// The fractions `γᵢ` of `h`, in the order they are applied.
@@ -91,16 +142,11 @@ impl Composition {
         &self.gammas
     }
 
-    /// Order of the composition of a symmetric order-2 step (2 for a single step).
+    /// Order of the composition of a symmetric order-2 step: 2 for a single step and for a
+    /// [`Composition::custom`] one (whose order is not known), else the stock method's.
     #[must_use]
     pub fn order(&self) -> usize {
-        match self.gammas.len() {
-            1 => 2,
-            3 => 4,
-            7 => 6,
-            15 => 8,
-            _ => 2,
-        }
+        self.order
     }
 }
 
@@ -127,6 +173,8 @@ mod tests {
             Composition::yoshida4(),
             Composition::yoshida6(),
             Composition::yoshida8(),
+            Composition::kahan_li6(),
+            Composition::kahan_li8(),
         ] {
             let g = c.gammas();
             let sum: f64 = g.iter().sum();

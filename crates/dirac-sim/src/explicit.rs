@@ -131,29 +131,41 @@ impl ExplicitStep {
             );
         }
         let half = 0.5 * h;
-        // r = p_k + h/2 F₀ = M v̄.
-        for ((r, pk), f0) in self.rhs.iter_mut().zip(p.iter()).zip(&self.start_force) {
-            *r = pk + half * f0;
-        }
-        increment.copy_from_slice(&self.rhs);
+        // r = p_k + h/2 F₀ = M v̄, z = h v̄, q_{k+1} = q_k + z (one pass when M is diagonal: the
+        // vectors are short and a step is a few operations per entry).
         match &mut self.mass {
             MassSolve::Diagonal(inv) => {
-                for (z, m) in increment.iter_mut().zip(inv.iter()) {
-                    *z *= m;
+                let n = q.len();
+                let (p, f0, rhs) = (&p[..n], &self.start_force[..n], &mut self.rhs[..n]);
+                let (z, start_q, inv) = (&mut increment[..n], &mut self.start_q[..n], &inv[..n]);
+                for i in 0..n {
+                    rhs[i] = p[i] + half * f0[i];
+                    z[i] = rhs[i] * inv[i] * h;
+                    q[i] += z[i];
+                    start_q[i] = q[i];
                 }
             }
             MassSolve::Lu(lu) => {
+                for ((r, pk), f0) in self.rhs.iter_mut().zip(p.iter()).zip(&self.start_force) {
+                    *r = pk + half * f0;
+                }
+                increment.copy_from_slice(&self.rhs);
                 if let Err(e) = lu.solve_in_place(increment) {
                     return Err(match e {
                         LinearSolveError::NonFinite { index } => index,
                         _ => 0,
                     });
                 }
+                for ((z, qk), s) in increment
+                    .iter_mut()
+                    .zip(q.iter_mut())
+                    .zip(self.start_q.iter_mut())
+                {
+                    *z *= h;
+                    *qk += *z;
+                    *s = *qk;
+                }
             }
-        }
-        for (z, qk) in increment.iter_mut().zip(q.iter_mut()) {
-            *z *= h;
-            *qk += *z;
         }
         let t1 = t + h;
         Self::total_force(
@@ -165,24 +177,22 @@ impl ExplicitStep {
             &mut self.f,
             &mut self.end_force,
         );
+        let mut finite = true;
         for ((pk, r), f1) in p.iter_mut().zip(&self.rhs).zip(&self.end_force) {
             *pk = r + half * f1;
+            finite &= pk.is_finite();
         }
         std::mem::swap(&mut self.start_force, &mut self.end_force);
-        self.start_q.copy_from_slice(q);
         self.start_t = t1;
-        self.start_valid = true;
-        match p
+        self.start_valid = finite && q.iter().all(|x| x.is_finite());
+        if self.start_valid {
+            return Ok(());
+        }
+        Err(p
             .iter()
             .zip(q.iter())
             .position(|(a, b)| !(a.is_finite() && b.is_finite()))
-        {
-            Some(i) => {
-                self.start_valid = false;
-                Err(i)
-            }
-            None => Ok(()),
-        }
+            .unwrap_or(0))
     }
 }
 

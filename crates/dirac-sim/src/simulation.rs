@@ -1198,6 +1198,18 @@ impl Simulation {
         self.engine.as_ref().map_or_else(Vec::new, Engine::momenta)
     }
 
+    /// [`Simulation::positions`] and [`Simulation::momenta`] into the given buffers (cleared
+    /// first; both empty before [`Simulation::prepare`]). A loop that reads the state after
+    /// every [`Simulation::step`] this way allocates nothing.
+    pub fn state_into(&self, positions: &mut Vec<f64>, momenta: &mut Vec<f64>) {
+        positions.clear();
+        momenta.clear();
+        if let Some(engine) = &self.engine {
+            engine.positions_into(positions);
+            engine.momenta_into(momenta);
+        }
+    }
+
     /// The assembled system and its integrator (for diagnostics), if the execution is assembled
     /// and prepared.
     #[must_use]
@@ -1927,6 +1939,14 @@ impl Engine {
         match self {
             Self::Assembled(e) => e.system.subsystem_momenta(e.integrator.p()),
             Self::Staggered(e) => e.staggered.momenta(),
+        }
+    }
+
+    /// [`Engine::momenta`] into `out` (reusing its buffer when assembled).
+    fn momenta_into(&self, out: &mut Vec<f64>) {
+        match self {
+            Self::Assembled(e) => e.system.subsystem_momenta_into(e.integrator.p(), out),
+            Self::Staggered(e) => *out = e.staggered.momenta(),
         }
     }
 

@@ -268,13 +268,26 @@ fn chain_run(representation: Representation, explicit: bool) -> (Vec<Vec<f64>>, 
     sim.prepare().expect("prepares");
     let uses = sim.assembled().expect("assembled").1.uses_explicit();
     let mut states = Vec::new();
+    let (mut q, mut p) = (Vec::new(), Vec::new());
     for _ in 0..1000 {
         sim.step().expect("steps");
         let mut s = sim.positions();
         s.extend(sim.momenta());
+        // The allocation-free read gives the same state.
+        sim.state_into(&mut q, &mut p);
+        assert_eq!((q.as_slice(), p.as_slice()), s.split_at(q.len()));
         states.push(s);
     }
     (states, uses)
+}
+
+/// `Simulation::state_into` reads what `positions` and `momenta` do, also in the constraint
+/// representation, whose endpoint momenta are pulled back to their partner ports.
+#[test]
+fn state_into_reads_the_pulled_back_state() {
+    let (states, uses) = chain_run(Representation::Constraint, true);
+    assert!(!uses, "constraints take the Newton path");
+    assert_eq!(states[0].len(), 6, "three masses: q and p");
 }
 
 /// Equivalence across representations on the explicit path: the monolithic and the
