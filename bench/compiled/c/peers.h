@@ -57,8 +57,8 @@ int dopri5(const problem_t *p, double t0, double t1, const double *y0, double rt
            int record, traj_t *out, stats_t *st);
 
 /* Fixed-step explicit symplectic integration of a separable problem: Stormer-Verlet (order 2,
- * kick-drift-kick) or its symmetric Yoshida compositions (order 4 and 6, solution A).
- * `order`: 2, 4 or 6. `steps` steps of size (t1 - t0) / steps. */
+ * kick-drift-kick) or its symmetric compositions: Yoshida's of order 4 and 6 (solution A),
+ * Kahan and Li's s17odr8a of order 8. `order`: 2, 4, 6 or 8. `steps` steps of size (t1 - t0) / steps. */
 int symplectic(const problem_t *p, double t0, double t1, const double *y0, long steps, int order,
                int record, traj_t *out, stats_t *st);
 

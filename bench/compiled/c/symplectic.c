@@ -1,6 +1,7 @@
 /* Explicit symplectic integrators for separable problems H = |p|^2/2 + V(q): Stormer-Verlet
  * (kick-drift-kick, the discrete flow of the trapezoid discrete Lagrangian) and its symmetric
- * compositions of order 4 (triple jump) and 6 (Yoshida 1990, solution A). The force at the end
+ * compositions of order 4 (triple jump), 6 (Yoshida 1990, solution A) and 8 (Kahan & Li 1997,
+ * s17odr8a, as in Hairer, Lubich & Wanner, GNI V.3.2). The force at the end
  * of a substep is reused at the start of the next, so a step costs one force evaluation per
  * stage. */
 #include <stdio.h>
@@ -19,7 +20,7 @@ int symplectic(const problem_t *p, double t0, double t1, const double *y0, long 
                  "symplectic: scene is not separable or no steps");
         return -4;
     }
-    double gam[7];
+    double gam[17];
     int m;
     if (order == 2) {
         m = 1;
@@ -35,6 +36,19 @@ int symplectic(const problem_t *p, double t0, double t1, const double *y0, long 
         double w0 = 1.0 - 2.0 * (w1 + w2 + w3);
         m = 7;
         gam[0] = w3; gam[1] = w2; gam[2] = w1; gam[3] = w0; gam[4] = w1; gam[5] = w2; gam[6] = w3;
+    } else if (order == 8) {
+        const double w[8] = {0.13020248308889008087881763, 0.56116298177510838456196441,
+                             -0.38947496264484728640807860, 0.15884190655515560089621075,
+                             -0.39590389413323757733623154, 0.18453964097831570709183254,
+                             0.25837438768632204729397911, 0.29501172360931029887096624};
+        double sum = 0.0;
+        m = 17;
+        for (int i = 0; i < 8; i++) {
+            gam[i] = w[i];
+            gam[16 - i] = w[i];
+            sum += w[i];
+        }
+        gam[8] = 1.0 - 2.0 * sum;
     } else {
         snprintf(peers_error_message, sizeof peers_error_message, "symplectic: order %d", order);
         return -4;

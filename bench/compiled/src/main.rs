@@ -55,6 +55,7 @@ impl Peer {
         match self {
             Peer::C(CKind::Dopri5) => "DOPRI5".into(),
             Peer::C(CKind::Symplectic(2)) => "verlet".into(),
+            Peer::C(CKind::Symplectic(8)) => "kahan-li8".into(),
             Peer::C(CKind::Symplectic(o)) => format!("yoshida{o}"),
             Peer::C(CKind::Sundials(m)) => [
                 "CVODE-ADAMS",
@@ -98,7 +99,7 @@ fn all_peers(scene: &Scene) -> Vec<Peer> {
         v.push(Peer::C(Dopri5));
     }
     if scene.separable() {
-        v.extend([2, 4, 6].map(|o| Peer::C(Symplectic(o))));
+        v.extend([2, 4, 6, 8].map(|o| Peer::C(Symplectic(o))));
     }
     if !stiff {
         v.push(Peer::C(Sundials(CVODE_ADAMS)));
