@@ -121,6 +121,7 @@ pub(crate) fn sweep(args: &SweepArgs) -> Result<(), Failure> {
         signals: args.signals.as_deref().map(split_list),
         start_ramp: None,
         truncation: None,
+        composition: None,
     };
     let outputs = if args.trajectories {
         Some(Outputs::Trajectories)

@@ -1,6 +1,6 @@
 //! The `dirac` binary's contracts: CSV columns, exit codes, atomic output, --signals.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn dirac() -> Command {
@@ -349,4 +349,134 @@ fn start_ramp_damps_a_stiff_start_and_is_reported() {
     );
     assert!(gap(&plain) > 0.1, "the control must ring");
     assert!(gap(&ramped) <= 1.1e-6, "{}", gap(&ramped));
+}
+
+/// `A.x`, `B.x` of `two_mass_split.toml` (walls and coupling springs k = 1, unit masses, released
+/// from x = (1, 0) at rest): the normal modes 1 and √3 give `x_A = ½(cos t + cos √3 t)`,
+/// `x_B = ½(cos t − cos √3 t)`.
+fn two_mass_exact(t: f64) -> [f64; 2] {
+    let (slow, fast) = (t.cos(), (3f64.sqrt() * t).cos());
+    [0.5 * (slow + fast), 0.5 * (slow - fast)]
+}
+
+/// Largest error of `A.x`, `B.x` against [`two_mass_exact`] over a `dirac run` of the bundled
+/// two-mass scene with the trapezoid rule (explicit Störmer–Verlet: masses and springs are
+/// separable) at step `h`, with the extra arguments `extra`.
+fn two_mass_error(h: &str, extra: &[&str]) -> f64 {
+    let scene = repo("examples/scenes/two_mass_split.toml");
+    let mut args = vec![
+        "run",
+        scene.to_str().unwrap(),
+        "--method",
+        "trapezoid",
+        "--h",
+        h,
+        "--t-end",
+        "20",
+        "--signals",
+        "A.x,B.x",
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    let output = dirac().args(&args).output().expect("runs");
+    assert!(output.status.success(), "{output:?}");
+    let text = String::from_utf8(output.stdout).unwrap();
+    let mut worst: f64 = 0.0;
+    for line in text.lines().skip(1) {
+        let row: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        let exact = two_mass_exact(row[0]);
+        worst = worst.max((row[1] - exact[0]).abs().max((row[2] - exact[1]).abs()));
+    }
+    worst
+}
+
+/// `--composition` composes the step: on the two-mass scene each composition shows its order
+/// against the closed-form normal-mode solution when h halves (within 0.3), and the scene key
+/// `composition = ...` gives the same rows as the flag. An unknown name is an input error that
+/// lists the known ones.
+#[test]
+fn compositions_from_the_command_line_have_their_order() {
+    let plain = two_mass_error("0.1", &[]);
+    let plain_fine = two_mass_error("0.05", &[]);
+    println!(
+        "single step: {plain:.2e}, {plain_fine:.2e}: order {:.2}",
+        (plain / plain_fine).log2()
+    );
+    assert!(((plain / plain_fine).log2() - 2.0).abs() < 0.3);
+    for (name, order, h) in [("yoshida6", 6.0, "0.4"), ("kahan-li8", 8.0, "0.8")] {
+        let coarse = two_mass_error(h, &["--composition", name]);
+        let half = format!("{}", h.parse::<f64>().unwrap() / 2.0);
+        let fine = two_mass_error(&half, &["--composition", name]);
+        let observed = (coarse / fine).log2();
+        println!("{name}: {coarse:.2e} at h = {h}, {fine:.2e} at {half}: order {observed:.2}");
+        assert!(
+            fine > 1e-12,
+            "{name}: {fine:e} is round-off, not truncation"
+        );
+        assert!((observed - order).abs() < 0.3, "{name}: order {observed}");
+    }
+
+    // The scene key gives the flag's rows.
+    let text = std::fs::read_to_string(repo("examples/scenes/two_mass_split.toml")).unwrap();
+    let keyed = scratch("two_mass_yoshida6.toml");
+    std::fs::write(
+        &keyed,
+        text.replace(
+            "discretisation = \"midpoint\"",
+            "discretisation = \"trapezoid\"\ncomposition = \"yoshida6\"",
+        ),
+    )
+    .unwrap();
+    let rows = |file: &Path, extra: &[&str]| {
+        let mut args = vec!["run", file.to_str().unwrap(), "--t-end", "5", "--quiet"];
+        args.extend_from_slice(extra);
+        let output = dirac().args(&args).output().expect("runs");
+        assert!(output.status.success(), "{output:?}");
+        output.stdout
+    };
+    let flag = rows(
+        &repo("examples/scenes/two_mass_split.toml"),
+        &["--method", "trapezoid", "--composition", "yoshida6"],
+    );
+    assert_eq!(rows(&keyed, &[]), flag);
+    assert_ne!(rows(&keyed, &["--composition", "none"]), flag);
+
+    let bad = dirac()
+        .args([
+            "run",
+            keyed.to_str().unwrap(),
+            "--composition",
+            "ruth3",
+            "--quiet",
+        ])
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8(bad.stderr).unwrap();
+    assert_eq!(bad.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("unknown composition `ruth3`") && stderr.contains("`kahan-li8`"),
+        "{stderr}"
+    );
+    assert!(bad.stdout.is_empty());
+
+    // In a scene file the bad name is placed at its line and column.
+    let bad_scene = scratch("two_mass_ruth3.toml");
+    std::fs::write(
+        &bad_scene,
+        std::fs::read_to_string(&keyed)
+            .unwrap()
+            .replace("\"yoshida6\"", "\"ruth3\""),
+    )
+    .unwrap();
+    let bad = dirac()
+        .args(["run", bad_scene.to_str().unwrap(), "--quiet"])
+        .output()
+        .expect("runs");
+    let stderr = String::from_utf8(bad.stderr).unwrap();
+    assert_eq!(bad.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("two_mass_ruth3.toml:12:15: unknown variant `ruth3`")
+            && stderr.contains("`kahan-li8`"),
+        "{stderr}"
+    );
 }

@@ -17,7 +17,7 @@ use dirac_sim::{Probe, RunError, RunSummary, Signal, SimError, Sink, SteadyState
 use dirac_solve::NewtonError;
 use dirac_study::{
     Method, Model, Output, Outputs, Plan, RepresentationChoice, RunSettings, SourceKind,
-    StudyError, Sweep, TableWriter, parse_scheme,
+    StudyError, Sweep, TableWriter, parse_composition, parse_scheme,
 };
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
@@ -335,7 +335,7 @@ impl PyModel {
 
     /// Runs the model with the GIL released; returns the signal names, the times and one
     /// column per signal (native `f64` bytes) and the run's summary.
-    #[pyo3(signature = (method = None, representation = None, scheme = None, h = None, t_end = None, signals = None, energy = false, start_ramp = None, refine = None))]
+    #[pyo3(signature = (method = None, representation = None, scheme = None, h = None, t_end = None, signals = None, energy = false, start_ramp = None, refine = None, composition = None))]
     #[allow(clippy::too_many_arguments)]
     fn run<'py>(
         &self,
@@ -349,11 +349,17 @@ impl PyModel {
         energy: bool,
         start_ramp: Option<bool>,
         refine: Option<bool>,
+        composition: Option<&str>,
     ) -> PyResult<RunResult<'py>> {
+        let composition = composition
+            .map(parse_composition)
+            .transpose()
+            .map_err(to_py)?;
         let settings = settings(method, representation, scheme, h, t_end, signals)
             .map(|s| RunSettings {
                 start_ramp,
                 truncation: refine,
+                composition,
                 ..s
             })
             .map_err(to_py)?;

@@ -23,6 +23,8 @@
 //! t_end = 50.0                  # end time (required): round(t_end / h) steps
 //! initial = "given"             # given (q0/v0, made consistent) | equilibrium (steady state)
 //! start_ramp = false            # first step as 99 growing substeps: damps a stiff start (default off)
+//! composition = "none"         # none | yoshida4 | yoshida6 | yoshida8 | kahan-li6 | kahan-li8:
+//!                               # each step as symmetric substeps (order 4, 6, 8, 6, 8 from order 2)
 //!
 //! # ── Parts: `name` (unique, no dots), `type` (a stock part), its parameters, q0/v0 ─────────────
 //! [[part]]
@@ -156,7 +158,7 @@
 //! assert_eq!(Scene::parse(&scene.to_toml().unwrap(), "again.toml").unwrap(), scene);
 //!
 //! let err = Scene::parse("[simulation]\nh = 0.1\nt_end = 1\nstep = 2\n", "bad.toml").unwrap_err();
-//! assert_eq!(err.to_string(), "bad.toml:4:1: unknown field `step`, expected one of `representation`, `splitting`, `scheme`, `discretisation`, `initial`, `order`, `start_ramp`, `h`, `t_end`");
+//! assert_eq!(err.to_string(), "bad.toml:4:1: unknown field `step`, expected one of `representation`, `splitting`, `scheme`, `discretisation`, `initial`, `order`, `start_ramp`, `composition`, `h`, `t_end`");
 //! ```
 
 mod convert;
@@ -166,11 +168,12 @@ pub use convert::{ConvertError, netlist_to_scene};
 pub use scene::build::{BuiltScene, MAX_ORDER};
 pub use scene::error::{Location, Origin, SceneError};
 pub use scene::model::{
-    ActuatorElement, BodySpec, Connection, ConnectionKind, DamperParams, DiodeParams,
-    DiscretisationSpec, ELEMENT_TYPES, ElementSpec, ForceSourceParams, GroundParams, InertiaSpec,
-    Initial, InitialSpec, NodePort, PART_TYPES, Part, PartKind, PinSpec, PlanarLinkageParams,
-    RIGID_JOINT_TYPES, Record, RepresentationSpec, RigidBodyParams, RigidJointSpec, RotationSpec,
-    Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec, SpringParams, WaveformSpec,
+    ActuatorElement, BodySpec, CompositionSpec, Connection, ConnectionKind, DamperParams,
+    DiodeParams, DiscretisationSpec, ELEMENT_TYPES, ElementSpec, ForceSourceParams, GroundParams,
+    InertiaSpec, Initial, InitialSpec, NodePort, PART_TYPES, Part, PartKind, PinSpec,
+    PlanarLinkageParams, RIGID_JOINT_TYPES, Record, RepresentationSpec, RigidBodyParams,
+    RigidJointSpec, RotationSpec, Scene, SchemeSpec, Simulation, SourceParams, SplittingSpec,
+    SpringParams, WaveformSpec,
 };
 
 impl Scene {

@@ -25,6 +25,31 @@ impl Default for Composition {
 }
 
 impl Composition {
+    /// The stock compositions by name, as the command line, scene files and Python take them
+    /// (`none`: the single step).
+    pub const NAMES: [&'static str; 6] = [
+        "none",
+        "yoshida4",
+        "yoshida6",
+        "yoshida8",
+        "kahan-li6",
+        "kahan-li8",
+    ];
+
+    /// The stock composition named `name` (one of [`Composition::NAMES`], case-insensitive).
+    #[must_use]
+    pub fn named(name: &str) -> Option<Self> {
+        Some(match name.trim().to_ascii_lowercase().as_str() {
+            "none" => Self::single(),
+            "yoshida4" => Self::yoshida4(),
+            "yoshida6" => Self::yoshida6(),
+            "yoshida8" => Self::yoshida8(),
+            "kahan-li6" => Self::kahan_li6(),
+            "kahan-li8" => Self::kahan_li8(),
+            _ => return None,
+        })
+    }
+
     /// No composition: one step of size `h`.
     #[must_use]
     pub fn single() -> Self {
@@ -183,6 +208,14 @@ mod tests {
                 assert_eq!(a, b);
             }
         }
+        for name in Composition::NAMES {
+            assert!(Composition::named(name).is_some(), "{name}");
+        }
+        assert_eq!(
+            Composition::named(" Kahan-Li8 "),
+            Some(Composition::kahan_li8())
+        );
+        assert_eq!(Composition::named("ruth3"), None);
         assert!(Composition::custom(vec![0.5, 0.4]).is_err());
         assert!(Composition::custom(vec![]).is_err());
     }

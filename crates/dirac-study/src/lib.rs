@@ -34,7 +34,9 @@ mod sweep;
 pub use error::StudyError;
 pub use model::{Model, SourceKind, kind_of};
 pub use run::{CheckReport, Comparison, Prepared, RepresentationSize, RunPlan};
-pub use settings::{Method, RepresentationChoice, RunSettings, parse_scheme, split_list};
+pub use settings::{
+    Method, RepresentationChoice, RunSettings, parse_composition, parse_scheme, split_list,
+};
 pub use sweep::{
     Axis, Output, Outputs, Plan, Reduction, Sweep, TableWriter, merge_shards, parse_shard,
     parse_values, shard_file_name,

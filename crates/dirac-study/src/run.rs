@@ -5,8 +5,8 @@ use dirac_core::{Discretisation, Model as _};
 use dirac_graph::{Assembler, Representation};
 use dirac_netlist::Circuit;
 use dirac_sim::{
-    Execution, IntegratorOptions, NaturalModes, RunError, RunSummary, Scheme, Signal, Simulation,
-    Sink, Splitting, Start, StartRamp, Trajectory, TruncationControl,
+    Composition, Execution, IntegratorOptions, NaturalModes, RunError, RunSummary, Scheme, Signal,
+    Simulation, Sink, Splitting, Start, StartRamp, Trajectory, TruncationControl,
 };
 
 use crate::model::Built;
@@ -242,7 +242,7 @@ impl Model {
         settings: &RunSettings,
     ) -> Result<(IntegratorOptions, f64), StudyError> {
         let name = self.name();
-        let (h, t_end, discretisation, scheme, ramp, truncation) = match &self.built {
+        let (h, t_end, discretisation, scheme, ramp, truncation, composition) = match &self.built {
             Built::Netlist { circuit, .. } => {
                 let tran = circuit.tran_settings();
                 (
@@ -258,6 +258,7 @@ impl Model {
                         Some(on) => on.then_some(circuit.truncation),
                         None => circuit.default_truncation(),
                     },
+                    Composition::single(),
                 )
             }
             Built::Scene { scene, .. } => (
@@ -269,6 +270,7 @@ impl Model {
                 settings
                     .truncation
                     .and_then(|on| on.then(TruncationControl::default)),
+                scene.options.composition.clone(),
             ),
         };
         let missing = |setting| StudyError::MissingSetting {
@@ -299,7 +301,8 @@ impl Model {
             IntegratorOptions::new(discretisation, h)
                 .scheme(scheme)
                 .start_ramp(ramp)
-                .truncation(truncation),
+                .truncation(truncation)
+                .composition(settings.composition.clone().unwrap_or(composition)),
             t_end,
         ))
     }

@@ -5,7 +5,7 @@ use std::str::FromStr;
 
 use dirac_core::Discretisation;
 use dirac_graph::Representation;
-use dirac_sim::{Execution, Scheme, Splitting};
+use dirac_sim::{Composition, Execution, Scheme, Splitting};
 
 use crate::StudyError;
 
@@ -101,6 +101,24 @@ pub fn parse_scheme(s: &str) -> Result<Scheme, StudyError> {
     one_of(s, &ALL, |(_, n)| n.to_string(), "scheme").map(|(s, _)| s)
 }
 
+/// The composition of a run's step (`--composition`, `composition=`): one of
+/// [`Composition::NAMES`].
+///
+/// # Errors
+/// An unknown name, listing the known ones.
+pub fn parse_composition(s: &str) -> Result<Composition, StudyError> {
+    Composition::named(s).ok_or_else(|| {
+        let names: Vec<String> = Composition::NAMES
+            .iter()
+            .map(|n| format!("`{n}`"))
+            .collect();
+        StudyError::Settings(format!(
+            "unknown composition `{s}`; expected one of {}",
+            names.join(", ")
+        ))
+    })
+}
+
 /// How the interconnection is turned into equations (`--representation`, `representation=`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum RepresentationChoice {
@@ -192,6 +210,11 @@ pub struct RunSettings {
     /// Truncation-error control on or off (default: on for netlists with diodes, with the
     /// netlist's `.options` tolerances, off otherwise; see [`dirac_sim::TruncationControl`]).
     pub truncation: Option<bool>,
+    /// The step as a composition of substeps (default: the scene's `composition`, a single
+    /// step for netlists; see [`Composition`]). A symmetric composition of a second-order step
+    /// (midpoint, trapezoid; Störmer–Verlet on a separable model) has the composition's order
+    /// when the run has no constraints or uses the symmetric scheme.
+    pub composition: Option<Composition>,
 }
 
 /// Splits `a,v(x,y),b` at the commas outside parentheses (signal lists keep `v(a,b)` whole).
@@ -240,6 +263,15 @@ mod tests {
             RepresentationChoice::StaggeredJacobi
         );
         assert_eq!(parse_scheme("minus").unwrap(), Scheme::Minus);
+        assert_eq!(
+            parse_composition("yoshida6").unwrap(),
+            Composition::yoshida6()
+        );
+        let err = parse_composition("ruth3").unwrap_err().to_string();
+        assert!(
+            err.contains("`kahan-li8`") && err.contains("`none`"),
+            "{err}"
+        );
         assert_eq!(
             split_list("v(1), v(a,b),i(l1)"),
             ["v(1)", "v(a,b)", "i(l1)"]

@@ -35,6 +35,7 @@ class Model:
         energy: bool = False,
         start_ramp: Optional[bool] = None,
         refine: Optional[bool] = None,
+        composition: Optional[str] = None,
     ) -> Tuple[List[str], bytes, List[bytes], dict]: ...
     def compare(
         self,

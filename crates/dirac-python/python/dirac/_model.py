@@ -137,6 +137,7 @@ class Model:
         energy: bool = False,
         start_ramp: Optional[bool] = None,
         refine: Optional[bool] = None,
+        composition: Optional[str] = None,
     ) -> Trajectory:
         """Runs the model and returns its :class:`Trajectory`.
 
@@ -160,6 +161,12 @@ class Model:
             refine: control the truncation error as SPICE does, taking a step whose estimated
                 local error is too large again as 2^m substeps on the same grid (``dirac run
                 --refine``/``--fixed-step``; ``None``: on for a netlist with diodes, else off).
+            composition: take each step as a symmetric composition of substeps, ``yoshida4``,
+                ``yoshida6``, ``yoshida8``, ``kahan-li6``, ``kahan-li8`` or ``none`` (``dirac run
+                --composition``; ``None`` keeps the scene's ``composition``, none for a netlist).
+                It raises a second-order method to the composition's order when the run has no
+                constraints; with ``method="trapezoid"`` on a separable scene every substep is an
+                explicit Störmer–Verlet step.
 
         Raises:
             InputError: bad settings or signal names, an inconsistent start.
@@ -177,6 +184,7 @@ class Model:
             energy=energy,
             start_ramp=start_ramp,
             refine=refine,
+            composition=composition,
         )
         return Trajectory._from_run(names, t, data, summary)
 

@@ -14,15 +14,15 @@ use dirac_graph::{
 };
 use dirac_rigid::{COORDINATES, Joint, JointKind, Side, rotation_index};
 use dirac_sim::{
-    Execution, IntegratorOptions, Probe, RunError, Scheme, Signal, Simulation, Splitting, Start,
-    StartRamp,
+    Composition, Execution, IntegratorOptions, Probe, RunError, Scheme, Signal, Simulation,
+    Splitting, Start, StartRamp,
 };
 
 use super::error::{Location, Origin, SceneError, listed};
 use super::model::{
-    ConnectionKind, DiscretisationSpec, ElementSpec, InertiaSpec, Initial, InitialSpec, Part,
-    PartKind, RepresentationSpec, RigidBodyParams, RigidJointSpec, RotationSpec, Scene, SchemeSpec,
-    SplittingSpec, WaveformSpec,
+    CompositionSpec, ConnectionKind, DiscretisationSpec, ElementSpec, InertiaSpec, Initial,
+    InitialSpec, Part, PartKind, RepresentationSpec, RigidBodyParams, RigidJointSpec, RotationSpec,
+    Scene, SchemeSpec, SplittingSpec, WaveformSpec,
 };
 
 /// Largest order accepted for Gauss and Lobatto discretisations.
@@ -1300,7 +1300,11 @@ impl Scene {
             given_v,
             options: IntegratorOptions::new(discretisation, sim.h)
                 .scheme(scheme)
-                .start_ramp(sim.start_ramp.then(StartRamp::default)),
+                .start_ramp(sim.start_ramp.then(StartRamp::default))
+                .composition(
+                    sim.composition
+                        .map_or_else(Composition::single, CompositionSpec::composition),
+                ),
             execution,
             start,
             t_end: sim.t_end,
