@@ -816,6 +816,8 @@ fn bench_command(args: &BenchArgs) -> Result<(), Failure> {
         sections: args.sections.clone(),
         methods: args.methods.clone(),
     };
+    bench::check_methods(args.scene, &options.methods)
+        .map_err(|e| Failure::Input(e.to_string()))?;
     let mut out = Output::open(args.out.as_deref())?;
     writeln!(out.writer, "{}", bench::HEADER)
         .map_err(|e| Failure::Input(format!("writing output: {e}")))?;
@@ -827,7 +829,9 @@ fn bench_command(args: &BenchArgs) -> Result<(), Failure> {
         Ok(())
     })
     .map_err(|e| match e {
-        bench::BenchError::UnknownMethod { .. } => Failure::Input(e.to_string()),
+        bench::BenchError::UnknownMethod { .. } | bench::BenchError::MethodsNotSwept => {
+            Failure::Input(e.to_string())
+        }
         _ => Failure::Numerical(e.to_string()),
     })?;
     out.commit()?;

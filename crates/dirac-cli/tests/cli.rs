@@ -480,3 +480,26 @@ fn compositions_from_the_command_line_have_their_order() {
         "{stderr}"
     );
 }
+
+/// `dirac bench --methods` refuses, before any output, a method the scene does not sweep (naming
+/// the scene's methods) and any method list on the scenes whose runs are fixed.
+#[test]
+fn bench_methods_are_checked_before_output() {
+    for (scene, methods, message) in [
+        ("E", "verlet,nope", "scene E has no method `nope`"),
+        (
+            "C",
+            "midpoint",
+            "--methods selects methods of the fixed-step scenes",
+        ),
+    ] {
+        let output = dirac()
+            .args(["bench", "--scene", scene, "--methods", methods])
+            .output()
+            .expect("runs");
+        let stderr = String::from_utf8(output.stderr).unwrap();
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains(message), "{stderr}");
+        assert!(output.stdout.is_empty(), "no partial CSV");
+    }
+}

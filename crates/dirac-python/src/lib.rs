@@ -400,7 +400,7 @@ impl PyModel {
 
     /// Runs every representation (and for a scene both staggered splittings) and returns each
     /// one's largest deviation from the monolithic run: `(execution, deviation or None, note)`.
-    #[pyo3(signature = (method = None, h = None, t_end = None, signals = None))]
+    #[pyo3(signature = (method = None, h = None, t_end = None, signals = None, composition = None))]
     fn compare(
         &self,
         py: Python<'_>,
@@ -408,8 +408,15 @@ impl PyModel {
         h: Option<f64>,
         t_end: Option<f64>,
         signals: Option<Vec<String>>,
+        composition: Option<&str>,
     ) -> PyResult<Vec<ComparisonRow>> {
-        let settings = settings(method, None, None, h, t_end, signals).map_err(to_py)?;
+        let composition = composition
+            .map(parse_composition)
+            .transpose()
+            .map_err(to_py)?;
+        let settings = settings(method, None, None, h, t_end, signals)
+            .map(|s| RunSettings { composition, ..s })
+            .map_err(to_py)?;
         let model = &self.inner;
         let results = py.detach(|| model.compare(&settings)).map_err(to_py)?;
         Ok(results

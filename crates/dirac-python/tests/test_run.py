@@ -111,6 +111,16 @@ def test_composition_reaches_the_run_as_on_the_command_line(cli):
     assert np.max(np.abs(single["A.x"] - exact)) > 1e-2
     with pytest.raises(dirac.InputError, match="unknown composition `ruth3`"):
         dirac.run(path, composition="ruth3")
+    # compare() composes too: the force representation keeps the monolithic trajectory to
+    # round-off (the composition is equivalence-preserving, substep by substep).
+    model = dirac.load(path)
+    deviations = {
+        c.execution: c.max_abs_deviation
+        for c in model.compare(method="trapezoid", h=0.4, t_end=20, composition="kahan-li8")
+    }
+    assert deviations["force"] < 1e-12, deviations
+    with pytest.raises(dirac.InputError, match="unknown composition"):
+        model.compare(composition="ruth3")
 
 
 def test_seed_loop_against_the_exact_solution():

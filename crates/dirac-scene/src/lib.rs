@@ -23,7 +23,7 @@
 //! t_end = 50.0                  # end time (required): round(t_end / h) steps
 //! initial = "given"             # given (q0/v0, made consistent) | equilibrium (steady state)
 //! start_ramp = false            # first step as 99 growing substeps: damps a stiff start (default off)
-//! composition = "none"         # none | yoshida4 | yoshida6 | yoshida8 | kahan-li6 | kahan-li8:
+//! composition = "none"          # none | yoshida4 | yoshida6 | yoshida8 | kahan-li6 | kahan-li8:
 //!                               # each step as symmetric substeps (order 4, 6, 8, 6, 8 from order 2)
 //!
 //! # ── Parts: `name` (unique, no dots), `type` (a stock part), its parameters, q0/v0 ─────────────

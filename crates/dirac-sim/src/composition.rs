@@ -135,8 +135,9 @@ impl Composition {
     }
 
     /// The symmetric composition `w_k … w_1 w_0 w_1 … w_k` of the given `order` from `w_1 … w_k`
-    /// (`w_0 = 1 − 2 Σ wᵢ`, so the step advances by `h` exactly up to rounding), `w_1` next to
-    /// the centre.
+    /// (`w_1` next to the centre). The centre is computed as `w_0 = 1 − 2 Σ wᵢ`, not taken from
+    /// the printed tables, so the fractions sum to 1 up to rounding (it agrees with the printed
+    /// Kahan–Li centres to 1e-16).
     fn symmetric(order: usize, w: &[f64]) -> Self {
         let w0 = 1.0 - 2.0 * w.iter().sum::<f64>();
         let mut gammas: Vec<f64> = w.iter().rev().copied().collect();

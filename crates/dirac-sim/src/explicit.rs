@@ -120,6 +120,8 @@ impl ExplicitStep {
             && (self.autonomous || self.start_t == t)
             && self.start_q.as_slice() == &*q;
         if !reuse {
+            // The stored start no longer describes `start_force` until this step succeeds.
+            self.start_valid = false;
             Self::total_force(
                 model,
                 q,

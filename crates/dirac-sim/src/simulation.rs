@@ -1199,8 +1199,9 @@ impl Simulation {
     }
 
     /// [`Simulation::positions`] and [`Simulation::momenta`] into the given buffers (cleared
-    /// first; both empty before [`Simulation::prepare`]). A loop that reads the state after
-    /// every [`Simulation::step`] this way allocates nothing.
+    /// first; both empty before [`Simulation::prepare`]). A loop that reads the state of an
+    /// assembled run after every [`Simulation::step`] this way allocates nothing (a staggered
+    /// run still gathers its momenta into a new vector).
     pub fn state_into(&self, positions: &mut Vec<f64>, momenta: &mut Vec<f64>) {
         positions.clear();
         momenta.clear();

@@ -195,11 +195,17 @@ class Model:
         signals: Optional[Iterable[str]] = None,
         *,
         h: Optional[float] = None,
+        composition: Optional[str] = None,
     ) -> List[Comparison]:
         """Runs every representation (for a scene also both staggered splittings) and returns
-        each one's largest deviation from the monolithic run (``dirac compare``)."""
+        each one's largest deviation from the monolithic run (``dirac compare``; ``composition``
+        as in :meth:`run`)."""
         rows = self._inner.compare(
-            method=method, h=h, t_end=t_end, signals=None if signals is None else list(signals)
+            method=method,
+            h=h,
+            t_end=t_end,
+            signals=None if signals is None else list(signals),
+            composition=composition,
         )
         return [Comparison(*r) for r in rows]
 

@@ -1137,3 +1137,27 @@ impl Record {
             && self.forces.is_empty()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::CompositionSpec;
+    use dirac_sim::Composition;
+
+    /// Every name the command line and Python take is a scene key naming the same composition,
+    /// and an unknown name is refused.
+    #[test]
+    fn composition_keys_are_the_stock_names() {
+        #[derive(serde::Deserialize)]
+        struct Key {
+            composition: CompositionSpec,
+        }
+        for name in Composition::NAMES {
+            let key: Key = toml::from_str(&format!("composition = \"{name}\"")).expect(name);
+            assert_eq!(
+                Some(key.composition.composition()),
+                Composition::named(name)
+            );
+        }
+        assert!(toml::from_str::<Key>("composition = \"ruth3\"").is_err());
+    }
+}
