@@ -1223,7 +1223,8 @@ pub fn check_methods(scene: BenchScene, methods: &[String]) -> Result<(), BenchE
     }
 }
 
-/// Runs the sweep of `scene`, handing each row to `emit` as it is measured.
+/// Runs the sweep of `scene`, handing each row to `emit` as it is measured. `options.methods`
+/// is taken as checked by [`check_methods`] (the command checks it before writing any output).
 ///
 /// # Errors
 /// A failed ladder run, or `emit` failing.
@@ -1232,7 +1233,6 @@ pub fn run(
     options: &BenchOptions,
     emit: &mut dyn FnMut(BenchRow) -> std::io::Result<()>,
 ) -> Result<(), BenchError> {
-    check_methods(scene, &options.methods)?;
     match scene {
         BenchScene::A => sweep(&SceneA::new()?, options, emit),
         BenchScene::B => sweep(&SceneB, options, emit),

@@ -828,12 +828,7 @@ fn bench_command(args: &BenchArgs) -> Result<(), Failure> {
         rows.push(row);
         Ok(())
     })
-    .map_err(|e| match e {
-        bench::BenchError::UnknownMethod { .. } | bench::BenchError::MethodsNotSwept => {
-            Failure::Input(e.to_string())
-        }
-        _ => Failure::Numerical(e.to_string()),
-    })?;
+    .map_err(|e| Failure::Numerical(e.to_string()))?;
     out.commit()?;
     let drift: Vec<String> = rows.iter().filter_map(bench::BenchRow::drift_csv).collect();
     if let (Some(path), false) = (&args.out, drift.is_empty()) {

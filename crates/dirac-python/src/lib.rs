@@ -137,6 +137,7 @@ fn settings(
     h: Option<f64>,
     t_end: Option<f64>,
     signals: Option<Vec<String>>,
+    composition: Option<&str>,
 ) -> Result<RunSettings, StudyError> {
     Ok(RunSettings {
         representation: representation
@@ -147,6 +148,7 @@ fn settings(
         h,
         t_end,
         signals,
+        composition: composition.map(parse_composition).transpose()?,
         ..RunSettings::default()
     })
 }
@@ -351,18 +353,21 @@ impl PyModel {
         refine: Option<bool>,
         composition: Option<&str>,
     ) -> PyResult<RunResult<'py>> {
-        let composition = composition
-            .map(parse_composition)
-            .transpose()
-            .map_err(to_py)?;
-        let settings = settings(method, representation, scheme, h, t_end, signals)
-            .map(|s| RunSettings {
-                start_ramp,
-                truncation: refine,
-                composition,
-                ..s
-            })
-            .map_err(to_py)?;
+        let settings = settings(
+            method,
+            representation,
+            scheme,
+            h,
+            t_end,
+            signals,
+            composition,
+        )
+        .map(|s| RunSettings {
+            start_ramp,
+            truncation: refine,
+            ..s
+        })
+        .map_err(to_py)?;
         let model = &self.inner;
         let outcome = py.detach(|| -> Result<_, StudyError> {
             let extra = energy.then(|| Signal::new(ENERGY, Probe::Energy));
@@ -410,13 +415,8 @@ impl PyModel {
         signals: Option<Vec<String>>,
         composition: Option<&str>,
     ) -> PyResult<Vec<ComparisonRow>> {
-        let composition = composition
-            .map(parse_composition)
-            .transpose()
-            .map_err(to_py)?;
-        let settings = settings(method, None, None, h, t_end, signals)
-            .map(|s| RunSettings { composition, ..s })
-            .map_err(to_py)?;
+        let settings =
+            settings(method, None, None, h, t_end, signals, composition).map_err(to_py)?;
         let model = &self.inner;
         let results = py.detach(|| model.compare(&settings)).map_err(to_py)?;
         Ok(results
@@ -486,7 +486,7 @@ impl PySweep {
         trajectories: bool,
     ) -> PyResult<Self> {
         let build = || -> Result<Sweep, StudyError> {
-            let settings = settings(method, representation, None, h, t_end, signals)?;
+            let settings = settings(method, representation, None, h, t_end, signals, None)?;
             let plan = Plan::given(names, points)?;
             let outputs = match (trajectories, outputs) {
                 (true, Some(_)) => {
