@@ -5,7 +5,8 @@
 //! ```
 //!
 //! Usage: `compiled-peers --scene A|B|D1|D2|D2-long|E|F|C [--quick] [--sections 10,100]
-//! [--out FILE]`; `compiled-peers --reference D2-long|F|C-N` prints how converged the scene's
+//! [--methods kahan-li8,dopri5] [--out FILE]` (`--methods` keeps the peers of those method
+//! names, for side-by-side runs of a few); `compiled-peers --reference D2-long|F|C-N` prints how converged the scene's
 //! reference is. Long runs (D2-long, E) also write the running maximum of the energy error at
 //! each tenth of the interval to `FILE` with `.csv` replaced by `.drift.csv`. Skipped settings
 //! (failed, too slow) go to stderr and to `.notes.txt`.
@@ -214,11 +215,32 @@ fn settings(scene: &Scene, peer: Peer, quick: bool) -> Vec<f64> {
     }
 }
 
-fn sweep(scene: &Scene, quick: bool, out: &mut Out) -> Result<(), String> {
+fn sweep(
+    scene: &Scene,
+    quick: bool,
+    methods: Option<&[String]>,
+    out: &mut Out,
+) -> Result<(), String> {
     let problem = CProblem::new(c_scene_id(scene.kind), scene.n)?;
     let repeats = if quick { 1 } else { 3 };
     let slow = if quick { QUICK_SLOW_RUN_S } else { SLOW_RUN_S };
-    for peer in peers(scene, quick) {
+    let all = peers(scene, quick);
+    if let Some(unknown) = methods
+        .into_iter()
+        .flatten()
+        .find(|name| !all.iter().any(|p| p.method() == **name))
+    {
+        let names: Vec<String> = all.iter().map(|p| p.method()).collect();
+        return Err(format!(
+            "scene {} has no peer method `{unknown}`; it has {}",
+            scene.label,
+            names.join(", ")
+        ));
+    }
+    let chosen = all
+        .into_iter()
+        .filter(|p| methods.is_none_or(|m| m.iter().any(|name| *name == p.method())));
+    for peer in chosen {
         let list = settings(scene, peer, quick);
         let mut previous = f64::INFINITY;
         let mut failures = 0;
@@ -429,12 +451,17 @@ fn real_main() -> Result<(), String> {
     let mut quick = false;
     let mut out_path = None;
     let mut sections = vec![10usize, 100, 1000];
+    let mut methods: Option<Vec<String>> = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--scene" => scene = it.next().cloned(),
             "--quick" => quick = true,
             "--out" => out_path = it.next().cloned(),
+            "--methods" => {
+                let list = it.next().ok_or("--methods needs a list")?;
+                methods = Some(list.split(',').map(|m| m.trim().to_string()).collect());
+            }
             "--sections" => {
                 sections = it
                     .next()
@@ -491,11 +518,11 @@ fn real_main() -> Result<(), String> {
         for &n in &sections {
             let mut s = Scene::new(&format!("Cacc-{n}"), 0).ok_or("scene")?;
             s.set_reference(ladder_reference(n)?);
-            sweep(&s, quick, &mut out)?;
+            sweep(&s, quick, methods.as_deref(), &mut out)?;
         }
     } else {
         let s = Scene::new(&scene, F_SECTIONS).ok_or_else(|| format!("unknown scene {scene}"))?;
-        sweep(&s, quick, &mut out)?;
+        sweep(&s, quick, methods.as_deref(), &mut out)?;
     }
     out.note(format!(
         "scene {scene}{}: compiled peers took {:.1} s",

@@ -16,6 +16,9 @@
 //! The end force is the next step's start force, so a step costs one force evaluation and one
 //! solve with `M` (factorised once). It is the same map as the Newton path's trapezoid step, so
 //! equivalence preservation (potentials in `L` or as forces give the same `F`) carries over.
+//! A composition (substeps `h_1 … h_s`) runs as one pass: the end kick `h_i/2 F` of one substep
+//! and the start kick `h_{i+1}/2 F` of the next act at the same point and are applied as one,
+//! which changes only round-off.
 
 use dirac_core::{Model, Triplets};
 use dirac_solve::{LinearSolveError, LinearSolver};
@@ -48,8 +51,8 @@ pub(crate) struct ExplicitStep {
     start_t: f64,
     start_valid: bool,
     autonomous: bool,
-    end_force: Vec<f64>,
-    rhs: Vec<f64>,
+    /// `q_{k+1} − q_*` of the last substep.
+    increment: Vec<f64>,
 }
 
 impl ExplicitStep {
@@ -80,8 +83,7 @@ impl ExplicitStep {
             start_t: f64::NAN,
             start_valid: false,
             autonomous: model.is_autonomous(),
-            end_force: vec![0.0; n],
-            rhs: vec![0.0; n],
+            increment: vec![0.0; n],
         })
     }
 
@@ -104,24 +106,26 @@ impl ExplicitStep {
         }
     }
 
-    /// One step of size `h` from `(q, p, t)`: writes `q_{k+1}` and `p_{k+1}` in place and the
-    /// increment `q_{k+1} − q_k` into `increment`. Returns the index of a non-finite entry of the
-    /// force or the new state, if any.
-    pub(crate) fn step<M: Model + ?Sized>(
+    /// One step from `(q, p, t)` made of explicit substeps of the given sizes (one size: a
+    /// Störmer–Verlet step; several: a composition), in place. Adjacent half kicks at the same
+    /// point are merged (`p += (hᵢ + hᵢ₊₁)/2 · F`), so a step costs one force evaluation per
+    /// substep and one pass over the state each. Returns the index of a non-finite entry of the new
+    /// state, if any.
+    pub(crate) fn compose<M: Model + ?Sized>(
         &mut self,
         model: &M,
         q: &mut [f64],
         p: &mut [f64],
         t: f64,
-        h: f64,
-        increment: &mut [f64],
+        sizes: impl Iterator<Item = f64>,
     ) -> Result<(), usize> {
+        let increment = &mut self.increment[..];
         let reuse = self.start_valid
             && (self.autonomous || self.start_t == t)
             && self.start_q.as_slice() == &*q;
+        // The stored start no longer describes `start_force` until this step succeeds.
+        self.start_valid = false;
         if !reuse {
-            // The stored start no longer describes `start_force` until this step succeeds.
-            self.start_valid = false;
             Self::total_force(
                 model,
                 q,
@@ -132,69 +136,71 @@ impl ExplicitStep {
                 &mut self.start_force,
             );
         }
-        let half = 0.5 * h;
-        // r = p_k + h/2 F₀ = M v̄, z = h v̄, q_{k+1} = q_k + z (one pass when M is diagonal: the
-        // vectors are short and a step is a few operations per entry).
-        match &mut self.mass {
-            MassSolve::Diagonal(inv) => {
-                let n = q.len();
-                let (p, f0, rhs) = (&p[..n], &self.start_force[..n], &mut self.rhs[..n]);
-                let (z, start_q, inv) = (&mut increment[..n], &mut self.start_q[..n], &inv[..n]);
-                for i in 0..n {
-                    rhs[i] = p[i] + half * f0[i];
-                    z[i] = rhs[i] * inv[i] * h;
-                    q[i] += z[i];
-                    start_q[i] = q[i];
+        let n = q.len();
+        let mut sizes = sizes.peekable();
+        let mut kick = 0.5 * sizes.peek().copied().unwrap_or(0.0);
+        let mut time = t;
+        while let Some(h) = sizes.next() {
+            // p += kick F, z = h M⁻¹ p, q += z (one pass when M is diagonal: the vectors are
+            // short and a substep is a few operations per entry).
+            let force = &self.start_force[..n];
+            match &mut self.mass {
+                MassSolve::Diagonal(inv) => {
+                    let (z, inv) = (&mut increment[..n], &inv[..n]);
+                    for i in 0..n {
+                        p[i] += kick * force[i];
+                        z[i] = p[i] * inv[i] * h;
+                        q[i] += z[i];
+                    }
+                }
+                MassSolve::Lu(lu) => {
+                    for ((pk, f), z) in p.iter_mut().zip(force).zip(increment.iter_mut()) {
+                        *pk += kick * f;
+                        *z = *pk;
+                    }
+                    if let Err(e) = lu.solve_in_place(increment) {
+                        return Err(match e {
+                            LinearSolveError::NonFinite { index } => index,
+                            _ => 0,
+                        });
+                    }
+                    for (z, qk) in increment.iter_mut().zip(q.iter_mut()) {
+                        *z *= h;
+                        *qk += *z;
+                    }
                 }
             }
-            MassSolve::Lu(lu) => {
-                for ((r, pk), f0) in self.rhs.iter_mut().zip(p.iter()).zip(&self.start_force) {
-                    *r = pk + half * f0;
-                }
-                increment.copy_from_slice(&self.rhs);
-                if let Err(e) = lu.solve_in_place(increment) {
-                    return Err(match e {
-                        LinearSolveError::NonFinite { index } => index,
-                        _ => 0,
-                    });
-                }
-                for ((z, qk), s) in increment
-                    .iter_mut()
-                    .zip(q.iter_mut())
-                    .zip(self.start_q.iter_mut())
-                {
-                    *z *= h;
-                    *qk += *z;
-                    *s = *qk;
-                }
-            }
+            time += h;
+            Self::total_force(
+                model,
+                q,
+                time,
+                &self.zero,
+                &mut self.lv,
+                &mut self.f,
+                &mut self.start_force,
+            );
+            kick = 0.5 * (h + sizes.peek().copied().unwrap_or(0.0));
         }
-        let t1 = t + h;
-        Self::total_force(
-            model,
-            q,
-            t1,
-            &self.zero,
-            &mut self.lv,
-            &mut self.f,
-            &mut self.end_force,
-        );
-        let mut finite = true;
-        for ((pk, r), f1) in p.iter_mut().zip(&self.rhs).zip(&self.end_force) {
-            *pk = r + half * f1;
-            finite &= pk.is_finite();
+        for (pk, f) in p.iter_mut().zip(&self.start_force) {
+            *pk += kick * f;
         }
-        std::mem::swap(&mut self.start_force, &mut self.end_force);
-        self.start_t = t1;
-        self.start_valid = finite && q.iter().all(|x| x.is_finite());
-        if self.start_valid {
-            return Ok(());
-        }
-        Err(p
+        if let Some(bad) = p
             .iter()
             .zip(q.iter())
             .position(|(a, b)| !(a.is_finite() && b.is_finite()))
-            .unwrap_or(0))
+        {
+            return Err(bad);
+        }
+        self.start_q.copy_from_slice(q);
+        self.start_t = time;
+        self.start_valid = true;
+        Ok(())
+    }
+
+    /// The increment `q_{k+1} − q_*` of the last substep of the last step.
+    pub(crate) fn last_increment(&self) -> &[f64] {
+        &self.increment
     }
 }
 

@@ -858,7 +858,14 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let t = self.t;
         let mut stats = NewtonStats::default();
         let mut result = Ok(());
-        for i in 0..self.stages.len() {
+        // Explicit steps take every substep in one pass.
+        let implicit_substeps = if self.explicit.is_some() {
+            result = self.explicit_advance(size, regular);
+            0
+        } else {
+            self.stages.len()
+        };
+        for i in 0..implicit_substeps {
             let solved = if regular {
                 self.substep(i)
             } else {
@@ -984,9 +991,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// Substep `i` at a size other than its regular one, solved with the stage's auxiliary Newton
     /// (the regular factorisation is kept).
     fn substep_sized(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
-        if self.explicit.is_some() {
-            return self.explicit_substep(i, size);
-        }
         let stage = &mut self.stages[i];
         let nominal = stage.step.step_size();
         stage.step.set_step_size(size);
@@ -1083,21 +1087,26 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
     }
 
-    /// Substep `i` of size `size` by the explicit Störmer–Verlet step (no Newton iteration).
-    fn explicit_substep(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
+    /// Advances by `size` with the explicit Störmer–Verlet step, every substep of the scheme in
+    /// one pass (no Newton iteration): at their regular sizes, or scaled to `size`.
+    fn explicit_advance(&mut self, size: f64, regular: bool) -> Result<(), SimError> {
         let t = self.t;
-        let stage = &mut self.stages[i];
         let n = self.q.len();
-        if let Some(explicit) = &mut self.explicit
-            && let Err(equation) = explicit.step(
-                &self.model,
-                &mut self.q,
-                &mut self.p,
-                t,
-                size,
-                &mut stage.x[..n],
-            )
-        {
+        let Some(explicit) = &mut self.explicit else {
+            return Ok(());
+        };
+        let sizes = self.stages.iter().map(|stage| {
+            if regular {
+                stage.step.step_size()
+            } else {
+                stage.fraction * size
+            }
+        });
+        let composed = explicit.compose(&self.model, &mut self.q, &mut self.p, t, sizes);
+        if let Some(last) = self.stages.last_mut() {
+            last.x[..n].copy_from_slice(explicit.last_increment());
+        }
+        if let Err(equation) = composed {
             let source = NewtonError::NonFiniteResidual {
                 equation,
                 iterations: 0,
@@ -1111,14 +1120,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             });
         }
         self.t += size;
-        Ok(NewtonStats::default())
+        Ok(())
     }
 
     fn substep(&mut self, i: usize) -> Result<NewtonStats, SimError> {
-        if self.explicit.is_some() {
-            let size = self.stages[i].step.step_size();
-            return self.explicit_substep(i, size);
-        }
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
         // After the first step the guess extrapolates the previous solutions, still in
