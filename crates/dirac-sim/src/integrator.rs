@@ -857,29 +857,12 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         };
         let t = self.t;
         let mut stats = NewtonStats::default();
-        let mut result = Ok(());
-        // Explicit steps take every substep in one pass.
-        let implicit_substeps = if self.explicit.is_some() {
-            result = self.explicit_advance(size, regular);
-            0
+        // Explicit steps take every substep in one pass; implicit ones solve them one by one.
+        let result = if self.explicit.is_some() {
+            self.explicit_advance(size, regular)
         } else {
-            self.stages.len()
+            self.implicit_advance(size, regular, &mut stats)
         };
-        for i in 0..implicit_substeps {
-            let solved = if regular {
-                self.substep(i)
-            } else {
-                let fraction = self.stages[i].fraction;
-                self.substep_sized(i, fraction * size)
-            };
-            match solved {
-                Ok(s) => stats.accumulate(&s),
-                Err(e) => {
-                    result = Err(e);
-                    break;
-                }
-            }
-        }
         let error = match result {
             Ok(()) => return self.accept_or_refine(size, depth, t, saved, stats),
             Err(e) => e,
@@ -1085,6 +1068,26 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 })
             }
         }
+    }
+
+    /// Advances by `size` through every substep of the scheme, each a Newton solve (at its
+    /// regular size, or scaled to `size`), adding their cost to `stats`; stops at the first failure.
+    fn implicit_advance(
+        &mut self,
+        size: f64,
+        regular: bool,
+        stats: &mut NewtonStats,
+    ) -> Result<(), SimError> {
+        for i in 0..self.stages.len() {
+            let solved = if regular {
+                self.substep(i)
+            } else {
+                let fraction = self.stages[i].fraction;
+                self.substep_sized(i, fraction * size)
+            }?;
+            stats.accumulate(&solved);
+        }
+        Ok(())
     }
 
     /// Advances by `size` with the explicit Störmer–Verlet step, every substep of the scheme in
