@@ -3,7 +3,7 @@
 //! - `oscillator_step`: one step of the damped oscillator (m = k = 1, c = 0.01, h = 0.05) for the
 //!   midpoint rule and Gauss s = 2, 3;
 //! - `double_pendulum_step`: one step of the double pendulum of benchmark scene D2 (h = 0.0125),
-//!   nonlinear: modified Newton with kept factorisations and the linear predictor;
+//!   nonlinear: modified Newton with kept factorisations and the default predictor;
 //! - `seed_rlc_run`: the seed paper's RLC loop, 1000 (+) midpoint steps including set-up;
 //!   `seed_rlc_run_affine_map`: the same with the opt-in precomputed affine step map.
 //!

@@ -48,11 +48,14 @@ impl From<Flavour> for Scheme {
 /// How a nonlinear step's Newton iteration is started from the previous steps' solutions.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Predictor {
-    /// `2x_k − x_{k−1}`: the unknowns extrapolated linearly in `k` (error `O(h³)` in the
-    /// increments).
-    Linear,
+    /// `4x_k − 6x_{k−1} + 4x_{k−2} − x_{k−3}`: the unknowns extrapolated in `k` by the cubic
+    /// through the last four solutions (error `O(h⁴)` relative to the unknowns; a lower degree
+    /// while fewer solutions follow each other).
+    Extrapolation,
     /// The previous step's path polynomial `q(t_k + σh) = q_k + Σ ℓ_l(σ) Z^l` evaluated at the next
-    /// step's control points `σ = 1 + d_l` (error `O(h^{s+1})`); multipliers extrapolate linearly.
+    /// step's control points `σ = 1 + d_l` (error `O(h^{s+1})`); multipliers extrapolate in `k`
+    /// as with [`Predictor::Extrapolation`]. Used with one substep per step and no constraint
+    /// rows; otherwise every unknown extrapolates in `k`.
     #[default]
     Polynomial,
 }
@@ -378,8 +381,11 @@ struct Stage {
     /// `p_{k+1}(x) = p_{k+1}(x₀) + E (x − x₀)`. `p_{k+1}(x₀)` comes with the residual at the guess
     /// `x₀`, so a step evaluates the model once instead of twice.
     linear_end: LinearEnd,
-    /// The solution of the step before the last (nonlinear models only: the predictor).
-    older: Vec<f64>,
+    /// The solutions of the steps before the last, most recent first (nonlinear models only:
+    /// the predictor extrapolates them in `k`).
+    past: Vec<f64>,
+    /// How many blocks of `past` hold solutions of regular steps that follow each other.
+    known: usize,
     /// Work space for diagnostics that re-evaluate the step equations.
     scratch: Vec<f64>,
     /// This substep's size as a fraction of `h` (a composition's `γᵢ`, halved by the symmetric
@@ -391,11 +397,41 @@ struct Stage {
     /// The size of the last solve (the guess of the next one is scaled from it).
     last_size: f64,
     /// Row-major `s × s` map from the last increments `Z^{l'}` to the predicted next ones:
-    /// `ℓ_{l'}(1 + d_l) − δ_{l' s}` (empty for the linear predictor).
+    /// `ℓ_{l'}(1 + d_l) − δ_{l' s}` (empty unless the increments use the path polynomial).
     extrapolation: Vec<f64>,
 }
 
 impl Stage {
+    /// Pushes the current solution `x` to the front of `past`.
+    fn remember(&mut self) {
+        let u = self.x.len();
+        self.past.copy_within(..(PAST_DEPTH - 1) * u, u);
+        self.past[..u].copy_from_slice(&self.x);
+        self.known = (self.known + 1).min(PAST_DEPTH);
+    }
+
+    /// Replaces the unknowns from `from` on by their extrapolation in `k` from the last solution
+    /// and the known past ones (a polynomial of degree `known`, at most `PAST_DEPTH`), and
+    /// remembers the last solution.
+    fn extrapolate_in_k(&mut self, from: usize) {
+        let u = self.x.len();
+        let weights: &[f64] = match self.known {
+            0 => &[1.0],
+            1 => &[2.0, -1.0],
+            2 => &[3.0, -3.0, 1.0],
+            _ => &[4.0, -6.0, 4.0, -1.0],
+        };
+        for idx in from..u {
+            let mut e = weights[0] * self.x[idx];
+            for (j, w) in weights[1..].iter().enumerate() {
+                e += w * self.past[j * u + idx];
+            }
+            self.scratch[idx] = e;
+        }
+        self.remember();
+        self.x[from..].copy_from_slice(&self.scratch[from..]);
+    }
+
     fn new<M: Model, C: Constraints>(
         model: &M,
         constraints: &C,
@@ -425,9 +461,13 @@ impl Stage {
             fraction: h / options.h,
             aux: None,
             last_size: h,
-            newton: Newton::new(AutoLu::for_size(options.solver, unknowns), options.newton),
+            newton: Newton::new(
+                AutoLu::for_size(options.solver, unknowns),
+                newton_options(model, options),
+            ),
             x: vec![0.0; unknowns],
-            older: vec![0.0; unknowns],
+            past: vec![0.0; PAST_DEPTH * unknowns],
+            known: 0,
             scratch: vec![0.0; unknowns],
             linear_end: LinearEnd {
                 jacobian: Triplets::new(),
@@ -988,7 +1028,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 *x *= ratio;
             }
         }
-        let options = self.options.newton;
+        let options = newton_options(&self.model, &self.options);
         let solver = self.options.solver;
         let unknowns = stage.step.unknowns();
         let (newton, aux_size) = stage.aux.get_or_insert_with(|| {
@@ -1013,7 +1053,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         stage.step.end_position(&stage.x, &mut self.q);
         stage.step.set_step_size(nominal);
         // The next regular step starts its predictor afresh from this solution.
-        stage.older.copy_from_slice(&stage.x);
+        stage.known = 0;
         Self::add_impulse(&mut self.impulse, stage);
         std::mem::swap(&mut self.p, &mut self.p_next);
         self.reset_free_momenta();
@@ -1129,9 +1169,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     fn substep(&mut self, i: usize) -> Result<NewtonStats, SimError> {
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
-        // After the first step the guess extrapolates the previous solutions, still in
-        // `stage.x`: constant (the increments of a constant velocity) after one step, linear in k
-        // after two. The linear predictor is one order better and saves Newton iterations on
+        // After the first step the guess extrapolates the previous solutions (the last still in
+        // `stage.x`): constant (the increments of a constant velocity) after one step, then of
+        // one degree more per step up to a cubic in k, which saves Newton iterations on
         // nonlinear models; linear models are solved exactly by one update from any guess.
         let constant = stage
             .step
@@ -1140,18 +1180,20 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         if stage.last_size != nominal {
             // After a substep of another size: scale its solution, extrapolate nothing.
             let ratio = nominal / stage.last_size;
-            for (x, old) in stage.x.iter_mut().zip(stage.older.iter_mut()) {
+            for x in &mut stage.x {
                 *x *= ratio;
-                *old = *x;
             }
+            stage.remember();
+            stage.known = 1;
             stage.last_size = nominal;
         } else if self.k == 0 {
             stage
                 .step
                 .straight_guess(&self.control_nodes, &self.v0, &mut stage.x);
+            stage.known = 0;
         } else if !constant {
             // Increments from the previous path polynomial (when chosen), multipliers (and,
-            // for the linear predictor, increments) extrapolated linearly in k.
+            // for the other predictors, increments) extrapolated in k.
             let n = self.q.len();
             let s = stage.step.degree();
             let polynomial = if stage.extrapolation.is_empty() {
@@ -1159,19 +1201,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             } else {
                 s * n
             };
-            for (idx, (x, old)) in stage.x.iter_mut().zip(stage.older.iter_mut()).enumerate() {
-                let last = *x;
-                if idx >= polynomial && self.k >= 2 {
-                    *x = 2.0 * last - *old;
-                }
-                *old = last;
-            }
+            stage.extrapolate_in_k(polynomial);
             for (l, row) in stage.extrapolation.chunks_exact(s).enumerate() {
                 for i in 0..n {
                     stage.x[l * n + i] = row
                         .iter()
                         .enumerate()
-                        .map(|(j, e)| e * stage.older[j * n + i])
+                        .map(|(j, e)| e * stage.past[j * n + i])
                         .sum();
                 }
             }
@@ -1693,6 +1729,22 @@ fn project_velocity<C: Constraints + ?Sized>(
             residual: f64::NAN,
         }),
     }
+}
+
+/// How many past solutions a stage keeps for its predictor (cubic extrapolation in `k`).
+const PAST_DEPTH: usize = 3;
+
+/// The Newton options of `model`'s steps: `options.newton`, except that a model whose updates
+/// are limited ([`Model::has_update_limit`], a junction) always starts from the factorisation it
+/// carries ([`NewtonOptions::start_contraction`]): a Jacobian fresh at the extrapolated guess,
+/// with a junction's exponential evaluated past its solution, is a worse Newton matrix than the
+/// converged one of the step before (every diode netlist then cut steps).
+fn newton_options<M: Model>(model: &M, options: &IntegratorOptions) -> NewtonOptions {
+    let mut newton = options.newton;
+    if model.has_update_limit() {
+        newton.start_contraction = f64::INFINITY;
+    }
+    newton
 }
 
 #[cfg(test)]
