@@ -1740,7 +1740,8 @@ fn project_velocity<C: Constraints + ?Sized>(
 const PAST_DEPTH: usize = 3;
 
 /// [`NewtonOptions::start_contraction`] for the stages of a scheme with several substeps per
-/// step (a composition, the symmetric scheme), unless `options.newton` sets one.
+/// step (a composition, the symmetric scheme), unless `options.newton` sets one
+/// (`Some(f64::INFINITY)` keeps every carried factorisation).
 const COMPOSED_START_CONTRACTION: f64 = 1e-2;
 
 /// The Newton options of `model`'s steps: `options.newton`, with a fresh Jacobian at the start
@@ -1761,11 +1762,11 @@ fn newton_options<M: Model>(model: &M, options: &IntegratorOptions) -> NewtonOpt
         } else {
             1
         };
-    if newton.start_contraction.is_infinite() && substeps > 1 {
-        newton.start_contraction = COMPOSED_START_CONTRACTION;
+    if newton.start_contraction.is_none() && substeps > 1 {
+        newton.start_contraction = Some(COMPOSED_START_CONTRACTION);
     }
     if model.has_update_limit() {
-        newton.start_contraction = f64::INFINITY;
+        newton.start_contraction = None;
     }
     newton
 }
