@@ -386,7 +386,7 @@ struct Stage {
     past: Vec<f64>,
     /// How many blocks of `past` hold solutions of regular steps that follow each other.
     known: usize,
-    /// Work space for diagnostics that re-evaluate the step equations.
+    /// Work space for the predictor and for diagnostics that re-evaluate the step equations.
     scratch: Vec<f64>,
     /// This substep's size as a fraction of `h` (a composition's `γᵢ`, halved by the symmetric
     /// scheme).
@@ -463,7 +463,7 @@ impl Stage {
             last_size: h,
             newton: Newton::new(
                 AutoLu::for_size(options.solver, unknowns),
-                newton_options(model, options),
+                newton_options(model, options, !contiguous),
             ),
             x: vec![0.0; unknowns],
             past: vec![0.0; PAST_DEPTH * unknowns],
@@ -1033,7 +1033,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 *x *= ratio;
             }
         }
-        let options = newton_options(&self.model, &self.options);
+        let options = *stage.newton.options();
         let solver = self.options.solver;
         let unknowns = stage.step.unknowns();
         let (newton, aux_size) = stage.aux.get_or_insert_with(|| {
@@ -1740,7 +1740,7 @@ fn project_velocity<C: Constraints + ?Sized>(
 const PAST_DEPTH: usize = 3;
 
 /// [`NewtonOptions::start_contraction`] for the stages of a scheme with several substeps per
-/// step (a composition, the symmetric scheme), unless `options.newton` sets one
+/// step (`composed`: a composition, the symmetric scheme), unless `options.newton` sets one
 /// (`Some(f64::INFINITY)` keeps every carried factorisation).
 const COMPOSED_START_CONTRACTION: f64 = 1e-2;
 
@@ -1754,15 +1754,13 @@ const COMPOSED_START_CONTRACTION: f64 = 1e-2;
 /// starts from the factorisation it carries: a Jacobian fresh at the extrapolated guess, with a
 /// junction's exponential evaluated past its solution, is a worse Newton matrix than the
 /// converged one of the step before (every diode netlist then cut steps).
-fn newton_options<M: Model>(model: &M, options: &IntegratorOptions) -> NewtonOptions {
+fn newton_options<M: Model>(
+    model: &M,
+    options: &IntegratorOptions,
+    composed: bool,
+) -> NewtonOptions {
     let mut newton = options.newton;
-    let substeps = options.composition.gammas().len()
-        * if options.scheme == Scheme::Symmetric {
-            2
-        } else {
-            1
-        };
-    if newton.start_contraction.is_none() && substeps > 1 {
+    if newton.start_contraction.is_none() && composed {
         newton.start_contraction = Some(COMPOSED_START_CONTRACTION);
     }
     if model.has_update_limit() {

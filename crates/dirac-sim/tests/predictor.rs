@@ -63,11 +63,9 @@ fn polynomial_predictor_keeps_the_trajectory_and_saves_iterations() {
     }
 }
 
-/// The final state of `STEPS` Gauss-2 steps of the double pendulum from `t₀`, with Newton's
-/// updates and factorisations (the model is autonomous: the start time changes nothing but the
-/// rounding of `t`).
-fn run_from(t0: f64) -> (Vec<f64>, [usize; 2]) {
-    let options = IntegratorOptions::new(Discretisation::gauss(2), 0.0125);
+/// The final `(q, p)` of `STEPS` steps of the double pendulum from θ = (1, 0.5), θ̇ = 0 at `t₀`,
+/// with Newton's updates and factorisations.
+fn final_state(options: IntegratorOptions, t0: f64) -> (Vec<f64>, [usize; 2]) {
     let mut sim = Integrator::new(DoublePendulum::unit(), NoConstraints, options).expect("options");
     sim.initialise(&[1.0, 0.5], &[0.0, 0.0], t0).expect("state");
     for _ in 0..STEPS {
@@ -77,6 +75,20 @@ fn run_from(t0: f64) -> (Vec<f64>, [usize; 2]) {
     z.extend_from_slice(sim.p());
     let stats = sim.stats();
     (z, [stats.iterations, stats.factorisations])
+}
+
+/// Largest difference of two states, relative to `1 + |a_i|`.
+fn deviation(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs() / (1.0 + x.abs()))
+        .fold(0.0, f64::max)
+}
+
+/// [`final_state`] of Gauss-2 steps (h = 0.0125) from `t₀` (the model is autonomous: the start
+/// time changes nothing but the rounding of `t`).
+fn run_from(t0: f64) -> (Vec<f64>, [usize; 2]) {
+    final_state(IntegratorOptions::new(Discretisation::gauss(2), 0.0125), t0)
 }
 
 /// Far from t = 0 a step's size `t_{k+1} − t_k` differs from `h` by the rounding of the times
@@ -90,11 +102,7 @@ fn run_from(t0: f64) -> (Vec<f64>, [usize; 2]) {
 fn far_from_t0_steps_stay_regular() {
     let (near, near_work) = run_from(0.0);
     let (far, far_work) = run_from(1e4);
-    let worst = near
-        .iter()
-        .zip(&far)
-        .map(|(a, b)| (a - b).abs() / (1.0 + a.abs()))
-        .fold(0.0, f64::max);
+    let worst = deviation(&near, &far);
     println!(
         "updates and factorisations from 0: {near_work:?}, from 1e4: {far_work:?}; deviation {worst:.2e}"
     );
@@ -107,23 +115,14 @@ fn far_from_t0_steps_stay_regular() {
     }
 }
 
-/// The final state of `STEPS` steps of D2 with the Kahan–Li 8 composition of the midpoint rule
-/// (17 substeps, h = 0.0125), with Newton's updates and factorisations, under the integrator's
-/// choice of Newton start or with `start_contraction`.
+/// [`final_state`] with the Kahan–Li 8 composition of the midpoint rule (17 substeps,
+/// h = 0.0125) from t = 0, under the integrator's choice of Newton start or with
+/// `start_contraction`.
 fn composed_run(start_contraction: Option<f64>) -> (Vec<f64>, [usize; 2]) {
     let mut options = IntegratorOptions::new(Discretisation::midpoint(), 0.0125)
         .composition(Composition::kahan_li8());
     options.newton.start_contraction = start_contraction;
-    let mut sim = Integrator::new(DoublePendulum::unit(), NoConstraints, options).expect("options");
-    sim.initialise(&[1.0, 0.5], &[0.0, 0.0], 0.0)
-        .expect("state");
-    for _ in 0..STEPS {
-        sim.step().expect("step");
-    }
-    let mut z = sim.q().to_vec();
-    z.extend_from_slice(sim.p());
-    let stats = sim.stats();
-    (z, [stats.iterations, stats.factorisations])
+    final_state(options, 0.0)
 }
 
 /// On a composition each stage's carried factorisation is a whole step old (it contracts by
@@ -136,11 +135,7 @@ fn composed_run(start_contraction: Option<f64>) -> (Vec<f64>, [usize; 2]) {
 fn composed_substeps_start_from_a_fresh_jacobian() {
     let (fresh, fresh_work) = composed_run(None);
     let (carried, carried_work) = composed_run(Some(f64::INFINITY));
-    let worst = fresh
-        .iter()
-        .zip(&carried)
-        .map(|(a, b)| (a - b).abs() / (1.0 + a.abs()))
-        .fold(0.0, f64::max);
+    let worst = deviation(&fresh, &carried);
     println!(
         "Kahan-Li 8: fresh start {fresh_work:?}, carried {carried_work:?}; deviation {worst:.2e}"
     );

@@ -234,9 +234,7 @@ impl<S: LinearSolver> Newton<S> {
     /// Forgets the pattern and any reused factorisation (call when the system changes shape).
     pub fn reset(&mut self) {
         self.analysed = false;
-        self.factored = false;
-        self.carried_contraction = f64::NAN;
-        self.fresh_contraction = f64::NAN;
+        self.invalidate_factorisation();
         self.jacobian = Triplets::new();
     }
 
