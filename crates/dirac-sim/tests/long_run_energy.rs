@@ -7,25 +7,39 @@
 //! h = 1/640 over 64 000 steps (t = 100) keeps its energy to 1.8e-10; with the unknowns' scale
 //! taken from the equation where an unknown weighs least (a Newton rule of 2026-11-23), iterates
 //! 1e-8 off were accepted and the error reached 3.2e-9, growing with every halving of h.
+//!
+//! The step's own coefficients can leave such a bias too: the momentum at `q_k` must be the
+//! derivative of the discrete Lagrangian the step evaluates, to rounding of the data, not of the
+//! tabulated basis derivatives (docs/math.md §4, "The start momentum").
 
 use dirac_core::NoConstraints;
-use dirac_problems::DoublePendulum;
+use dirac_problems::{DoublePendulum, FreeMasses};
 use dirac_sim::{Discretisation, Integrator, IntegratorOptions};
 
-/// Max |H − H₀| over `steps` gauss2 steps of size `h` of the double pendulum.
-fn max_energy_error(h: f64, steps: usize) -> f64 {
+/// Running maximum of |H − H₀| at the end of each tenth of `steps` Gauss-`s` steps of size `h`
+/// of the double pendulum.
+fn energy_error_tenths(s: usize, h: f64, steps: usize) -> Vec<f64> {
     let pendulum = DoublePendulum::unit();
-    let options = IntegratorOptions::new(Discretisation::gauss(2), h);
+    let options = IntegratorOptions::new(Discretisation::gauss(s), h);
     let mut sim = Integrator::new(pendulum, NoConstraints, options).expect("options");
     sim.initialise(&[1.0, 0.5], &[0.0, 0.0], 0.0)
         .expect("initial state");
     let e0 = pendulum.hamiltonian(sim.q(), sim.p());
     let mut worst: f64 = 0.0;
-    for _ in 0..steps {
+    let mut tenths = Vec::new();
+    for k in 1..=steps {
         sim.step().expect("step");
         worst = worst.max((pendulum.hamiltonian(sim.q(), sim.p()) - e0).abs());
+        if k % (steps / 10) == 0 {
+            tenths.push(worst);
+        }
     }
-    worst
+    tenths
+}
+
+/// Max |H − H₀| over `steps` gauss2 steps of size `h` of the double pendulum.
+fn max_energy_error(h: f64, steps: usize) -> f64 {
+    energy_error_tenths(2, h, steps)[9]
 }
 
 /// The energy error at h = 1/640 stays at the truncation level: halving h from 1/320 (32 000
@@ -38,4 +52,45 @@ fn gauss2_energy_does_not_drift_over_many_small_steps() {
     println!("max |H − H₀|: h = 1/320 {coarse:.3e}, h = 1/640 {fine:.3e}");
     assert!(fine <= coarse / 8.0, "{fine:e} against {coarse:e}");
     assert!(fine < 1e-9, "{fine:e}");
+}
+
+/// Gauss 4 at h = 0.025 on the double pendulum: its truncation error, about 1e-10, is reached in
+/// the first tenth of 40 000 steps and the running maximum must stay there. With `E₀`'s start
+/// weights taken from the tabulated `ℓ₀'` (rounded differently from the `−Σ ℓ_l'` the path
+/// uses) it grew linearly, from 1.10e-10 after the first tenth to 2.41e-10 at the end
+/// (about 4e-15 per step; 1.7e-9 over the 4·10⁵ steps of scene D2-long); now 0.96e-10 → 1.01e-10.
+#[test]
+fn gauss4_energy_stays_at_its_truncation_level() {
+    let tenths = energy_error_tenths(4, 0.025, 40_000);
+    let shown: Vec<String> = tenths.iter().map(|e| format!("{e:.3e}")).collect();
+    println!("running max |H − H₀| per tenth: {}", shown.join(" "));
+    assert!(tenths[9] <= 1.2 * tenths[0], "{}", shown.join(" "));
+}
+
+/// Free masses have no force: by the discrete Noether theorem every variational step keeps their
+/// momentum exactly, so over 10⁵ steps only rounding of the data moves it (a random walk of
+/// order √N·ε). With the tabulated start weights it moved coherently: Gauss 3 by 1.5e-13 and
+/// Gauss 4 by 6.1e-14 relative; now at most 1.3e-15.
+#[test]
+fn free_motion_keeps_its_momentum_over_many_steps() {
+    for s in 2..=4 {
+        let masses = FreeMasses {
+            masses: vec![1.0, 3.0],
+            weights: vec![0.0, 0.0],
+            names: vec!["x", "y"],
+        };
+        let options = IntegratorOptions::new(Discretisation::gauss(s), 0.01);
+        let mut sim = Integrator::new(masses, NoConstraints, options).expect("options");
+        sim.initialise(&[0.3, -0.2], &[1.0, 0.7], 0.0)
+            .expect("initial state");
+        let p0 = sim.p().to_vec();
+        for _ in 0..100_000 {
+            sim.step().expect("step");
+        }
+        for (p, start) in sim.p().iter().zip(&p0) {
+            let drift = ((p - start) / start).abs();
+            println!("gauss{s}: relative momentum change {drift:.2e}");
+            assert!(drift <= 1e-14, "gauss{s}: {drift:e}");
+        }
+    }
 }
