@@ -133,6 +133,51 @@ pub struct ForcedDiracStep {
     g: Vec<f64>,
     /// `S¹ … S^s` while `E₀` is assembled from them (degree ≥ 2, see `add_start_stationarity`).
     later: Vec<f64>,
+    /// Derivative values at every quadrature node while the Jacobian sums them (node-major).
+    node_values: Vec<f64>,
+    /// One Jacobian block's derivative terms summed over the nodes.
+    node_sums: Vec<f64>,
+    /// Per block `(j, l)` (index `j·s + l − 1`), where its Hessian terms land (built at the
+    /// first stamp).
+    merges: Vec<Option<BlockMerge>>,
+    /// One block's entries at its distinct positions.
+    merged: Vec<f64>,
+}
+
+/// How the Hessian terms of one Jacobian block (`H_qq`, `H_qv`, `H_vq = H_qvᵀ`, `H_vv`, each
+/// summed over the nodes) land on the block's distinct positions, so the block is stamped with
+/// one entry per position instead of one per term (a quarter for a dense Hessian).
+#[derive(Debug, Clone)]
+struct BlockMerge {
+    /// Distinct `(row, col)` in the block, in order of first appearance.
+    positions: Vec<(usize, usize)>,
+    /// For every term, in the order `H_qq`, `H_qv`, `H_vq`, `H_vv`, its position; `None` where
+    /// that kind's weight is zero at every node (the term is not stamped, as before merging).
+    slot: Vec<Option<usize>>,
+}
+
+impl BlockMerge {
+    fn new(hess: &LagrangianHessian, used: [bool; 4]) -> Self {
+        let mut index = std::collections::HashMap::new();
+        let mut positions = Vec::new();
+        let mut slot = Vec::new();
+        let terms = hess
+            .qq
+            .iter()
+            .map(|(r, c, _)| (0, r, c))
+            .chain(hess.qv.iter().map(|(r, c, _)| (1, r, c)))
+            .chain(hess.qv.iter().map(|(r, c, _)| (2, c, r)))
+            .chain(hess.vv.iter().map(|(r, c, _)| (3, r, c)));
+        for (kind, r, c) in terms {
+            slot.push(used[kind].then(|| {
+                *index.entry((r, c)).or_insert_with(|| {
+                    positions.push((r, c));
+                    positions.len() - 1
+                })
+            }));
+        }
+        Self { positions, slot }
+    }
 }
 
 impl ForcedDiracStep {
@@ -183,6 +228,10 @@ impl ForcedDiracStep {
             forms_at_start: false,
             g: vec![0.0; m],
             later: vec![0.0; discretisation.path().degree() * n],
+            node_values: Vec::new(),
+            node_sums: Vec::new(),
+            merges: Vec::new(),
+            merged: Vec::new(),
         }
     }
 
@@ -479,83 +528,121 @@ impl ForcedDiracStep {
         jac: &mut Triplets,
     ) {
         let (n, s, h, first) = (self.n, self.s, self.h, blocks.start);
+        // The Hessian at every node, its values node-major (one pattern: models stamp the same
+        // sequence at every call), then one entry per block and Hessian entry, summed over the
+        // nodes: a quarter of the entries per node-by-node stamping at four nodes.
         let nodes = &self.lagrangian_nodes;
+        let mut hess = std::mem::take(&mut self.hessian);
+        let mut values = std::mem::take(&mut self.node_values);
+        values.clear();
         for i in 0..nodes.len() {
             let (phi, dphi) = nodes.row(i);
             eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
-            let mut hess = std::mem::take(&mut self.hessian);
             hess.begin();
             model.lagrangian_hessian(&self.y, &self.w, &mut hess);
             if !hess.qq.is_frozen() {
                 hess.freeze();
             }
-            let b = nodes.weights[i];
-            for j in blocks.clone() {
-                let (pj, dj) = (phi[j], dphi[j]);
-                for l in 1..=s {
-                    let (pl, dl) = (phi[l], dphi[l]);
-                    let (er, uc) = ((j - first) * n, (l - 1) * n);
-                    let (aqq, aqv, avq, avv) =
-                        (h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h);
-                    if aqq != 0.0 {
-                        for (r, c, v) in hess.qq.iter() {
-                            jac.add(er + r, uc + c, aqq * v);
-                        }
-                    }
-                    for (r, c, v) in hess.qv.iter() {
-                        if aqv != 0.0 {
-                            jac.add(er + r, uc + c, aqv * v);
-                        }
-                        if avq != 0.0 {
-                            jac.add(er + c, uc + r, avq * v);
-                        }
-                    }
-                    if avv != 0.0 {
-                        for (r, c, v) in hess.vv.iter() {
-                            jac.add(er + r, uc + c, avv * v);
-                        }
+            values.extend_from_slice(hess.qq.values());
+            values.extend_from_slice(hess.qv.values());
+            values.extend_from_slice(hess.vv.values());
+        }
+        let (nqq, nqv, nvv) = (hess.qq.len(), hess.qv.len(), hess.vv.len());
+        let stride = nqq + nqv + nvv;
+        // Per block: the sums over the nodes of H_qq, H_qv, H_vq (as H_qv, transposed) and H_vv,
+        // each with its weight.
+        let mut sums = std::mem::take(&mut self.node_sums);
+        let mut merged = std::mem::take(&mut self.merged);
+        if self.merges.is_empty() {
+            self.merges = vec![None; (s + 1) * s];
+        }
+        for j in blocks.clone() {
+            for l in 1..=s {
+                let (er, uc) = ((j - first) * n, (l - 1) * n);
+                sums.clear();
+                sums.resize(stride + nqv, 0.0);
+                let mut used = [false; 4];
+                for i in 0..nodes.len() {
+                    let (phi, dphi) = nodes.row(i);
+                    let b = nodes.weights[i];
+                    let (pj, dj, pl, dl) = (phi[j], dphi[j], phi[l], dphi[l]);
+                    let weights = [h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h];
+                    let at = &values[i * stride..(i + 1) * stride];
+                    let (qq, rest) = at.split_at(nqq);
+                    let (qv, vv) = rest.split_at(nqv);
+                    let sources = [qq, qv, qv, vv];
+                    let mut o = 0;
+                    for (k, (&weight, source)) in weights.iter().zip(sources).enumerate() {
+                        used[k] |= weight != 0.0;
+                        axpy(&mut sums[o..o + source.len()], weight, source);
+                        o += source.len();
                     }
                 }
+                let merge =
+                    self.merges[j * s + l - 1].get_or_insert_with(|| BlockMerge::new(&hess, used));
+                merged.clear();
+                merged.resize(merge.positions.len(), 0.0);
+                for (slot, v) in merge.slot.iter().zip(&sums) {
+                    if let Some(k) = slot {
+                        merged[*k] += v;
+                    }
+                }
+                for (&(r, c), v) in merge.positions.iter().zip(&merged) {
+                    jac.add(er + r, uc + c, *v);
+                }
             }
-            self.hessian = hess;
         }
+        self.hessian = hess;
         if model.has_force() {
             let nodes = &self.force_nodes;
+            let mut fj = std::mem::take(&mut self.force_jacobian);
+            values.clear();
             for i in 0..nodes.len() {
                 let (phi, dphi) = nodes.row(i);
                 eval_path(&mut self.y, &mut self.w, &self.q0, x, phi, dphi, h);
                 let t = self.t0 + nodes.nodes[i] * h;
-                let mut fj = std::mem::take(&mut self.force_jacobian);
                 fj.begin();
                 model.force_jacobian(&self.y, &self.w, t, &mut fj);
                 if !fj.q.is_frozen() {
                     fj.freeze();
                 }
-                let b = nodes.weights[i];
-                for j in blocks.clone() {
-                    let pj = phi[j];
-                    if pj == 0.0 {
-                        continue;
+                values.extend_from_slice(fj.q.values());
+                values.extend_from_slice(fj.v.values());
+            }
+            let (nq, nv) = (fj.q.len(), fj.v.len());
+            for j in blocks.clone() {
+                for l in 1..=s {
+                    let (er, uc) = ((j - first) * n, (l - 1) * n);
+                    sums.clear();
+                    sums.resize(nq + nv, 0.0);
+                    let mut used = [false; 2];
+                    for i in 0..nodes.len() {
+                        let (phi, dphi) = nodes.row(i);
+                        let b = nodes.weights[i];
+                        let weights = [h * b * phi[j] * phi[l], b * phi[j] * dphi[l]];
+                        let (q, v) = values[i * (nq + nv)..(i + 1) * (nq + nv)].split_at(nq);
+                        used[0] |= weights[0] != 0.0;
+                        used[1] |= weights[1] != 0.0;
+                        axpy(&mut sums[..nq], weights[0], q);
+                        axpy(&mut sums[nq..], weights[1], v);
                     }
-                    for l in 1..=s {
-                        let (pl, dl) = (phi[l], dphi[l]);
-                        let (er, uc) = ((j - first) * n, (l - 1) * n);
-                        let (cq, cv) = (h * b * pj * pl, b * pj * dl);
-                        if cq != 0.0 {
-                            for (r, c, v) in fj.q.iter() {
-                                jac.add(er + r, uc + c, cq * v);
-                            }
+                    if used[0] {
+                        for ((r, c, _), v) in fj.q.iter().zip(&sums[..nq]) {
+                            jac.add(er + r, uc + c, *v);
                         }
-                        if cv != 0.0 {
-                            for (r, c, v) in fj.v.iter() {
-                                jac.add(er + r, uc + c, cv * v);
-                            }
+                    }
+                    if used[1] {
+                        for ((r, c, _), v) in fj.v.iter().zip(&sums[nq..]) {
+                            jac.add(er + r, uc + c, *v);
                         }
                     }
                 }
-                self.force_jacobian = fj;
             }
+            self.force_jacobian = fj;
         }
+        self.node_values = values;
+        self.node_sums = sums;
+        self.merged = merged;
     }
 
     /// Stamps the Jacobian `∂F/∂x` (fixed pattern).
