@@ -65,6 +65,39 @@ fn add_weighted_force(e0: &mut [f64], later: &mut [f64], f: &[f64], phi: &[f64],
     }
 }
 
+/// One Jacobian block's derivative terms summed over the quadrature nodes: `values` holds each
+/// node's derivative values in turn (every node the same pattern), `segments` the `(offset, len)`
+/// of each kind of term within a node's values, and `weights(ℓ(cᵢ), ℓ'(cᵢ), bᵢ)` each kind's weight
+/// at node `i`. Writes the sums kind after kind into `sums` and returns which kinds have a
+/// nonzero weight at some node (the others are not stamped).
+fn sum_over_nodes<const K: usize>(
+    nodes: &NodeTable,
+    values: &[f64],
+    segments: [(usize, usize); K],
+    weights: impl Fn(&[f64], &[f64], f64) -> [f64; K],
+    sums: &mut Vec<f64>,
+) -> [bool; K] {
+    let per_node = values.len() / nodes.len().max(1);
+    sums.clear();
+    sums.resize(segments.iter().map(|&(_, len)| len).sum(), 0.0);
+    let mut used = [false; K];
+    for i in 0..nodes.len() {
+        let (phi, dphi) = nodes.row(i);
+        let at = &values[i * per_node..(i + 1) * per_node];
+        let mut o = 0;
+        for (k, (weight, (offset, len))) in weights(phi, dphi, nodes.weights[i])
+            .into_iter()
+            .zip(segments)
+            .enumerate()
+        {
+            used[k] |= weight != 0.0;
+            axpy(&mut sums[o..o + len], weight, &at[offset..offset + len]);
+            o += len;
+        }
+    }
+    used
+}
+
 /// Which forced discrete Dirac integrator (MATH §4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Flavour {
@@ -548,7 +581,6 @@ impl ForcedDiracStep {
             values.extend_from_slice(hess.vv.values());
         }
         let (nqq, nqv, nvv) = (hess.qq.len(), hess.qv.len(), hess.vv.len());
-        let stride = nqq + nqv + nvv;
         // Per block: the sums over the nodes of H_qq, H_qv, H_vq (as H_qv, transposed) and H_vv,
         // each with its weight.
         let mut sums = std::mem::take(&mut self.node_sums);
@@ -559,25 +591,16 @@ impl ForcedDiracStep {
         for j in blocks.clone() {
             for l in 1..=s {
                 let (er, uc) = ((j - first) * n, (l - 1) * n);
-                sums.clear();
-                sums.resize(stride + nqv, 0.0);
-                let mut used = [false; 4];
-                for i in 0..nodes.len() {
-                    let (phi, dphi) = nodes.row(i);
-                    let b = nodes.weights[i];
-                    let (pj, dj, pl, dl) = (phi[j], dphi[j], phi[l], dphi[l]);
-                    let weights = [h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h];
-                    let at = &values[i * stride..(i + 1) * stride];
-                    let (qq, rest) = at.split_at(nqq);
-                    let (qv, vv) = rest.split_at(nqv);
-                    let sources = [qq, qv, qv, vv];
-                    let mut o = 0;
-                    for (k, (&weight, source)) in weights.iter().zip(sources).enumerate() {
-                        used[k] |= weight != 0.0;
-                        axpy(&mut sums[o..o + source.len()], weight, source);
-                        o += source.len();
-                    }
-                }
+                let used = sum_over_nodes(
+                    nodes,
+                    &values,
+                    [(0, nqq), (nqq, nqv), (nqq, nqv), (nqq + nqv, nvv)],
+                    |phi, dphi, b| {
+                        let (pj, dj, pl, dl) = (phi[j], dphi[j], phi[l], dphi[l]);
+                        [h * b * pj * pl, b * pj * dl, b * dj * pl, b * dj * dl / h]
+                    },
+                    &mut sums,
+                );
                 let merge =
                     self.merges[j * s + l - 1].get_or_insert_with(|| BlockMerge::new(&hess, used));
                 merged.clear();
@@ -613,19 +636,13 @@ impl ForcedDiracStep {
             for j in blocks.clone() {
                 for l in 1..=s {
                     let (er, uc) = ((j - first) * n, (l - 1) * n);
-                    sums.clear();
-                    sums.resize(nq + nv, 0.0);
-                    let mut used = [false; 2];
-                    for i in 0..nodes.len() {
-                        let (phi, dphi) = nodes.row(i);
-                        let b = nodes.weights[i];
-                        let weights = [h * b * phi[j] * phi[l], b * phi[j] * dphi[l]];
-                        let (q, v) = values[i * (nq + nv)..(i + 1) * (nq + nv)].split_at(nq);
-                        used[0] |= weights[0] != 0.0;
-                        used[1] |= weights[1] != 0.0;
-                        axpy(&mut sums[..nq], weights[0], q);
-                        axpy(&mut sums[nq..], weights[1], v);
-                    }
+                    let used = sum_over_nodes(
+                        nodes,
+                        &values,
+                        [(0, nq), (nq, nv)],
+                        |phi, dphi, b| [h * b * phi[j] * phi[l], b * phi[j] * dphi[l]],
+                        &mut sums,
+                    );
                     if used[0] {
                         for ((r, c, _), v) in fj.q.iter().zip(&sums[..nq]) {
                             jac.add(er + r, uc + c, *v);
