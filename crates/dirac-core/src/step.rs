@@ -224,6 +224,7 @@ impl ForcedDiracStep {
     ) -> Self {
         let n = model.dim();
         let m = constraints.count();
+        let s = discretisation.path().degree();
         let kinds: Vec<ConstraintKind> = (0..m).map(|a| constraints.kind(a)).collect();
         let has_holonomic = kinds.contains(&ConstraintKind::Holonomic);
         let (lagrangian_rule, force_rule) = (
@@ -233,7 +234,7 @@ impl ForcedDiracStep {
         Self {
             n,
             m,
-            s: discretisation.path().degree(),
+            s,
             h,
             flavour,
             lagrangian_nodes: NodeTable::new(discretisation.path(), lagrangian_rule),
@@ -260,10 +261,10 @@ impl ForcedDiracStep {
             contracted: Triplets::new(),
             forms_at_start: false,
             g: vec![0.0; m],
-            later: vec![0.0; discretisation.path().degree() * n],
+            later: vec![0.0; s * n],
             node_values: Vec::new(),
             node_sums: Vec::new(),
-            merges: Vec::new(),
+            merges: vec![None; (s + 1) * s],
             merged: Vec::new(),
         }
     }
@@ -585,9 +586,6 @@ impl ForcedDiracStep {
         // each with its weight.
         let mut sums = std::mem::take(&mut self.node_sums);
         let mut merged = std::mem::take(&mut self.merged);
-        if self.merges.is_empty() {
-            self.merges = vec![None; (s + 1) * s];
-        }
         for j in blocks.clone() {
             for l in 1..=s {
                 let (er, uc) = ((j - first) * n, (l - 1) * n);
@@ -902,21 +900,14 @@ impl ForcedDiracStep {
             }
         }
         for l in 1..=s {
-            let o = (l - 1) * n;
-            let sl = &later[o..o + n];
-            for (e0, v) in out[..n].iter_mut().zip(sl) {
-                *e0 -= v;
-            }
+            let sl = &later[(l - 1) * n..l * n];
+            axpy(&mut out[..n], -1.0, sl);
             if l < last {
-                for (e, v) in out[l * n..(l + 1) * n].iter_mut().zip(sl) {
-                    *e += v;
-                }
+                axpy(&mut out[l * n..(l + 1) * n], 1.0, sl);
             }
         }
         if let Some(end) = end {
-            for (e, v) in end.iter_mut().zip(&later[(s - 1) * n..]) {
-                *e += v;
-            }
+            axpy(end, 1.0, &later[(s - 1) * n..]);
         }
         self.later = later;
     }
