@@ -280,6 +280,17 @@ impl NaturalModes {
             if exact < FAST_DECAY_EXACT {
                 let factor = MethodResponse::decay(options, tau);
                 if let Some(r) = factor
+                    && r.abs() > 1.0
+                {
+                    out.push(format!(
+                        "the fastest damped mode{} has time constant {tau:.4e}, {:.3e} steps of h = {h:e}: the exact motion damps it by e^(-h/τ) = {exact:.2e} per step, but {} amplifies it by {:.3e} per step: the run is unstable and will blow up; use h ≤ {:.3e} (one step per time constant) or the midpoint rule (`--method midpoint`), which damps every decaying mode",
+                        named(mode),
+                        mode.steps(h),
+                        options.discretisation,
+                        r.abs(),
+                        tau,
+                    ));
+                } else if let Some(r) = factor
                     && r.abs() >= SLOW_METHOD_DAMPING
                 {
                     let behaviour = if r < 0.0 {

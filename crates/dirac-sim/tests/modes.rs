@@ -299,4 +299,18 @@ fn warnings_fire_exactly_for_under_resolved_modes() {
             assert!(warnings[0].contains("rings"), "{}", warnings[0]);
         }
     }
+    // The trapezoid rule amplifies a decay it under-resolves: the warning says the run blows up
+    // (it once read "damps it only by -99.000 per step … for about inf steps").
+    let h = 100.0 * fastest;
+    let trapezoid = IntegratorOptions::new(Discretisation::trapezoid(), h);
+    let factor = MethodResponse::decay(&trapezoid, fastest).expect("probe");
+    assert!(factor.abs() > 1.0, "{factor}");
+    let found = modes(rc_ladder(3, r, c), Representation::Monolithic, h);
+    let warnings = found.warnings(&trapezoid);
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0].contains("amplifies") && warnings[0].contains("blow up"),
+        "{}",
+        warnings[0]
+    );
 }
