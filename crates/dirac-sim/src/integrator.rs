@@ -655,7 +655,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         }
         for &a in &analysis.dependent {
             self.warnings.push(format!(
-                "constraint `{}` is linearly dependent on the others at the initial point; dropped",
+                "constraint {} is linearly dependent on the others at the initial point; dropped",
                 full.name(a)
             ));
         }

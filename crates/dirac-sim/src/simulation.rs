@@ -620,7 +620,7 @@ impl Simulation {
                 continue;
             }
             self.warnings.push(format!(
-                "constraint `{}` is linearly dependent on the others at the initial point; dropped",
+                "constraint {} is linearly dependent on the others at the initial point; dropped",
                 constraints.name(row)
             ));
         }
