@@ -693,6 +693,27 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// Consistent initialisation from positions and velocities: checks holonomic constraints at
     /// `q`, projects `v` onto `ker A(q)` (Euclidean projection), and sets `p = ∂L/∂v(q, v)`.
     pub fn initialise(&mut self, q: &[f64], v: &[f64], t: f64) -> Result<(), SimError> {
+        self.initialise_holding(q, v, &[], t)
+    }
+
+    /// [`Integrator::initialise`] keeping the velocities marked in `held` (an inductor's stated
+    /// `IC=` current) at their values: only the others move onto `ker A(q)`, by the least
+    /// Euclidean change. An empty `held` holds none.
+    ///
+    /// Held velocities that violate a constraint no free velocity enters (two inductors in
+    /// series stated with different currents) contradict each other; they are released and
+    /// reconciled by the least change, as without `held`.
+    ///
+    /// # Errors
+    /// As [`Integrator::initialise`]: [`SimError::InconsistentInitialCondition`] when the
+    /// velocities cannot satisfy the constraints.
+    pub fn initialise_holding(
+        &mut self,
+        q: &[f64],
+        v: &[f64],
+        held: &[bool],
+        t: f64,
+    ) -> Result<(), SimError> {
         self.check_len("q", q)?;
         self.check_len("v", v)?;
         self.check_positions(q)?;
@@ -700,7 +721,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let n = q.len();
         let m = self.constraints.count();
         let projected = if m > 0 && v.iter().any(|x| *x != 0.0) {
-            project_velocity(&self.constraints, q, v)?
+            project_velocity(&self.constraints, q, v, held)?
         } else {
             v.to_vec()
         };
@@ -1660,11 +1681,15 @@ fn project_velocity<C: Constraints + ?Sized>(
     constraints: &C,
     q: &[f64],
     v: &[f64],
+    held: &[bool],
 ) -> Result<Vec<f64>, SimError> {
+    /// `min Σ_free (x_i − v_i)²` subject to `A x = 0` with the held `x_i = v_i`: the free rows
+    /// carry `Aᵀλ`, the held rows do not.
     struct Projection {
         n: usize,
         m: usize,
         forms: Vec<(usize, usize, f64)>,
+        held: Vec<bool>,
         v: Vec<f64>,
     }
     impl NonlinearSystem for Projection {
@@ -1678,7 +1703,9 @@ fn project_velocity<C: Constraints + ?Sized>(
             }
             r[n..].fill(0.0);
             for &(a, j, c) in &self.forms {
-                r[j] += c * x[n + a];
+                if !self.held[j] {
+                    r[j] += c * x[n + a];
+                }
                 r[n + a] += c * x[j];
             }
         }
@@ -1687,7 +1714,9 @@ fn project_velocity<C: Constraints + ?Sized>(
                 jac.add(i, i, 1.0);
             }
             for &(a, j, c) in &self.forms {
-                jac.add(j, self.n + a, c);
+                if !self.held[j] {
+                    jac.add(j, self.n + a, c);
+                }
                 jac.add(self.n + a, j, c);
             }
         }
@@ -1696,15 +1725,54 @@ fn project_velocity<C: Constraints + ?Sized>(
         }
     }
     let n = q.len();
-    let m = constraints.count();
+    let mut held: Vec<bool> = held.to_vec();
+    held.resize(n, false);
     let mut t = Triplets::new();
     t.begin();
     constraints.forms(q, &mut t);
-    let forms: Vec<(usize, usize, f64)> = t.iter().collect();
+    let all: Vec<(usize, usize, f64)> = t.iter().collect();
+    // A row that only held velocities enter and that they violate (two series inductors stated
+    // with different currents, two joined bodies with stated velocities that disagree) releases
+    // them: the stated values contradict each other, and the least change reconciles them as for
+    // unstated ones. A row they satisfy is left out of the projection.
+    let rows = constraints.count();
+    let (mut value, mut size) = (vec![0.0; rows], vec![0.0; rows]);
+    for &(a, j, c) in &all {
+        value[a] += c * v[j];
+        size[a] += (c * v[j]).abs();
+    }
+    let mut free_entries = vec![false; rows];
+    for &(a, j, c) in &all {
+        free_entries[a] |= !held[j] && c != 0.0;
+    }
+    for &(a, j, _) in &all {
+        if !free_entries[a] && value[a].abs() > HELD_TOL * size[a] {
+            held[j] = false;
+        }
+    }
+    free_entries.fill(false);
+    for &(a, j, c) in &all {
+        free_entries[a] |= !held[j] && c != 0.0;
+    }
+    let mut index = vec![usize::MAX; rows];
+    let mut m = 0;
+    for a in 0..rows {
+        if free_entries[a] {
+            index[a] = m;
+            m += 1;
+        }
+    }
+    let forms = all
+        .into_iter()
+        .filter(|&(a, _, _)| free_entries[a])
+        .map(|(a, j, c)| (index[a], j, c))
+        .collect();
+    let original: Vec<usize> = (0..rows).filter(|&a| free_entries[a]).collect();
     let mut system = Projection {
         n,
         m,
         forms,
+        held,
         v: v.to_vec(),
     };
     let mut x = vec![0.0; n + m];
@@ -1720,7 +1788,7 @@ fn project_velocity<C: Constraints + ?Sized>(
                 LinearSolveError::EmptyRow { row } | LinearSolveError::EmptyColumn { col: row }
                     if row >= n =>
                 {
-                    constraints.name(row - n)
+                    constraints.name(original[row - n])
                 }
                 _ => "the constraint set (rows are linearly dependent)".to_string(),
             };
@@ -1735,6 +1803,11 @@ fn project_velocity<C: Constraints + ?Sized>(
         }),
     }
 }
+
+/// How far, relative to the size of its terms, a constraint row that only held velocities enter
+/// may miss zero at the start before they count as contradictory and are released (round-off of
+/// the stated values, e.g. two series inductors stated as `IC=1m` whose row is `i₁ − i₂`).
+const HELD_TOL: f64 = 1e-12;
 
 /// How many past solutions a stage keeps for its predictor (cubic extrapolation in `k`).
 const PAST_DEPTH: usize = 3;

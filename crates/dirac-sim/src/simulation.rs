@@ -443,7 +443,14 @@ impl Simulation {
             system.constraints.clone(),
             self.options.clone(),
         )?;
-        integrator.initialise(&q, &v, self.t0)?;
+        if self.start == Start::Given {
+            // Stated rates stay as stated (SPICE's inductor `IC=` with `UIC`); only the others
+            // move to satisfy the constraints.
+            let (_, held) = self.given_global(&system);
+            integrator.initialise_holding(&q, &v, &held, self.t0)?;
+        } else {
+            integrator.initialise(&q, &v, self.t0)?;
+        }
         // A model whose step matrix is singular whatever the values is refused before the first
         // step (docs/audit.md item 18). The rest of the set-up still runs: when it refuses the
         // model on its own (a loop of voltage sources of different values, an impossible start),
