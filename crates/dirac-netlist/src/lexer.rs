@@ -1,8 +1,9 @@
 //! Physical lines to logical cards, and a character cursor over one card.
 //!
 //! - The first line is the title and is not parsed.
-//! - `;` starts a comment that runs to the end of the line; a line whose first non-blank character
-//!   is `*` is a comment line; blank lines are skipped.
+//! - `;`, `//`, and `$` at the start of a line or after a blank start a comment that runs to the
+//!   end of the line (ngspice reads all three; `$` is HSPICE's); a line whose first non-blank
+//!   character is `*` is a comment line; blank lines are skipped.
 //! - A line whose first non-blank character is `+` continues the previous card (comment and blank
 //!   lines in between are allowed).
 //! - `.control` ... `.endc` blocks are skipped with a warning; `.end` stops reading.
@@ -108,11 +109,7 @@ pub(crate) fn lex(source: &str) -> Result<Lexed, NetlistError> {
 
     for (index, raw) in lines.enumerate() {
         let line_no = index + 2;
-        // Strip an inline `;` comment.
-        let line = match raw.find(';') {
-            Some(k) => &raw[..k],
-            None => raw,
-        };
+        let line = &raw[..inline_comment(raw)];
         let trimmed = line.trim_start();
         if control.is_some() {
             if first_word_of(trimmed) == ".endc" {
@@ -399,9 +396,36 @@ impl<'a> Cursor<'a> {
     }
 }
 
+/// Where the line's inline comment starts (its length when it has none): at the first `;`, `//`,
+/// or `$` that opens the line or follows a blank (ngspice's end-of-line comments; a `$` inside a
+/// word is not one).
+fn inline_comment(line: &str) -> usize {
+    let bytes = line.as_bytes();
+    (0..bytes.len())
+        .find(|&k| match bytes[k] {
+            b';' => true,
+            b'/' => bytes.get(k + 1) == Some(&b'/'),
+            b'$' => k == 0 || bytes[k - 1] == b' ' || bytes[k - 1] == b'\t',
+            _ => false,
+        })
+        .unwrap_or(bytes.len())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn end_of_line_comments_in_three_styles() {
+        let src = "t\nR1 a b 1k $ hspice\nR2 b c 2k // c++\nR3 c 0 3k ; spice\nV$1 a 0 1\n";
+        let lexed = lex(src).expect("lexes");
+        let texts: Vec<String> = lexed
+            .cards
+            .iter()
+            .map(|c| c.text().trim().to_string())
+            .collect();
+        assert_eq!(texts, ["R1 a b 1k", "R2 b c 2k", "R3 c 0 3k", "V$1 a 0 1"]);
+    }
 
     #[test]
     fn continuation_comments_and_positions() {
