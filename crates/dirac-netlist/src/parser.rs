@@ -848,12 +848,15 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
                     block.ics.extend(ics);
                 }
                 ".tran" => {
-                    if !stack.is_empty() {
-                        return Err(NetlistError::unsupported_in(
+                    if let Some(open) = stack.last() {
+                        return Err(NetlistError::new(
+                            ErrorKind::Unsupported,
                             start,
-                            ".tran",
-                            "`.tran` inside `.subckt`",
-                            &p.text,
+                            p.text.clone(),
+                            format!(
+                                "`.tran` inside `.subckt {}` opened at line {}: is its `.ends` missing? (`.tran` belongs at the top level)",
+                                open.def.name.orig, open.start.line
+                            ),
                         ));
                     }
                     if tran.is_some() {

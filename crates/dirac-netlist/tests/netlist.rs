@@ -677,12 +677,15 @@ fn unsupported_features_inside_cards() {
         2,
         11,
     );
-    assert_err(
+    let e = assert_err(
         "t\n.subckt s a\n.tran 1 2\n.ends\n",
         ErrorKind::Unsupported,
         3,
         1,
     );
+    // A `.tran` inside a subcircuit is most often a missing `.ends`: the message says where the
+    // open `.subckt` started.
+    assert!(e.to_string().contains(".subckt s` opened at line 2"), "{e}");
     let e = assert_err(
         "t\nR1 a 0 1\n.tran 1 2\n.tran 1 3\n",
         ErrorKind::Unsupported,
