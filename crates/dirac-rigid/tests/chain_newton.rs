@@ -8,26 +8,27 @@
 //! factorisations per step against 5.41 and 1.10 for 16 links (with it: 5.17 and 1.05 against
 //! 5.28 and 1.07).
 
-use dirac_core::Discretisation;
-use dirac_graph::{Assembler, Representation};
+mod common;
+
+use common::{Run, trapezoid};
+use dirac_graph::Representation;
 use dirac_rigid::mechanisms::PendulumChain;
-use dirac_sim::{Integrator, IntegratorOptions};
 
 /// Newton updates and factorisations per step over the first `steps` steps of the N-link chain
 /// (trapezoid rule, h = 1e-3, default modified Newton).
 fn newton_per_step(links: usize, steps: usize) -> (f64, f64) {
     let m = PendulumChain::dart(links).build().expect("chain");
-    let system = Assembler::assemble(&m.graph, Representation::Monolithic).expect("assembles");
-    let names = m.names();
-    let q = system.global_vector(&m.q0, &names).expect("q0");
-    let v = system.global_vector(&m.v0, &names).expect("v0");
-    let options = IntegratorOptions::new(Discretisation::trapezoid(), 1e-3);
-    let mut sim = Integrator::new(system.model, system.constraints, options).expect("options");
-    sim.initialise(&q, &v, 0.0).expect("consistent start");
+    let mut run = Run::new(
+        &m.graph,
+        Representation::Monolithic,
+        trapezoid(1e-3),
+        &m.q0,
+        &m.v0,
+    );
     for _ in 0..steps {
-        sim.step().expect("step");
+        run.step();
     }
-    let s = sim.stats();
+    let s = run.integrator().stats();
     (
         s.iterations as f64 / steps as f64,
         s.factorisations as f64 / steps as f64,

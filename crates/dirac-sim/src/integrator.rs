@@ -1741,19 +1741,21 @@ fn project_velocity<C: Constraints + ?Sized>(
         value[a] += c * v[j];
         size[a] += (c * v[j]).abs();
     }
-    let mut free_entries = vec![false; rows];
-    for &(a, j, c) in &all {
-        free_entries[a] |= !held[j] && c != 0.0;
-    }
+    // Per row, whether a velocity that is not held enters it.
+    let free_entries = |held: &[bool]| {
+        let mut free = vec![false; rows];
+        for &(a, j, c) in &all {
+            free[a] |= !held[j] && c != 0.0;
+        }
+        free
+    };
+    let free_before = free_entries(&held);
     for &(a, j, _) in &all {
-        if !free_entries[a] && value[a].abs() > HELD_TOL * size[a] {
+        if !free_before[a] && value[a].abs() > HELD_TOL * size[a] {
             held[j] = false;
         }
     }
-    free_entries.fill(false);
-    for &(a, j, c) in &all {
-        free_entries[a] |= !held[j] && c != 0.0;
-    }
+    let free_entries = free_entries(&held);
     let mut index = vec![usize::MAX; rows];
     let mut m = 0;
     for a in 0..rows {

@@ -277,35 +277,32 @@ impl NaturalModes {
         if let Some(mode) = self.fastest(ModeKind::Decay) {
             let tau = mode.time_constant().unwrap_or(f64::INFINITY);
             let exact = (-h / tau).exp();
-            if exact < FAST_DECAY_EXACT {
-                let factor = MethodResponse::decay(options, tau);
-                if let Some(r) = factor
-                    && r.abs() > 1.0
-                {
-                    out.push(format!(
-                        "the fastest damped mode{} has time constant {tau:.4e}, {:.3e} steps of h = {h:e}: the exact motion damps it by e^(-h/τ) = {exact:.2e} per step, but {} amplifies it by {:.3e} per step: the run is unstable and will blow up; use h ≤ {:.3e} (one step per time constant) or the midpoint rule (`--method midpoint`), which damps every decaying mode",
-                        named(mode),
-                        mode.steps(h),
-                        options.discretisation,
+            if exact < FAST_DECAY_EXACT
+                && let Some(r) = MethodResponse::decay(options, tau)
+                && r.abs() >= SLOW_METHOD_DAMPING
+            {
+                let head = format!(
+                    "the fastest damped mode{} has time constant {tau:.4e}, {:.3e} steps of h = {h:e}: the exact motion damps it by e^(-h/τ) = {exact:.2e} per step, but {}",
+                    named(mode),
+                    mode.steps(h),
+                    options.discretisation,
+                );
+                out.push(if r.abs() > 1.0 {
+                    format!(
+                        "{head} amplifies it by {:.3e} per step: the run is unstable and will blow up; use h ≤ {tau:.3e} (one step per time constant) or the midpoint rule (`--method midpoint`), which damps every decaying mode",
                         r.abs(),
-                        tau,
-                    ));
-                } else if let Some(r) = factor
-                    && r.abs() >= SLOW_METHOD_DAMPING
-                {
+                    )
+                } else {
                     let behaviour = if r < 0.0 {
                         "rings: it flips sign every step"
                     } else {
                         "lingers"
                     };
-                    out.push(format!(
-                        "the fastest damped mode{} has time constant {tau:.4e}, {:.3e} steps of h = {h:e}: the exact motion damps it by e^(-h/τ) = {exact:.2e} per step, but {} is not L-stable and damps it only by {r:.3} per step, so it {behaviour} for about {:.0} steps (inconsistent initial data, source corners); use a smaller h, start consistently, or damp the start with the start ramp (`--start-ramp`, scene key `start_ramp`)",
-                        named(mode),
-                        mode.steps(h),
-                        options.discretisation,
+                    format!(
+                        "{head} is not L-stable and damps it only by {r:.3} per step, so it {behaviour} for about {:.0} steps (inconsistent initial data, source corners); use a smaller h, start consistently, or damp the start with the start ramp (`--start-ramp`, scene key `start_ramp`)",
                         steps_to_decay(r),
-                    ));
-                }
+                    )
+                });
             }
         }
         out

@@ -443,14 +443,14 @@ impl Simulation {
             system.constraints.clone(),
             self.options.clone(),
         )?;
-        if self.start == Start::Given {
-            // Stated rates stay as stated (SPICE's inductor `IC=` with `UIC`); only the others
-            // move to satisfy the constraints.
-            let (_, held) = self.given_global(&system);
-            integrator.initialise_holding(&q, &v, &held, self.t0)?;
+        // A given start keeps its stated rates (SPICE's inductor `IC=` with `UIC`) and moves only
+        // the others onto the constraints; a steady state computes every rate afresh.
+        let held = if self.start == Start::Given {
+            self.given_global(&system).1
         } else {
-            integrator.initialise(&q, &v, self.t0)?;
-        }
+            Vec::new()
+        };
+        integrator.initialise_holding(&q, &v, &held, self.t0)?;
         // A model whose step matrix is singular whatever the values is refused before the first
         // step (docs/audit.md item 18). The rest of the set-up still runs: when it refuses the
         // model on its own (a loop of voltage sources of different values, an impossible start),
