@@ -470,3 +470,58 @@ fn inductor_initial_current_with_uic_is_kept() {
         assert!((energy - 5e-8).abs() <= 1e-12 * 5e-8, "{row:?}: {energy:e}");
     }
 }
+
+/// A clamp whose diode has junction charge (`CJO`) and series resistance: the midpoint rule
+/// leaves the junction's mode (τ = 2.4e-12 s against h = 5e-6 s) ringing, and the source current
+/// read from the state at `t_k` is the junction's voltage error over `RS` (±0.11 A every row,
+/// −1.52 A after a falling edge, where the true current is 1e-4 A). By Kirchhoff's current law
+/// the source current is the rate of the coupling capacitor's charge, a state the run writes:
+/// each row's current must lie between the charge's differences over the steps before and after
+/// it (which bracket the current wherever it is smooth or has a corner).
+#[test]
+fn a_ringing_junction_does_not_reach_the_source_current() {
+    let deck = scratch("clamp_cjo.cir");
+    std::fs::write(
+        &deck,
+        "clamp with junction charge\n\
+         V1 in 0 PULSE(-3 3 0 10u 10u 490u 1m)\n\
+         C1 in out 1u\n\
+         D1 out 0 dsig\n\
+         R1 out 0 47k\n\
+         .model dsig D IS=4n N=1.9 RS=0.6 CJO=4p VJ=0.6 M=0.45 TT=6n\n\
+         .print tran i(v1) q(c1)\n\
+         .tran 5u 5m\n\
+         .end\n",
+    )
+    .unwrap();
+    let out = dirac(&["run", deck.to_str().unwrap()]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("`i(v1)` at") && stderr.contains("disagree"),
+        "the rows read from the steps are reported: {stderr}"
+    );
+    let (header, rows) = rows(&String::from_utf8(out.stdout).unwrap());
+    assert_eq!(header, ["t", "i(v1)", "q(c1)"]);
+    let h = 5e-6;
+    let mut worst: f64 = 0.0;
+    // From row 10: the first turn-on takes the first steps (the state's own error there).
+    for k in 10..rows.len() - 1 {
+        // The source delivers the current that charges C1's `in` plate: i(v1) = −dq/dt.
+        let current = -rows[k][1];
+        let before = (rows[k][2] - rows[k - 1][2]) / h;
+        let after = (rows[k + 1][2] - rows[k][2]) / h;
+        let outside = (before.min(after) - current)
+            .max(current - before.max(after))
+            .max(0.0);
+        worst = worst.max(outside);
+    }
+    assert!(
+        worst < 1e-5,
+        "source current off its charge's rate by {worst:e} A"
+    );
+}

@@ -1142,20 +1142,25 @@ impl Simulation {
             return Ok(self.last_residual);
         }
         before.clone_from(&snapshot.q);
-        let substeps = self.engine.as_ref().map_or(0, Engine::substeps);
         let (t, h) = (self.time(), self.options.h);
-        // A source corner inside the step or on either end of it (a corner on a grid point
-        // splits no step) makes its mean no smooth sample either.
-        let corner = self
-            .engine
-            .as_ref()
-            .and_then(|e| e.next_breakpoint(t - BREAKPOINT_MARGIN * h))
-            .is_some_and(|b| b <= t + (1.0 + BREAKPOINT_MARGIN) * h);
+        // Where a source corner meets the step: on either grid point (a corner there splits no
+        // step) or inside it (the step lands on it in substeps). Values have a kink or a jump
+        // there, so no interpolation across it is smooth.
+        let near = |from: f64, to: f64| {
+            self.engine
+                .as_ref()
+                .and_then(|e| e.next_breakpoint(from))
+                .is_some_and(|b| b <= to)
+        };
+        let margin = BREAKPOINT_MARGIN * h;
+        let corner = Corners {
+            start: near(t - margin, t + margin),
+            inside: near(t + margin, t + h - margin),
+            end: near(t + h - margin, t + h + margin),
+        };
         self.step()?;
-        // Taken in one substep, or split (a breakpoint, a cut, a refinement, the ramp).
-        let split = corner || self.engine.as_ref().map_or(0, Engine::substeps) != substeps + 1;
         means.record(|mean| {
-            mean.split = split;
+            mean.corner = corner;
             self.step_mean_into(before, h, mean)
         })?;
         Ok(self.last_residual)
@@ -1467,13 +1472,13 @@ impl FromSteps {
     }
 }
 
-/// Largest disagreement, as a share of the value's size (its largest `|value|` from the steps so
-/// far), between a potential read from the state at `t_k` and the same potential from the means
-/// of the two steps around `t_k` that keeps the state's value; beyond it the row takes the steps'
-/// value and the run warns. Both are second-order samples of one smooth value, so on a resolved
-/// run they differ by `O(h²)`: measured at most 4 % of the value's largest size on the bundled
-/// netlists away from source corners (rows next to a corner or a split step are not compared),
-/// 25 % where `diode_pulse_charge.cir`'s junction snaps off within one step (an event ngspice at
+/// Largest disagreement, as a share of the value's size (a potential's largest `|value|` from the
+/// steps so far, a rate's local size: see [`LOCAL_FLOOR`]), between a value read from the state
+/// at `t_k` and the same value from the means of the two steps around `t_k` that keeps the
+/// state's value; beyond it the row takes the steps' value and the run warns. Both are
+/// second-order samples of one smooth value, so on a resolved run they differ by `O(h²)`:
+/// measured at most 4 % of the value's largest size on the bundled netlists away from source
+/// corners (see [`Agreement::from_steps`] for the rows near a corner), 25 % where `diode_pulse_charge.cir`'s junction snaps off within one step (an event ngspice at
 /// the same step does not resolve either). A state carrying a mode faster than the step that the
 /// method does not damp (a current left in a winding behind a diode that switched off, which
 /// Gauss methods keep since `R(∞) = +1`) makes them differ by more than the value itself: 185 %
@@ -1491,44 +1496,120 @@ const AGREEMENT_AFTER: f64 = 0.01;
 /// finding.
 const CURVATURE: f64 = 8.0;
 
+/// A rate's size in the test of [`AGREEMENT`] is the largest `|value|` of the means it is read
+/// from, but not below this share of its largest size over the run so far: where it passes
+/// close to zero the state and the steps may differ by round-off of its size elsewhere.
+const LOCAL_FLOOR: f64 = 1e-3;
+
+/// Share of the largest rate read below which a rate's disagreement is round-off (a chain's
+/// out-of-plane rates sit at 1e-27 and move by 1e-30 between the state and the steps).
+const RATE_ROUND_OFF: f64 = 1e-9;
+
+/// A value at a row from the steps' means ([`Agreement::from_steps`]).
+struct FromMeans {
+    value: f64,
+    /// A disagreement below it is no finding (the interpolation's own uncertainty).
+    margin: f64,
+    /// The largest `|value|` of the means used and of the value itself.
+    local: f64,
+}
+
+impl FromMeans {
+    fn new(value: f64, margin: f64, used: [f64; 4]) -> Self {
+        let local = used.iter().fold(value.abs(), |m, u| m.max(u.abs()));
+        Self {
+            value,
+            margin,
+            local,
+        }
+    }
+}
+
 /// Share of `h` by which a breakpoint may sit outside a step and still count as on its end.
 const BREAKPOINT_MARGIN: f64 = 1e-9;
 
-/// Per read potential: its value from the state at `t_k` against its value from the adjacent
-/// steps' means, where neither step was split (see [`AGREEMENT`]); a row where they disagree
-/// beyond it takes the steps' value, and the run warns.
+/// Per value read (a potential or a rate): its value from the state at `t_k` against its value
+/// from the adjacent steps' means, where neither step was split and no source corner sits
+/// between them (see [`AGREEMENT`]); a row where they disagree beyond it takes the steps' value,
+/// and the run warns.
 struct Agreement {
-    /// The potentials read.
-    efforts: Vec<Entry>,
-    /// Per potential: the largest `|value|` from the steps so far (the scale of the test).
+    /// The values read.
+    entries: Vec<Entry>,
+    /// Per value: the largest `|value|` from the steps so far (the scale of the test).
     scale: Vec<f64>,
-    /// Per potential: rows that took the steps' value, the first time, the largest difference
-    /// and the scale there.
+    /// Per value: rows that took the steps' value, the first time, the largest difference and
+    /// the size it was judged against there.
     replaced: Vec<(usize, f64, f64, f64)>,
+    /// The largest `|value|` from the steps so far of any rate read.
+    rates_scale: f64,
 }
 
 impl Agreement {
     fn new(read: &[Entry]) -> Self {
-        let efforts: Vec<Entry> = read
-            .iter()
-            .copied()
-            .filter(|e| matches!(e, Entry::Effort(_)))
-            .collect();
         Self {
-            scale: vec![0.0; efforts.len()],
-            replaced: vec![(0, f64::NAN, 0.0, 0.0); efforts.len()],
-            efforts,
+            scale: vec![0.0; read.len()],
+            replaced: vec![(0, f64::NAN, 0.0, 0.0); read.len()],
+            entries: read.to_vec(),
+            rates_scale: 0.0,
         }
     }
 
-    /// Whether the step after row `k` has been taken (its potentials can be compared).
+    /// Whether the two steps after row `k` have been taken (its values can be compared: a row
+    /// on a source corner is compared with the pairs on both sides of it; a potential's pair is
+    /// never earlier than a rate's).
     fn ready(k: usize, means: &Means) -> bool {
         means
             .pair(k, Entry::Effort(0))
-            .is_none_or(|a| means.taken >= a + 2)
+            .is_none_or(|a| means.taken >= (a + 3).min(means.steps))
     }
 
-    /// Compares row `k`'s potentials read from the state (not those in `completed`) with the
+    /// `entry` at row `k` from the steps' means, and the size of a disagreement with the state
+    /// that is no finding (`None`: the steps give no smooth sample of it there).
+    ///
+    /// Away from corners it is the interpolation of [`Means::value`], with [`CURVATURE`] second
+    /// differences of the means as the margin. A step's mean rate is the mean over it of a value
+    /// that is smooth unless a corner sits inside it, so a corner between the pair or inside one
+    /// of the three steps puts a kink where the interpolation or its curvature assumes none (one
+    /// between the first step and the pair only enlarges the curvature: the safe side). A rate on
+    /// a corner row is the mean of its extrapolations from the pairs on either side, with
+    /// [`CURVATURE`] times their difference as the margin (a value that jumps there is left to the
+    /// state). A constraint force carries the impulse of a corner on the grid point it sits at,
+    /// so it takes no step that touches one.
+    fn from_steps(k: usize, entry: Entry, means: &Means) -> Option<FromMeans> {
+        let a = means.pair(k, entry)?;
+        let before = means.mean(a.checked_sub(1)?)?;
+        let (x, y) = (means.mean(a)?, means.mean(a + 1)?);
+        let inside = before.corner.inside || x.corner.inside || y.corner.inside;
+        match entry {
+            Entry::Effort(_) if before.corner.any() || x.corner.any() || y.corner.any() => None,
+            Entry::Velocity(_) if inside => None,
+            Entry::Velocity(_) if x.corner.end => {
+                // Row k on a corner: the pairs (k − 2, k − 1) and (k, k + 1).
+                let after = means.mean(a + 2)?;
+                if a + 1 != k || before.corner.end || after.corner.start || after.corner.inside {
+                    return None;
+                }
+                let left = before.get(entry) + 1.5 * (x.get(entry) - before.get(entry));
+                let right = y.get(entry) - 0.5 * (after.get(entry) - y.get(entry));
+                Some(FromMeans::new(
+                    0.5 * (left + right),
+                    CURVATURE * (left - right).abs(),
+                    [before, x, y, after].map(|m| m.get(entry)),
+                ))
+            }
+            _ => {
+                let [b, x, y] = [before, x, y].map(|m| m.get(entry));
+                let curvature = (y - 2.0 * x + b).abs();
+                Some(FromMeans::new(
+                    means.value(k, entry),
+                    CURVATURE * curvature,
+                    [b, x, y, 0.0],
+                ))
+            }
+        }
+    }
+
+    /// Compares row `k`'s values read from the state (not those in `completed`) with the
     /// steps' values, and takes the steps' value where they disagree beyond [`AGREEMENT`].
     fn check(
         &mut self,
@@ -1538,45 +1619,49 @@ impl Agreement {
         completed: &[Entry],
         means: &Means,
     ) {
-        let Some(a) = means.pair(k, Entry::Effort(0)) else {
-            return;
-        };
-        // The step before the pair gives the curvature (rows 0, 1 and the last row extrapolate
-        // the nearest pair: their curvature term includes that).
-        let (Some(before), Some(x), Some(y)) = (
-            a.checked_sub(1).and_then(|b| means.mean(b)),
-            means.mean(a),
-            means.mean(a + 1),
-        ) else {
-            return;
-        };
-        if x.split || y.split || before.split {
-            return;
-        }
-        for ((&entry, scale), replaced) in self
-            .efforts
-            .iter()
-            .zip(&mut self.scale)
-            .zip(&mut self.replaced)
-        {
-            let Entry::Effort(c) = entry else { continue };
+        let Self {
+            entries,
+            scale,
+            replaced,
+            rates_scale,
+        } = self;
+        for ((&entry, scale), replaced) in entries.iter().zip(scale).zip(replaced) {
             if completed.contains(&entry) {
                 continue;
             }
-            let Some(state) = values_at.efforts.get(c).copied().flatten() else {
+            let Some(FromMeans {
+                value: steps,
+                margin,
+                local,
+            }) = Self::from_steps(k, entry, means)
+            else {
                 continue;
             };
-            let steps = means.value(k, entry);
+            let Some(state) = values_at.get(entry) else {
+                continue;
+            };
             *scale = scale.max(steps.abs());
             let difference = (state - steps).abs();
-            let curvature = (y.get(entry) - 2.0 * x.get(entry) + before.get(entry)).abs();
             // Once a signal's state has been found carrying such a mode, it is trusted less.
             let share = if replaced.0 > 0 {
                 AGREEMENT_AFTER
             } else {
                 AGREEMENT
             };
-            if difference > share * *scale && difference > CURVATURE * curvature {
+            // A potential or constraint force is judged against its largest size: the state's
+            // value and the steps' differ by 4.9 % of it on `motor_arm.toml`'s drive force, more
+            // than its local size allows. A rate is judged against its local size, bounded
+            // below by the round-off of the largest rate read.
+            let size = match entry {
+                Entry::Effort(_) => *scale,
+                Entry::Velocity(_) => {
+                    *rates_scale = rates_scale.max(*scale);
+                    local
+                        .max(LOCAL_FLOOR * *scale)
+                        .max(RATE_ROUND_OFF * *rates_scale)
+                }
+            };
+            if difference > share * size && difference > margin {
                 values_at.set(entry, steps);
                 if replaced.0 == 0 {
                     replaced.1 = t;
@@ -1584,7 +1669,7 @@ impl Agreement {
                 replaced.0 += 1;
                 if difference > replaced.2 {
                     replaced.2 = difference;
-                    replaced.3 = *scale;
+                    replaced.3 = size;
                 }
             }
         }
@@ -1594,7 +1679,7 @@ impl Agreement {
     fn warn(&self, signals: &[Signal], per_signal: &[Vec<Entry>], warnings: &mut Vec<String>) {
         for (signal, entries) in signals.iter().zip(per_signal) {
             let found = self
-                .efforts
+                .entries
                 .iter()
                 .zip(&self.replaced)
                 .filter(|(e, r)| entries.contains(e) && r.0 > 0)
@@ -1624,9 +1709,25 @@ enum Entry {
 struct StepMean {
     rates: Vec<f64>,
     efforts: Vec<Option<f64>>,
-    /// The step was taken in substeps (a source breakpoint, a cut, a refinement): its mean is
-    /// no second-order sample of a smooth value.
-    split: bool,
+    /// Where source corners meet the step.
+    corner: Corners,
+}
+
+/// Where source corners meet a step.
+#[derive(Debug, Clone, Copy, Default)]
+struct Corners {
+    /// On the grid point it starts from.
+    start: bool,
+    /// Inside it.
+    inside: bool,
+    /// On the grid point it ends at.
+    end: bool,
+}
+
+impl Corners {
+    fn any(self) -> bool {
+        self.start || self.inside || self.end
+    }
 }
 
 impl StepMean {
@@ -1639,6 +1740,14 @@ impl StepMean {
 }
 
 impl Snapshot {
+    /// The value of `entry` (`None`: a connection without a constraint row).
+    fn get(&self, entry: Entry) -> Option<f64> {
+        match entry {
+            Entry::Velocity(i) => self.v.get(i).copied(),
+            Entry::Effort(c) => self.efforts.get(c).copied().flatten(),
+        }
+    }
+
     fn set(&mut self, entry: Entry, value: f64) {
         match entry {
             Entry::Velocity(i) => self.v[i] = value,
@@ -2033,15 +2142,6 @@ impl Engine {
                 .flatten()
                 .is_none_or(|r| e.plan.as_ref().is_none_or(|p| p.multiplier_determined(r))),
             Self::Staggered(_) => true,
-        }
-    }
-
-    /// Substeps accepted so far (`StepCounters::substeps`; 0 for a staggered run, whose step
-    /// means are not compared).
-    fn substeps(&self) -> usize {
-        match self {
-            Self::Assembled(e) => e.integrator.counters().substeps,
-            Self::Staggered(_) => 0,
         }
     }
 
