@@ -319,7 +319,7 @@ fn transformer_rectifier_reads_the_secondary_behind_an_off_diode() {
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
     assert!(
-        stderr.contains("`v(s)`") && stderr.contains("ill-conditioned"),
+        stderr.contains("`v(s)`") && stderr.contains("not determined precisely"),
         "the rows read from the steps are reported: {stderr}"
     );
     let (header, table) = rows(&std::fs::read_to_string(&out).expect("output"));
@@ -480,21 +480,8 @@ fn inductor_initial_current_with_uic_is_kept() {
 /// it (which bracket the current wherever it is smooth or has a corner).
 #[test]
 fn a_ringing_junction_does_not_reach_the_source_current() {
-    let deck = scratch("clamp_cjo.cir");
-    std::fs::write(
-        &deck,
-        "clamp with junction charge\n\
-         V1 in 0 PULSE(-3 3 0 10u 10u 490u 1m)\n\
-         C1 in out 1u\n\
-         D1 out 0 dsig\n\
-         R1 out 0 47k\n\
-         .model dsig D IS=4n N=1.9 RS=0.6 CJO=4p VJ=0.6 M=0.45 TT=6n\n\
-         .print tran i(v1) q(c1)\n\
-         .tran 5u 5m\n\
-         .end\n",
-    )
-    .unwrap();
-    let out = dirac(&["run", deck.to_str().unwrap()]);
+    let file = repo("examples/netlists/diode_clamp_cjo.cir");
+    let out = dirac(&["run", file.to_str().unwrap()]);
     assert!(
         out.status.success(),
         "{}",
@@ -506,22 +493,46 @@ fn a_ringing_junction_does_not_reach_the_source_current() {
         "the rows read from the steps are reported: {stderr}"
     );
     let (header, rows) = rows(&String::from_utf8(out.stdout).unwrap());
-    assert_eq!(header, ["t", "i(v1)", "q(c1)"]);
+    let column = |name: &str| header.iter().position(|h| h == name).expect(name);
+    let (current, charge) = (column("i(v1)"), column("q(c1)"));
     let h = 5e-6;
     let mut worst: f64 = 0.0;
     // From row 10: the first turn-on takes the first steps (the state's own error there).
     for k in 10..rows.len() - 1 {
         // The source delivers the current that charges C1's `in` plate: i(v1) = −dq/dt.
-        let current = -rows[k][1];
-        let before = (rows[k][2] - rows[k - 1][2]) / h;
-        let after = (rows[k + 1][2] - rows[k][2]) / h;
-        let outside = (before.min(after) - current)
-            .max(current - before.max(after))
-            .max(0.0);
+        let i = -rows[k][current];
+        let before = (rows[k][charge] - rows[k - 1][charge]) / h;
+        let after = (rows[k + 1][charge] - rows[k][charge]) / h;
+        let outside = (before.min(after) - i).max(i - before.max(after)).max(0.0);
         worst = worst.max(outside);
     }
     assert!(
         worst < 1e-5,
         "source current off its charge's rate by {worst:e} A"
     );
+}
+
+/// A diode with diffusion charge (`TT`) and no junction charge: at step 281 of this half-wave
+/// rectifier the readout's exact Newton iteration cycles between iterates 4.4e-13 apart at a
+/// residual of 4.4e-13 of its terms, which its per-equation tests never pass; the run stopped
+/// there with "Newton did not converge". It now reaches TSTOP with every value finite, reads
+/// those rows from the steps, and says so. The filter capacitor's voltage (a state) peaks at
+/// 11.2222 V in ngspice-39 on the same deck at TMAX = TSTEP/20 (measured 2026-11-28; ours
+/// 11.2234 V).
+#[test]
+fn a_diffusion_charge_diode_without_junction_charge_runs_through() {
+    let file = repo("examples/netlists/diode_halfwave_tt.cir");
+    let out = dirac(&["run", file.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("the relations' Newton iteration cycled at round-off"),
+        "{stderr}"
+    );
+    let (header, rows) = rows(&String::from_utf8(out.stdout).unwrap());
+    assert_eq!(rows.len(), 2501);
+    assert!(rows.iter().flatten().all(|x| x.is_finite()));
+    let charge = header.iter().position(|h| h == "q(cf)").expect("q(cf)");
+    let peak = rows.iter().map(|r| r[charge] / 100e-6).fold(0.0, f64::max);
+    assert!((peak - 11.2222).abs() < 1e-2, "peak {peak} V");
 }

@@ -33,7 +33,7 @@ pub use modes::{
     FAST_DECAY_EXACT, MIN_STEPS_PER_PERIOD, MODAL_LIMIT, MethodResponse, Mode, ModeKind,
     ModesError, NaturalModes, SLOW_METHOD_DAMPING,
 };
-pub use readout::{READOUT_PRECISION, Readout, ReadoutError, ReadoutRow};
+pub use readout::{READOUT_PRECISION, READOUT_STALL, Readout, ReadoutError, ReadoutRow};
 pub use shooting::ShootingIntegrator;
 pub use signal::{Probe, Signal, Snapshot};
 pub use simulation::{Execution, RunError, RunSummary, Simulation, Start};

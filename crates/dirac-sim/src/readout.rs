@@ -70,6 +70,8 @@ pub struct Readout {
     stats: NewtonStats,
     /// Per full unknown, whether the last solve determined it to [`READOUT_PRECISION`].
     precise: Vec<bool>,
+    /// Solves that stalled at round-off ([`READOUT_STALL`]).
+    stalled: usize,
 }
 
 /// The relative precision (round-off jitter over scale, [`Newton::precision`]) below which a
@@ -82,6 +84,13 @@ pub struct Readout {
 /// steps instead (see [`Readout::velocity_precise`]). Well-determined values sit near `ε` to
 /// `10³·ε`.
 pub const READOUT_PRECISION: f64 = 1e6 * f64::EPSILON;
+
+/// Largest residual, relative to its equation's terms, at which a readout whose Newton iteration
+/// ran out of iterations is still taken: a diode's diffusion charge (`TT` without `CJO`) can make
+/// the exact iteration cycle between two or three iterates 4e-13 apart at a residual of 4e-13 of
+/// the terms, which the per-equation tests (`1e-14`) never pass. Its values are then not taken
+/// as precise ([`Readout::velocity_precise`]): a run reads them from the steps.
+pub const READOUT_STALL: f64 = 1e-10;
 
 /// Newton iterations a readout may take. A junction approached from a forward voltage above
 /// its solution descends by about one `N·V_t` per exact Newton iteration (SPICE's `pnjlim`
@@ -266,6 +275,7 @@ impl Readout {
             ),
             reduced: vec![0.0; plan.rows.len()],
             precise: vec![true; 2 * plan.n + 2 * plan.m],
+            stalled: 0,
             plan,
             scale: 0.0,
             work,
@@ -349,6 +359,20 @@ impl Readout {
                 system.scatter(&self.reduced);
                 Ok(())
             }
+            Err(NewtonError::NotConverged {
+                relative_residual, ..
+            }) if relative_residual <= READOUT_STALL
+                && !self.plan.constant
+                && self.reduced.iter().all(|x| x.is_finite()) =>
+            {
+                // Cycling at round-off: the iterate satisfies the relations to far better than
+                // any value is read, but Newton cannot certify its digits, so no value of it is
+                // taken as precise (a run reads them from the steps).
+                self.stalled += 1;
+                self.precise.fill(false);
+                system.scatter(&self.reduced);
+                Ok(())
+            }
             Err(source) => {
                 let (equation, likely_cause) = self.explain(model, constraints, &source);
                 Err(ReadoutError {
@@ -360,6 +384,13 @@ impl Readout {
                 })
             }
         }
+    }
+
+    /// Solves so far that stalled at round-off and were taken with no value precise (see
+    /// [`READOUT_STALL`]).
+    #[must_use]
+    pub fn stalled(&self) -> usize {
+        self.stalled
     }
 
     /// Velocities `v` at the state of the last [`Readout::solve`].

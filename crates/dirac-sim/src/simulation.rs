@@ -1463,7 +1463,7 @@ impl FromSteps {
         for ((rows, first), signal) in self.rows.iter().zip(signals) {
             if *rows > 0 {
                 warnings.push(format!(
-                    "`{}` at {rows} output time(s) (first t = {}) is ill-conditioned in the state at t_k (condition number above 1e6: it depends on the state only through a coefficient lost among the others, e.g. a node behind an off diode): read there from the means of the adjacent steps, accurate to O(h²)",
+                    "`{}` at {rows} output time(s) (first t = {}) is not determined precisely by the state at t_k (a condition number above 1e6: it depends on the state only through a coefficient lost among the others, e.g. a node behind an off diode; or the relations' Newton iteration cycled at round-off, e.g. a diode's diffusion charge without junction charge): read there from the means of the adjacent steps, accurate to O(h²)",
                     signal.name,
                     crate::error::Time(*first),
                 ));
