@@ -151,7 +151,8 @@ struct ModelArgs {
     /// Most steps to take: a run of more steps (t_end / h) is refused before it starts.
     #[arg(long = "max-steps", default_value_t = guard::DEFAULT_MAX_STEPS)]
     max_steps: u64,
-    /// Run even past --max-steps or with an output that may not fit on the disk.
+    /// Run even past --max-steps, with an output that may not fit on the disk, or with a method
+    /// that amplifies a mode of the model over the run (the trapezoid rule on a fast decay).
     #[arg(long)]
     force: bool,
     /// Take the first step as 99 geometrically growing substeps (h·2^-32/3 … h/6), so that the
@@ -507,14 +508,19 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     let printed = prepared.warnings().len();
     let execution = prepared.execution();
     let options = prepared.options().clone();
+    let (h, t_end) = (prepared.h(), prepared.t_end());
     if matches!(execution, Execution::Assembled(_))
         && let Ok(modes) = prepared.natural_modes()
     {
+        if !args.model.force
+            && let Some(why) = modes.instability(&options, (t_end / h).round() as usize)
+        {
+            return Err(Failure::Input(why));
+        }
         for w in modes.warnings(&options) {
             eprintln!("warning: {w}");
         }
     }
-    let (h, t_end) = (prepared.h(), prepared.t_end());
     let mut out = Output::open(args.out.as_deref())?;
     let mut csv = CsvSink::new(&mut out.writer);
     let mut progress = Progress {

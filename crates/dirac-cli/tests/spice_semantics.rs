@@ -536,3 +536,49 @@ fn a_diffusion_charge_diode_without_junction_charge_runs_through() {
     let peak = rows.iter().map(|r| r[charge] / 100e-6).fold(0.0, f64::max);
     assert!((peak - 11.2222).abs() < 1e-2, "peak {peak} V");
 }
+
+/// The variational trapezoid rule is explicit on a degenerate Lagrangian and multiplies a decay
+/// of time constant τ by `1 − h/τ` per step: an RC of τ = 0.5 µs at TSTEP = 50 µs grows by 99
+/// per step and reached 3.6e180 V with exit 0. Such a run is refused as a setting (exit 2, no
+/// output) naming the mode and the remedy; `--force` runs it, and the midpoint rule is accepted.
+#[test]
+fn a_method_that_amplifies_a_decay_is_refused() {
+    let deck = scratch("fast_rc.cir");
+    std::fs::write(
+        &deck,
+        "fast RC at a coarse step\n\
+         V1 in 0 PULSE(0 1 0.2m 1u 1u 1m 2m)\n\
+         R1 in out 1k\n\
+         C1 out 0 1n\n\
+         R2 out 0 1k\n\
+         .tran 50u 4m\n\
+         .end\n",
+    )
+    .unwrap();
+    let csv = scratch("fast_rc.csv");
+    let run = |extra: &[&str]| {
+        let _ = std::fs::remove_file(&csv);
+        let mut args = vec![
+            "run",
+            deck.to_str().unwrap(),
+            "--out",
+            csv.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        dirac(&args)
+    };
+    let refused = run(&["--method", "trapezoid"]);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("amplifies the damped mode (in c1.q)") && stderr.contains("9.900e1"),
+        "{stderr}"
+    );
+    assert!(!csv.exists(), "no output from a refused run");
+    let forced = run(&["--method", "trapezoid", "--force"]);
+    assert!(forced.status.success());
+    let (_, rows) = rows(&std::fs::read_to_string(&csv).unwrap());
+    let last = rows.last().unwrap()[2].abs();
+    assert!(last > 1e100, "the forced run blows up as refused: {last:e}");
+    assert!(run(&["--method", "midpoint"]).status.success());
+}

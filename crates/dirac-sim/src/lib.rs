@@ -31,7 +31,7 @@ pub use integrator::{
 pub use linear::{AutoLu, SolverChoice};
 pub use modes::{
     FAST_DECAY_EXACT, MIN_STEPS_PER_PERIOD, MODAL_LIMIT, MethodResponse, Mode, ModeKind,
-    ModesError, NaturalModes, SLOW_METHOD_DAMPING,
+    ModesError, NaturalModes, SLOW_METHOD_DAMPING, UNSTABLE_GROWTH,
 };
 pub use readout::{READOUT_PRECISION, READOUT_STALL, Readout, ReadoutError, ReadoutRow};
 pub use shooting::ShootingIntegrator;

@@ -135,6 +135,11 @@ impl Mode {
     }
 }
 
+/// Growth over a run beyond which [`NaturalModes::instability`] refuses it: a mode seeded at
+/// round-off (1e-16 of the state) then reaches 1e-10 of it, and any seed from the start or a
+/// source corner is magnified a million times.
+pub const UNSTABLE_GROWTH: f64 = 1e6;
+
 /// The natural modes of a model at one state, fastest first.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NaturalModes {
@@ -306,6 +311,44 @@ impl NaturalModes {
             }
         }
         out
+    }
+
+    /// Why a run of `steps` steps with `options` cannot give a trajectory: the method amplifies
+    /// a mode of the model (the trapezoid rule, explicit on a degenerate Lagrangian, multiplies
+    /// a decay of time constant `τ` by `1 − h/τ` per step; an unstable composition an
+    /// oscillation) by more than [`UNSTABLE_GROWTH`] over the run. `None` when every mode stays
+    /// bounded, or grows by less over so few steps.
+    #[must_use]
+    pub fn instability(&self, options: &IntegratorOptions, steps: usize) -> Option<String> {
+        let h = options.h;
+        let over_run = |per_step: f64| per_step.ln() * steps as f64 > UNSTABLE_GROWTH.ln();
+        if let Some(mode) = self.fastest(ModeKind::Decay) {
+            let tau = mode.time_constant().unwrap_or(f64::INFINITY);
+            if let Some(r) = MethodResponse::decay(options, tau)
+                && over_run(r.abs())
+            {
+                return Some(format!(
+                    "{} amplifies the damped mode{} of time constant {tau:.4e} by {:.3e} per step at h = {h:e} ({:.3e} steps per time constant), so this run of {steps} steps would blow up; use h ≤ {tau:.3e} or the midpoint rule (`--method midpoint`), which damps every decaying mode (--force runs it anyway)",
+                    options.discretisation,
+                    named(mode),
+                    r.abs(),
+                    mode.steps(h),
+                ));
+            }
+        }
+        if let Some(mode) = self.fastest(ModeKind::Oscillation)
+            && let MethodResponse::Unstable { growth } =
+                MethodResponse::oscillation(options, mode.im)
+            && over_run(growth)
+        {
+            return Some(format!(
+                "the step is unstable on the oscillation{} of period {:.4e}: it grows by {growth:.3} per step at h = {h:e}, so this run of {steps} steps would blow up; use h ≤ {:.3e} (10 steps per period) (--force runs it anyway)",
+                named(mode),
+                mode.period().unwrap_or(0.0),
+                mode.period().unwrap_or(0.0) / MIN_STEPS_PER_PERIOD,
+            ));
+        }
+        None
     }
 }
 
