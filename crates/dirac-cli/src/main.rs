@@ -158,8 +158,13 @@ struct ModelArgs {
     /// Take the first step as 99 geometrically growing substeps (h·2^-32/3 … h/6), so that the
     /// stiff modes of a start off the slow manifold decay instead of ringing (midpoint and
     /// Gauss are not L-stable). The grid t_k = k·h is unchanged.
-    #[arg(long = "start-ramp")]
+    /// On by default for a netlist whose modal check finds a damped mode the method would
+    /// leave ringing (SPICE damps every start).
+    #[arg(long = "start-ramp", conflicts_with = "no_start_ramp")]
     start_ramp: bool,
+    /// No start ramp, also where a netlist would take it by default.
+    #[arg(long = "no-start-ramp")]
+    no_start_ramp: bool,
     /// Control the truncation error as SPICE does: a step whose estimated local error (charges
     /// and fluxes, third divided differences) exceeds .options reltol/abstol/chgtol/trtol is
     /// taken again as 2^m equal substeps on the same grid. On by default for netlists with
@@ -193,7 +198,11 @@ impl ModelArgs {
             h: self.h,
             t_end: self.t_end,
             signals: signals.map(split_list),
-            start_ramp: self.start_ramp.then_some(true),
+            start_ramp: if self.start_ramp {
+                Some(true)
+            } else {
+                self.no_start_ramp.then_some(false)
+            },
             truncation: if self.refine {
                 Some(true)
             } else {

@@ -292,7 +292,9 @@ fn scene_record_requests_become_columns() {
 /// those of the plain run, the JSON summary counts the ramp's 99 substeps, and at the end
 /// `v(n2) − v(n1)` is the quasi-static gap `R₂C₂ |v̇(n2)| ≤ 1e-3 · 1e-3 · 1.1 ≈ 1.1e-6` (the slow
 /// mode decays at rate about 1/(R₁(C₁ + C₂)) from about 1 V), where the plain run still rings
-/// with an O(1) gap (`|R(λh)| ≈ 1 − 4/(|λ|h)`, |λ|h ≈ 1e4, per step).
+/// with an O(1) gap (`|R(λh)| ≈ 1 − 4/(|λ|h)`, |λ|h ≈ 1e4, per step). The plain run is
+/// `--no-start-ramp`: a netlist takes the ramp by itself when the modal check finds such a
+/// mode, so the run without a flag gives the ramped rows.
 #[test]
 fn start_ramp_damps_a_stiff_start_and_is_reported() {
     let netlist = scratch("stiff_rc.cir");
@@ -301,7 +303,7 @@ fn start_ramp_damps_a_stiff_start_and_is_reported() {
         "stiff RC ladder\nR1 0 n1 1\nC1 n1 0 1 IC=1\nR2 n1 n2 1e-3\nC2 n2 0 1e-3 IC=3\n.tran 0.01 0.5 uic\n.end\n",
     )
     .expect("netlist");
-    let run = |ramp: bool| {
+    let run = |flag: Option<&str>| {
         let mut args = vec![
             "run",
             netlist.to_str().unwrap(),
@@ -310,9 +312,7 @@ fn start_ramp_damps_a_stiff_start_and_is_reported() {
             "--json-summary",
             "--quiet",
         ];
-        if ramp {
-            args.push("--start-ramp");
-        }
+        args.extend(flag);
         let output = dirac().args(&args).output().expect("runs");
         assert!(output.status.success(), "{output:?}");
         let rows: Vec<Vec<f64>> = String::from_utf8(output.stdout)
@@ -328,8 +328,14 @@ fn start_ramp_damps_a_stiff_start_and_is_reported() {
             .expect("a JSON summary");
         (rows, summary)
     };
-    let (plain, plain_summary) = run(false);
-    let (ramped, summary) = run(true);
+    let (plain, plain_summary) = run(Some("--no-start-ramp"));
+    let (ramped, summary) = run(Some("--start-ramp"));
+    let (default, default_summary) = run(None);
+    assert_eq!(
+        default, ramped,
+        "a netlist with a stiff start takes the ramp by itself"
+    );
+    assert_eq!(default_summary["ramp_substeps"], 99);
     assert_eq!(plain.len(), 51, "t = 0, 0.01, …, 0.5");
     assert_eq!(ramped.len(), plain.len());
     for (a, b) in plain.iter().zip(&ramped) {

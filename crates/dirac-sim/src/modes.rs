@@ -249,6 +249,20 @@ impl NaturalModes {
         self.modes.iter().filter(move |m| m.kind == kind)
     }
 
+    /// Whether the method leaves the fastest damped mode, much faster than `h`, ringing or
+    /// lingering (damped by less than [`SLOW_METHOD_DAMPING`] per step, as midpoint and Gauss
+    /// steps do): the case of the warning of [`NaturalModes::warnings`] that the start ramp
+    /// ([`crate::StartRamp`]) addresses.
+    #[must_use]
+    pub fn leaves_ringing(&self, options: &IntegratorOptions) -> bool {
+        self.fastest(ModeKind::Decay).is_some_and(|mode| {
+            let tau = mode.time_constant().unwrap_or(f64::INFINITY);
+            (-options.h / tau).exp() < FAST_DECAY_EXACT
+                && MethodResponse::decay(options, tau)
+                    .is_some_and(|r| (SLOW_METHOD_DAMPING..=1.0).contains(&r.abs()))
+        })
+    }
+
     /// The step-size warnings for a run with `options`: the fastest oscillation resolved by
     /// fewer than [`MIN_STEPS_PER_PERIOD`] steps, and damped modes much faster than `h` that the
     /// method damps too little.
@@ -303,8 +317,13 @@ impl NaturalModes {
                     } else {
                         "lingers"
                     };
+                    let remedy = if options.start_ramp.is_some() {
+                        "the start ramp damps it at the start; a source corner or a switching device can still excite it: use a smaller h there"
+                    } else {
+                        "use a smaller h, start consistently, or damp the start with the start ramp (`--start-ramp`, scene key `start_ramp`)"
+                    };
                     format!(
-                        "{head} is not L-stable and damps it only by {r:.3} per step, so it {behaviour} for about {:.0} steps (inconsistent initial data, source corners); use a smaller h, start consistently, or damp the start with the start ramp (`--start-ramp`, scene key `start_ramp`)",
+                        "{head} is not L-stable and damps it only by {r:.3} per step, so it {behaviour} for about {:.0} steps (inconsistent initial data, source corners); {remedy}",
                         steps_to_decay(r),
                     )
                 });

@@ -26,6 +26,10 @@ pub struct RunPlan {
     pub signals: Vec<Signal>,
     /// Rows before this time are not passed on (a netlist's `.tran` TSTART).
     pub first_output: f64,
+    /// The start ramp is the model's choice: a netlist run that did not ask for it or against
+    /// it takes it when the modal check finds a damped mode the method would leave ringing,
+    /// as SPICE damps every start with a backward-Euler step ([`Model::prepare_plan`]).
+    pub start_ramp_auto: bool,
 }
 
 impl RunPlan {
@@ -375,6 +379,8 @@ impl Model {
             t_end,
             signals,
             first_output: self.first_output_time(),
+            start_ramp_auto: matches!(self.built, Built::Netlist { .. })
+                && settings.start_ramp.is_none(),
         })
     }
 
@@ -386,9 +392,23 @@ impl Model {
     /// Signals the simulation cannot record, an inconsistent start, a steady state that cannot
     /// be found.
     pub fn prepare_plan(&self, plan: RunPlan) -> Result<Prepared, StudyError> {
-        let mut simulation = self.simulation(plan.execution, plan.options, self.start())?;
+        let mut simulation = self.simulation(plan.execution, plan.options.clone(), self.start())?;
         simulation.check_signals(&plan.signals)?;
         simulation.prepare()?;
+        // SPICE damps its start (a backward-Euler first step); midpoint and Gauss steps do not,
+        // so a netlist whose fastest damped mode they would leave ringing takes the start ramp.
+        if plan.start_ramp_auto
+            && plan.options.start_ramp.is_none()
+            && matches!(plan.execution, Execution::Assembled(_))
+            && simulation
+                .natural_modes()
+                .is_ok_and(|modes| modes.leaves_ringing(&plan.options))
+        {
+            let options = plan.options.start_ramp(Some(StartRamp::default()));
+            simulation = self.simulation(plan.execution, options, self.start())?;
+            simulation.check_signals(&plan.signals)?;
+            simulation.prepare()?;
+        }
         Ok(Prepared {
             simulation,
             signals: plan.signals,

@@ -204,8 +204,9 @@ pub struct RunSettings {
     pub t_end: Option<f64>,
     /// Signals to record by name (default: the file's).
     pub signals: Option<Vec<String>>,
-    /// The start ramp on or off (default: the scene's `start_ramp`, off for netlists; see
-    /// [`dirac_sim::StartRamp`]).
+    /// The start ramp on or off (default: the scene's `start_ramp`; for a netlist, on when the
+    /// modal check finds a damped mode the method would leave ringing, as SPICE damps its
+    /// start, see [`crate::RunPlan::start_ramp_auto`]; see [`dirac_sim::StartRamp`]).
     pub start_ramp: Option<bool>,
     /// Truncation-error control on or off (default: on for netlists with diodes, with the
     /// netlist's `.options` tolerances, off otherwise; see [`dirac_sim::TruncationControl`]).
