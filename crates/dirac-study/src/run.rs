@@ -56,6 +56,8 @@ pub struct Prepared {
     signals: Vec<Signal>,
     t_end: f64,
     first_output: f64,
+    /// The natural modes, when the set-up already computed them (the automatic start ramp).
+    modes: Option<NaturalModes>,
 }
 
 impl Prepared {
@@ -101,7 +103,10 @@ impl Prepared {
     /// # Errors
     /// A staggered execution, a model too large for the modal analysis, a failing readout.
     pub fn natural_modes(&mut self) -> Result<NaturalModes, RunError> {
-        self.simulation.natural_modes()
+        match &self.modes {
+            Some(modes) => Ok(modes.clone()),
+            None => self.simulation.natural_modes(),
+        }
     }
 
     /// Number of output rows before the first output time is applied, `round(t_end/h) + 1`.
@@ -397,23 +402,30 @@ impl Model {
         simulation.prepare()?;
         // SPICE damps its start (a backward-Euler first step); midpoint and Gauss steps do not,
         // so a netlist whose fastest damped mode they would leave ringing takes the start ramp.
+        // The modes are those of the start state at this h, with the ramp or without: kept for
+        // the front end's warnings.
+        let mut modes = None;
         if plan.start_ramp_auto
             && plan.options.start_ramp.is_none()
             && matches!(plan.execution, Execution::Assembled(_))
-            && simulation
-                .natural_modes()
-                .is_ok_and(|modes| modes.leaves_ringing(&plan.options))
         {
-            let options = plan.options.start_ramp(Some(StartRamp::default()));
-            simulation = self.simulation(plan.execution, options, self.start())?;
-            simulation.check_signals(&plan.signals)?;
-            simulation.prepare()?;
+            modes = simulation.natural_modes().ok();
+            if modes
+                .as_ref()
+                .is_some_and(|m| m.leaves_ringing(&plan.options))
+            {
+                let options = plan.options.start_ramp(Some(StartRamp::default()));
+                simulation = self.simulation(plan.execution, options, self.start())?;
+                simulation.check_signals(&plan.signals)?;
+                simulation.prepare()?;
+            }
         }
         Ok(Prepared {
             simulation,
             signals: plan.signals,
             t_end: plan.t_end,
             first_output: plan.first_output,
+            modes,
         })
     }
 
