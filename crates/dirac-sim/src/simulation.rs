@@ -1354,8 +1354,8 @@ struct Means {
 }
 
 impl Means {
-    /// Means kept: a row needs at most the two after it, or those of steps 1 and 2 for rows 0
-    /// and 1, which wait for step 2.
+    /// Means kept: row `k` reads steps `k − 2` to `k + 1` (the step before its pair, the pair,
+    /// and the step after it, a corner row's second pair); rows 0 and 1 read steps 0 to 3.
     const KEPT: usize = 4;
 
     /// Records the next step's mean as `fill` writes it, into the buffers of the oldest one once
@@ -1478,8 +1478,9 @@ impl FromSteps {
 /// state's value; beyond it the row takes the steps' value and the run warns. Both are
 /// second-order samples of one smooth value, so on a resolved run they differ by `O(h²)`:
 /// measured at most 4 % of the value's largest size on the bundled netlists away from source
-/// corners (see [`Agreement::from_steps`] for the rows near a corner), 25 % where `diode_pulse_charge.cir`'s junction snaps off within one step (an event ngspice at
-/// the same step does not resolve either). A state carrying a mode faster than the step that the
+/// corners (see [`Agreement::from_steps`] for the rows near a corner), 25 % where
+/// `diode_pulse_charge.cir`'s junction snaps off within one step (an event ngspice at the same
+/// step does not resolve either). A state carrying a mode faster than the step that the
 /// method does not damp (a current left in a winding behind a diode that switched off, which
 /// Gauss methods keep since `R(∞) = +1`) makes them differ by more than the value itself: 185 %
 /// on `diode_transformer.cir` under gauss2.
@@ -1529,9 +1530,9 @@ impl FromMeans {
 const BREAKPOINT_MARGIN: f64 = 1e-9;
 
 /// Per value read (a potential or a rate): its value from the state at `t_k` against its value
-/// from the adjacent steps' means, where neither step was split and no source corner sits
-/// between them (see [`AGREEMENT`]); a row where they disagree beyond it takes the steps' value,
-/// and the run warns.
+/// from the adjacent steps' means where those are a smooth sample (see
+/// [`Agreement::from_steps`] and [`AGREEMENT`]); a row where they disagree beyond it takes the
+/// steps' value, and the run warns.
 struct Agreement {
     /// The values read.
     entries: Vec<Entry>,
