@@ -503,8 +503,9 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
         return out.commit();
     }
     let plan = model.plan(&args.model.settings(args.signals.as_deref()))?;
+    let steps = plan.steps();
     if !args.model.force {
-        guard::check_steps(plan.steps(), args.model.max_steps).map_err(Failure::Input)?;
+        guard::check_steps(steps, args.model.max_steps).map_err(Failure::Input)?;
         if let Some(out) = &args.out {
             guard::check_disk(out, plan.output_rows(), plan.signals.len())
                 .map_err(Failure::Input)?;
@@ -517,12 +518,11 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     let printed = prepared.warnings().len();
     let execution = prepared.execution();
     let options = prepared.options().clone();
-    let (h, t_end) = (prepared.h(), prepared.t_end());
     if matches!(execution, Execution::Assembled(_))
         && let Ok(modes) = prepared.natural_modes()
     {
         if !args.model.force
-            && let Some(why) = modes.instability(&options, (t_end / h).round() as usize)
+            && let Some(why) = modes.instability(&options, steps as usize)
         {
             return Err(Failure::Input(why));
         }
@@ -530,6 +530,7 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
             eprintln!("warning: {w}");
         }
     }
+    let (h, t_end) = (prepared.h(), prepared.t_end());
     let mut out = Output::open(args.out.as_deref())?;
     let mut csv = CsvSink::new(&mut out.writer);
     let mut progress = Progress {

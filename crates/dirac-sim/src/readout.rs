@@ -70,8 +70,6 @@ pub struct Readout {
     stats: NewtonStats,
     /// Per full unknown, whether the last solve determined it to [`READOUT_PRECISION`].
     precise: Vec<bool>,
-    /// Solves that stalled at round-off ([`READOUT_STALL`]).
-    stalled: usize,
 }
 
 /// The relative precision (round-off jitter over scale, [`Newton::precision`]) below which a
@@ -275,7 +273,6 @@ impl Readout {
             ),
             reduced: vec![0.0; plan.rows.len()],
             precise: vec![true; 2 * plan.n + 2 * plan.m],
-            stalled: 0,
             plan,
             scale: 0.0,
             work,
@@ -368,7 +365,6 @@ impl Readout {
                 // Cycling at round-off: the iterate satisfies the relations to far better than
                 // any value is read, but Newton cannot certify its digits, so no value of it is
                 // taken as precise (a run reads them from the steps).
-                self.stalled += 1;
                 self.precise.fill(false);
                 system.scatter(&self.reduced);
                 Ok(())
@@ -384,13 +380,6 @@ impl Readout {
                 })
             }
         }
-    }
-
-    /// Solves so far that stalled at round-off and were taken with no value precise (see
-    /// [`READOUT_STALL`]).
-    #[must_use]
-    pub fn stalled(&self) -> usize {
-        self.stalled
     }
 
     /// Velocities `v` at the state of the last [`Readout::solve`].

@@ -1516,7 +1516,7 @@ struct FromMeans {
 }
 
 impl FromMeans {
-    fn new(value: f64, margin: f64, used: [f64; 4]) -> Self {
+    fn new(value: f64, margin: f64, used: &[f64]) -> Self {
         let local = used.iter().fold(value.abs(), |m, u| m.max(u.abs()));
         Self {
             value,
@@ -1595,7 +1595,7 @@ impl Agreement {
                 Some(FromMeans::new(
                     0.5 * (left + right),
                     CURVATURE * (left - right).abs(),
-                    [before, x, y, after].map(|m| m.get(entry)),
+                    &[before, x, y, after].map(|m| m.get(entry)),
                 ))
             }
             _ => {
@@ -1604,7 +1604,7 @@ impl Agreement {
                 Some(FromMeans::new(
                     means.value(k, entry),
                     CURVATURE * curvature,
-                    [b, x, y, 0.0],
+                    &[b, x, y],
                 ))
             }
         }

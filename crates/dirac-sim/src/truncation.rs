@@ -168,28 +168,25 @@ impl History {
     /// bridge's steps more, not less (6.1 M substeps for 10⁴ steps), and so did taking the
     /// mean only where the last three second differences alternate (6.9 M).
     fn third_difference(&self, j: usize, t: f64, x: f64) -> (f64, f64) {
-        let mut points = self
-            .points
-            .iter()
-            .map(|(tp, xp)| (*tp, xp[j]))
-            .chain(std::iter::once((t, x)));
-        let mut window = [(0.0, 0.0); HISTORY + 1];
-        let mut n = 0;
-        for (slot, point) in window.iter_mut().zip(&mut points) {
-            *slot = point;
-            n += 1;
-        }
-        let third = |w: &[(f64, f64)]| {
+        // Point `i` of the past points followed by the new one.
+        let n = self.points.len() + 1;
+        let at = |i: usize| match self.points.get(i) {
+            Some((tp, xp)) => (*tp, xp[j]),
+            None => (t, x),
+        };
+        // The third divided difference over points `i … i + 3` and the larger of the last two
+        // chord rates there.
+        let third = |i: usize| {
+            let w = [at(i), at(i + 1), at(i + 2), at(i + 3)];
             let d = |a: (f64, f64), b: (f64, f64)| (b.1 - a.1) / (b.0 - a.0);
             let (d01, d12, d23) = (d(w[0], w[1]), d(w[1], w[2]), d(w[2], w[3]));
             let d012 = (d12 - d01) / (w[2].0 - w[0].0);
             let d123 = (d23 - d12) / (w[3].0 - w[1].0);
             ((d123 - d012) / (w[3].0 - w[0].0), d23.abs().max(d12.abs()))
         };
-        let (last, rate) = third(&window[n - 4..n]);
+        let (last, rate) = third(n - 4);
         if n == HISTORY + 1 {
-            let (before, _) = third(&window[..4]);
-            (0.5 * (last + before), rate)
+            (0.5 * (last + third(0).0), rate)
         } else {
             (last, rate)
         }

@@ -397,9 +397,13 @@ impl Model {
     /// Signals the simulation cannot record, an inconsistent start, a steady state that cannot
     /// be found.
     pub fn prepare_plan(&self, plan: RunPlan) -> Result<Prepared, StudyError> {
-        let mut simulation = self.simulation(plan.execution, plan.options.clone(), self.start())?;
-        simulation.check_signals(&plan.signals)?;
-        simulation.prepare()?;
+        let prepared = |options: IntegratorOptions| -> Result<Simulation, StudyError> {
+            let mut simulation = self.simulation(plan.execution, options, self.start())?;
+            simulation.check_signals(&plan.signals)?;
+            simulation.prepare()?;
+            Ok(simulation)
+        };
+        let mut simulation = prepared(plan.options.clone())?;
         // SPICE damps its start (a backward-Euler first step); midpoint and Gauss steps do not,
         // so a netlist whose fastest damped mode they would leave ringing takes the start ramp.
         // The modes are those of the start state at this h, with the ramp or without: kept for
@@ -414,10 +418,7 @@ impl Model {
                 .as_ref()
                 .is_some_and(|m| m.leaves_ringing(&plan.options))
             {
-                let options = plan.options.start_ramp(Some(StartRamp::default()));
-                simulation = self.simulation(plan.execution, options, self.start())?;
-                simulation.check_signals(&plan.signals)?;
-                simulation.prepare()?;
+                simulation = prepared(plan.options.clone().start_ramp(Some(StartRamp::default())))?;
             }
         }
         Ok(Prepared {
