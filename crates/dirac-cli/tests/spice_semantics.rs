@@ -17,6 +17,21 @@ fn scratch(name: &str) -> PathBuf {
     dir.join(name)
 }
 
+/// Writes `text` as the netlist `name` in the scratch directory.
+fn deck(name: &str, text: &str) -> PathBuf {
+    let path = scratch(name);
+    std::fs::write(&path, text).expect("netlist written");
+    path
+}
+
+/// The index of the column `name` in `header`.
+fn index_of(header: &[String], name: &str) -> usize {
+    header
+        .iter()
+        .position(|h| h == name)
+        .unwrap_or_else(|| panic!("{name} column in {header:?}"))
+}
+
 fn dirac(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_dirac"))
         .args(args)
@@ -116,7 +131,7 @@ fn row_zero_is_the_stated_initial_state() {
             String::from_utf8_lossy(&out.stderr)
         );
         let (header, rows) = rows(&String::from_utf8(out.stdout).unwrap());
-        let c = header.iter().position(|h| h == column).expect("column");
+        let c = index_of(&header, column);
         assert_eq!(rows[0][0], 0.0);
         assert!(
             (rows[0][c] - expected).abs() <= 1e-15 * (1.0 + expected.abs()),
@@ -140,7 +155,7 @@ fn inconsistent_start_is_repaired_with_a_warning_and_does_not_ring() {
         "{stderr}"
     );
     let (header, rows) = rows(&String::from_utf8(out.stdout).unwrap());
-    let q = header.iter().position(|h| h == "q(c1)").unwrap();
+    let q = index_of(&header, "q(c1)");
     for row in &rows {
         assert!((row[q] - 1e-6).abs() <= 1e-21, "{row:?}");
     }
@@ -150,12 +165,10 @@ fn inconsistent_start_is_repaired_with_a_warning_and_does_not_ring() {
 /// naming the node and suggesting UIC or a resistor to ground, with no output file.
 #[test]
 fn no_dc_path_is_bad_input_naming_the_node() {
-    let netlist = scratch("floating.cir");
-    std::fs::write(
-        &netlist,
+    let netlist = deck(
+        "floating.cir",
         "floating\nV1 in 0 DC 1\nC1 in mid 1u\nC2 mid 0 1u\n.tran 1u 10u\n.end\n",
-    )
-    .unwrap();
+    );
     let out_file = scratch("floating.csv");
     let out = dirac(&[
         "run",
@@ -175,12 +188,10 @@ fn no_dc_path_is_bad_input_naming_the_node() {
 /// A current source into a capacitor-only cut set has no DC solution: exit 2 naming the node.
 #[test]
 fn current_source_into_capacitors_has_no_operating_point() {
-    let netlist = scratch("cutset.cir");
-    std::fs::write(
-        &netlist,
+    let netlist = deck(
+        "cutset.cir",
         "cutset\nI1 0 a DC 1m\nC1 a 0 1u\nC2 a 0 2u\n.tran 1u 10u\n.end\n",
-    )
-    .unwrap();
+    );
     let out = dirac(&["run", netlist.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{stderr}");
@@ -191,12 +202,10 @@ fn current_source_into_capacitors_has_no_operating_point() {
 /// `--method gauss2` is accepted for netlists and changes the result (a fourth-order method).
 #[test]
 fn print_cards_and_method_choice() {
-    let netlist = scratch("printed.cir");
-    std::fs::write(
-        &netlist,
+    let netlist = deck(
+        "printed.cir",
         "printed\nV1 in 0 SIN(0 1 1k)\nR1 in out 1k\nC1 out 0 100n\n.tran 10u 1m\n.print tran v(out) v(in,out) i(r1)\n.end\n",
-    )
-    .unwrap();
+    );
     let out = dirac(&["run", netlist.to_str().unwrap()]);
     assert!(
         out.status.success(),
@@ -246,12 +255,10 @@ fn source_nodes_read_the_source_at_corners() {
 /// error `|v|·ωh/2` = 4.9e-2 here, 16 times the bound.
 #[test]
 fn potential_between_an_inductor_and_a_current_source_is_l_di_dt() {
-    let net = scratch("inductor_current_source.cir");
-    std::fs::write(
-        &net,
+    let net = deck(
+        "inductor_current_source.cir",
         "* current source into an inductor\nI1 0 1 SIN(0 1 50)\nL1 1 0 10m\n.tran 0.1m 40m\n.end\n",
-    )
-    .expect("write netlist");
+    );
     let omega = 2.0 * std::f64::consts::PI * 50.0;
     let (l, h) = (10e-3, 1e-4);
     let amplitude = l * omega;
@@ -323,12 +330,7 @@ fn transformer_rectifier_reads_the_secondary_behind_an_off_diode() {
         "the rows read from the steps are reported: {stderr}"
     );
     let (header, table) = rows(&std::fs::read_to_string(&out).expect("output"));
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|c| c == name)
-            .unwrap_or_else(|| panic!("{name} column in {header:?}"))
-    };
+    let col = |name: &str| index_of(&header, name);
     let (vs, va, il2) = (col("v(s)"), col("v(a)"), col("i(l2)"));
     let ratio = 0.99 * (1e-3_f64 / 100e-3).sqrt();
     let mut checked = 0;
@@ -424,8 +426,7 @@ fn a_long_diode_ladder_runs() {
         ));
     }
     text.push_str(".model dm D(IS=1e-14 N=1 RS=0.1)\n.tran 10u 1m\n.end\n");
-    let path = scratch("diode_ladder.cir");
-    std::fs::write(&path, text).expect("netlist");
+    let path = deck("diode_ladder.cir", &text);
     let run = dirac(&[
         "run",
         path.to_str().expect("path"),
@@ -448,20 +449,15 @@ fn a_long_diode_ladder_runs() {
 /// velocity projection shared the 10 mA between L1 and C1 and the run started at 5 mA.
 #[test]
 fn inductor_initial_current_with_uic_is_kept() {
-    let netlist = scratch("lc_ic.cir");
-    std::fs::write(
-        &netlist,
+    let netlist = deck(
+        "lc_ic.cir",
         "lc tank\nL1 a 0 1m IC=10m\nC1 a 0 1u\n.tran 1u 1m uic\n.end\n",
-    )
-    .unwrap();
+    );
     let out = dirac(&["run", netlist.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     let (header, rows) = rows(&String::from_utf8(out.stdout).unwrap());
-    let (i, v) = (
-        header.iter().position(|h| h == "i(l1)").unwrap(),
-        header.iter().position(|h| h == "v(a)").unwrap(),
-    );
+    let (i, v) = (index_of(&header, "i(l1)"), index_of(&header, "v(a)"));
     assert!((rows[0][i] - 0.01).abs() <= 1e-17, "{:?}", rows[0]);
     assert_eq!(rows[0][v], 0.0, "{:?}", rows[0]);
     // Energy ½ L i² + ½ C v² (v = q/C) stays at ½ L (10 mA)² = 5e-8 J to round-off.
@@ -493,7 +489,7 @@ fn a_ringing_junction_does_not_reach_the_source_current() {
         "the rows read from the steps are reported: {stderr}"
     );
     let (header, rows) = rows(&String::from_utf8(out.stdout).unwrap());
-    let column = |name: &str| header.iter().position(|h| h == name).expect(name);
+    let column = |name: &str| index_of(&header, name);
     let (current, charge) = (column("i(v1)"), column("q(c1)"));
     let h = 5e-6;
     let mut worst: f64 = 0.0;
@@ -533,7 +529,7 @@ fn a_diffusion_charge_diode_without_junction_charge_runs_through() {
     let (header, rows) = rows(&String::from_utf8(out.stdout).unwrap());
     assert_eq!(rows.len(), 2501);
     assert!(rows.iter().flatten().all(|x| x.is_finite()));
-    let charge = header.iter().position(|h| h == "q(cf)").expect("q(cf)");
+    let charge = index_of(&header, "q(cf)");
     let peak = rows.iter().map(|r| r[charge] / 100e-6).fold(0.0, f64::max);
     assert!((peak - 11.2222).abs() < 1e-2, "peak {peak} V");
 }
@@ -544,9 +540,8 @@ fn a_diffusion_charge_diode_without_junction_charge_runs_through() {
 /// output) naming the mode and the remedy; `--force` runs it, and the midpoint rule is accepted.
 #[test]
 fn a_method_that_amplifies_a_decay_is_refused() {
-    let deck = scratch("fast_rc.cir");
-    std::fs::write(
-        &deck,
+    let deck = deck(
+        "fast_rc.cir",
         "fast RC at a coarse step\n\
          V1 in 0 PULSE(0 1 0.2m 1u 1u 1m 2m)\n\
          R1 in out 1k\n\
@@ -554,8 +549,7 @@ fn a_method_that_amplifies_a_decay_is_refused() {
          R2 out 0 1k\n\
          .tran 50u 4m\n\
          .end\n",
-    )
-    .unwrap();
+    );
     let csv = scratch("fast_rc.csv");
     let run = |extra: &[&str]| {
         let _ = std::fs::remove_file(&csv);
@@ -594,9 +588,8 @@ fn a_method_that_amplifies_a_decay_is_refused() {
 /// ringing, as this test checks too).
 #[test]
 fn a_stiff_uic_start_is_damped_as_spice_damps_it() {
-    let deck = scratch("stiff_rl.cir");
-    std::fs::write(
-        &deck,
+    let deck = deck(
+        "stiff_rl.cir",
         "inductor IC through 1 Meg\n\
          L1 1 2 0.75 IC=1\n\
          R1 2 3 0.1\n\
@@ -604,8 +597,7 @@ fn a_stiff_uic_start_is_damped_as_spice_damps_it() {
          R2 1 0 1meg\n\
          .tran 0.05 20 uic\n\
          .end\n",
-    )
-    .unwrap();
+    );
     let run = |extra: &[&str]| {
         let mut args = vec!["run", deck.to_str().unwrap()];
         args.extend_from_slice(extra);
@@ -618,7 +610,7 @@ fn a_stiff_uic_start_is_damped_as_spice_damps_it() {
         rows(&String::from_utf8(out.stdout).unwrap())
     };
     let (header, table) = run(&[]);
-    let column = |name: &str| header.iter().position(|h| h == name).expect(name);
+    let column = |name: &str| index_of(&header, name);
     let (current, charge) = (column("i(l1)"), column("q(c1)"));
     assert_eq!(table[0][current], 1.0, "row 0 is the stated current");
     let r = 1e6 + 0.1;
