@@ -159,10 +159,13 @@ struct ModelArgs {
     /// stiff modes of a start off the slow manifold decay instead of ringing (midpoint and
     /// Gauss are not L-stable). The grid t_k = k·h is unchanged.
     /// On by default for a netlist whose modal check finds a damped mode the method would
-    /// leave ringing (SPICE damps every start).
+    /// leave ringing (SPICE damps every start); such a netlist also ramps the stretch after
+    /// every source breakpoint, from a substep that resolves that mode (SPICE restarts with a
+    /// tiny step there).
     #[arg(long = "start-ramp", conflicts_with = "no_start_ramp")]
     start_ramp: bool,
-    /// No start ramp, also where a netlist would take it by default.
+    /// No start ramp and no ramps after breakpoints, also where a netlist would take them by
+    /// default.
     #[arg(long = "no-start-ramp")]
     no_start_ramp: bool,
     /// Control the truncation error as SPICE does: a step whose estimated local error (charges

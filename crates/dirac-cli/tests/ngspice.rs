@@ -255,6 +255,13 @@ const DIODE_CASES: &[Case] = &[
         mutated_card: "C1",
     },
     Case {
+        file: "diode_clamp_cjo.cir",
+        caps: &[("q(c1)", "in", "out", 1e-6)],
+        same_scheme: false,
+        diodes: true,
+        mutated_card: "C1",
+    },
+    Case {
         file: "diode_500v.cir",
         caps: &[("q(c1)", "a", "0", 1e-9)],
         same_scheme: false,

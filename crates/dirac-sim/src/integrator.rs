@@ -100,6 +100,12 @@ pub struct IntegratorOptions {
     /// the fast modes of an initial state off the slow manifold are damped instead of ringing
     /// through the run. Off by default.
     pub start_ramp: Option<StartRamp>,
+    /// Take the stretch after every source breakpoint (to the end of its step, or to the next
+    /// breakpoint) as the ramp's geometrically growing substeps, as SPICE restarts with a tiny
+    /// step after a breakpoint: a corner of a source puts about `τ·Δ(slope)` into every damped
+    /// mode of time constant `τ`, which rings through the run when `τ ≪ h`. Needs
+    /// [`IntegratorOptions::breakpoints`]. Off by default.
+    pub corner_ramp: Option<StartRamp>,
     /// Redo a substep as `2^m` equal pieces when its estimated local truncation error exceeds
     /// SPICE's tolerance (see [`TruncationControl`]): resolves a diode switching on inside a
     /// step, as SPICE's step control does, while the output grid stays `t_k = t₀ + k h`. Off by
@@ -145,6 +151,24 @@ impl StartRamp {
         self.levels.clamp(1, Self::MAX_LEVELS)
     }
 
+    /// The ramp whose smallest chunk resolves a damped mode `ratio` times faster than the
+    /// stretch it ramps (`ratio = h/τ`): `⌈log₂ ratio⌉ + 2` levels (at least 1, at most the
+    /// default 32), 3 substeps per level. A ramp after a corner needs no more: slower modes meet
+    /// a substep near `2τ` as well, and faster ones than the modal analysis found do not exist.
+    #[must_use]
+    pub fn for_ratio(ratio: f64) -> Self {
+        let default = Self::default();
+        let levels = if ratio.is_finite() && ratio > 1.0 {
+            (ratio.log2().ceil() as u32).saturating_add(2)
+        } else {
+            1
+        };
+        Self {
+            levels: levels.clamp(1, default.levels),
+            per_level: default.per_level,
+        }
+    }
+
     /// Substeps the ramp takes: `per_level · (levels + 1)`.
     #[must_use]
     pub fn substeps(&self) -> usize {
@@ -182,6 +206,7 @@ impl IntegratorOptions {
             explicit: true,
             predictor: Predictor::Polynomial,
             start_ramp: None,
+            corner_ramp: None,
             truncation: None,
         }
     }
@@ -198,6 +223,14 @@ impl IntegratorOptions {
     #[must_use]
     pub fn start_ramp(mut self, ramp: Option<StartRamp>) -> Self {
         self.start_ramp = ramp;
+        self
+    }
+
+    /// Ramps the stretch after every source breakpoint up from tiny substeps (see
+    /// [`IntegratorOptions::corner_ramp`]); `None` steps on at once.
+    #[must_use]
+    pub fn corner_ramp(mut self, ramp: Option<StartRamp>) -> Self {
+        self.corner_ramp = ramp;
         self
     }
 
@@ -312,7 +345,8 @@ pub struct StepCounters {
     pub breakpoint_substeps: usize,
     /// Times a substep failed and was retried as two halves.
     pub step_cuts: usize,
-    /// Substeps of the start ramp ([`StartRamp`]; 0 without one).
+    /// Substeps of the start ramp and of the ramps after breakpoints ([`StartRamp`],
+    /// [`IntegratorOptions::corner_ramp`]; 0 without them).
     pub ramp_substeps: usize,
     /// Substeps the truncation-error test rejected and redone as `2^m` pieces
     /// ([`IntegratorOptions::truncation`]).
@@ -848,13 +882,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                     } else {
                         self.t + size
                     };
-                    self.advance_to(size, end, &mut stats)?;
+                    self.advance_to(size, end, false, &mut stats)?;
                     self.counters.ramp_substeps += 1;
                 }
             }
             None => {
                 let size = t_end - self.t;
-                self.advance_to(size, t_end, &mut stats)?;
+                self.advance_to(size, t_end, true, &mut stats)?;
             }
         }
         self.k += 1;
@@ -865,10 +899,23 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     }
 
     /// Advances from `t` to `end` by one substep of `size` (`end − t` up to rounding), split
-    /// at the source breakpoints inside it when [`IntegratorOptions::breakpoints`] is on.
-    fn advance_to(&mut self, size: f64, end: f64, stats: &mut NewtonStats) -> Result<(), SimError> {
+    /// at the source breakpoints inside it when [`IntegratorOptions::breakpoints`] is on. With
+    /// `corners` and [`IntegratorOptions::corner_ramp`], the stretch after a breakpoint (one
+    /// inside the substep, or one at `t`) is taken as the ramp's substeps.
+    fn advance_to(
+        &mut self,
+        size: f64,
+        end: f64,
+        corners: bool,
+        stats: &mut NewtonStats,
+    ) -> Result<(), SimError> {
         let h = self.options.h;
         let start = self.t;
+        let corner_ramp = self
+            .options
+            .corner_ramp
+            .filter(|_| corners && self.options.breakpoints);
+        let mut after_corner = corner_ramp.is_some() && self.corner_at(start);
         loop {
             let t = self.t;
             let mut corner = if self.options.breakpoints {
@@ -879,26 +926,62 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             while let Some(b) = corner.filter(|b| *b <= t + BREAKPOINT_SNAP * h) {
                 corner = self.model.next_breakpoint(b);
             }
-            match corner.filter(|b| *b < end - BREAKPOINT_SNAP * h) {
-                Some(b) => {
-                    self.counters.breakpoint_substeps += 1;
-                    stats.accumulate(&self.advance(b - t, 0)?);
-                    self.t = b;
-                    // A source's derivative jumps here: differences across it are no estimate.
-                    if let Some(history) = &mut self.history {
-                        history.restart(b, &self.q, &self.p);
-                    }
+            let stop = corner.filter(|b| *b < end - BREAKPOINT_SNAP * h);
+            match (corner_ramp.filter(|_| after_corner), stop) {
+                (Some(ramp), _) => {
+                    let target = stop.unwrap_or(end);
+                    self.ramp_to(ramp, target, stats)?;
                 }
-                None => {
+                (None, Some(b)) => stats.accumulate(&self.advance(b - t, 0)?),
+                (None, None) => {
                     // Unsplit, the substep keeps its exact size (the ramp's repeated sizes
                     // then reuse one factorisation).
                     let rest = if t == start { size } else { end - t };
                     stats.accumulate(&self.advance(rest, 0)?);
-                    break;
                 }
+            }
+            let Some(b) = stop else { break };
+            self.counters.breakpoint_substeps += 1;
+            self.t = b;
+            after_corner = true;
+            // A source's derivative jumps here: differences across it are no estimate.
+            if let Some(history) = &mut self.history {
+                history.restart(b, &self.q, &self.p);
             }
         }
         self.t = end;
+        Ok(())
+    }
+
+    /// Whether a source breakpoint lies at `t` (within the snapping distance).
+    fn corner_at(&self, t: f64) -> bool {
+        let snap = BREAKPOINT_SNAP * self.options.h;
+        self.model
+            .next_breakpoint(t - snap)
+            .is_some_and(|b| b <= t + snap)
+    }
+
+    /// Advances from `t` to `target` by the ramp's substeps (`ramp.fraction(j)` of the stretch,
+    /// the last one ending on `target` exactly).
+    fn ramp_to(
+        &mut self,
+        ramp: StartRamp,
+        target: f64,
+        stats: &mut NewtonStats,
+    ) -> Result<(), SimError> {
+        let stretch = target - self.t;
+        let pieces = ramp.substeps();
+        for j in 0..pieces {
+            let size = ramp.fraction(j) * stretch;
+            let end = if j + 1 == pieces {
+                target
+            } else {
+                self.t + size
+            };
+            stats.accumulate(&self.advance(size, 0)?);
+            self.t = end;
+            self.counters.ramp_substeps += 1;
+        }
         Ok(())
     }
 

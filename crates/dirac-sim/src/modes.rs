@@ -263,6 +263,17 @@ impl NaturalModes {
         })
     }
 
+    /// The ramp for the stretch after a source breakpoint (see
+    /// [`crate::IntegratorOptions::corner_ramp`]) when the method would leave the fastest damped
+    /// mode ringing ([`NaturalModes::leaves_ringing`]): sized to reach that mode's time constant
+    /// ([`crate::StartRamp::for_ratio`]).
+    #[must_use]
+    pub fn corner_ramp(&self, options: &IntegratorOptions) -> Option<crate::StartRamp> {
+        let tau = self.fastest(ModeKind::Decay)?.time_constant()?;
+        self.leaves_ringing(options)
+            .then(|| crate::StartRamp::for_ratio(options.h / tau))
+    }
+
     /// The step-size warnings for a run with `options`: the fastest oscillation resolved by
     /// fewer than [`MIN_STEPS_PER_PERIOD`] steps, and damped modes much faster than `h` that the
     /// method damps too little.

@@ -30,6 +30,11 @@ pub struct RunPlan {
     /// it takes it when the modal check finds a damped mode the method would leave ringing,
     /// as SPICE damps every start with a backward-Euler step ([`Model::prepare_plan`]).
     pub start_ramp_auto: bool,
+    /// The ramps after source breakpoints are the model's choice: a netlist run that did not
+    /// ask against ramps takes them when the modal check finds a damped mode the method would
+    /// leave ringing, as SPICE restarts with a tiny step after every breakpoint
+    /// ([`Model::prepare_plan`], [`dirac_sim::IntegratorOptions::corner_ramp`]).
+    pub corner_ramp_auto: bool,
 }
 
 impl RunPlan {
@@ -386,6 +391,8 @@ impl Model {
             first_output: self.first_output_time(),
             start_ramp_auto: matches!(self.built, Built::Netlist { .. })
                 && settings.start_ramp.is_none(),
+            corner_ramp_auto: matches!(self.built, Built::Netlist { .. })
+                && settings.start_ramp != Some(false),
         })
     }
 
@@ -404,21 +411,26 @@ impl Model {
             Ok(simulation)
         };
         let mut simulation = prepared(plan.options.clone())?;
-        // SPICE damps its start (a backward-Euler first step); midpoint and Gauss steps do not,
-        // so a netlist whose fastest damped mode they would leave ringing takes the start ramp.
-        // The modes are those of the start state at this h, with the ramp or without: kept for
-        // the front end's warnings.
+        // SPICE damps its start (a backward-Euler first step) and restarts with a tiny step
+        // after every breakpoint; midpoint and Gauss steps do neither, so a netlist whose
+        // fastest damped mode they would leave ringing takes the start ramp and the ramps after
+        // breakpoints. The modes are those of the start state at this h, with the ramps or
+        // without: kept for the front end's warnings.
+        let start_auto = plan.start_ramp_auto && plan.options.start_ramp.is_none();
+        let corner_auto =
+            plan.corner_ramp_auto && plan.options.corner_ramp.is_none() && plan.options.breakpoints;
         let mut modes = None;
-        if plan.start_ramp_auto
-            && plan.options.start_ramp.is_none()
-            && matches!(plan.execution, Execution::Assembled(_))
-        {
+        if (start_auto || corner_auto) && matches!(plan.execution, Execution::Assembled(_)) {
             modes = simulation.natural_modes().ok();
-            if modes
-                .as_ref()
-                .is_some_and(|m| m.leaves_ringing(&plan.options))
-            {
-                simulation = prepared(plan.options.clone().start_ramp(Some(StartRamp::default())))?;
+            if let Some(corner_ramp) = modes.as_ref().and_then(|m| m.corner_ramp(&plan.options)) {
+                let mut options = plan.options.clone();
+                if start_auto {
+                    options = options.start_ramp(Some(StartRamp::default()));
+                }
+                if corner_auto {
+                    options = options.corner_ramp(Some(corner_ramp));
+                }
+                simulation = prepared(options)?;
             }
         }
         Ok(Prepared {

@@ -207,6 +207,8 @@ pub struct RunSettings {
     /// The start ramp on or off (default: the scene's `start_ramp`; for a netlist, on when the
     /// modal check finds a damped mode the method would leave ringing, as SPICE damps its
     /// start, see [`crate::RunPlan::start_ramp_auto`]; see [`dirac_sim::StartRamp`]).
+    /// `Some(false)` also turns off a netlist's automatic ramps after source breakpoints
+    /// ([`crate::RunPlan::corner_ramp_auto`]).
     pub start_ramp: Option<bool>,
     /// Truncation-error control on or off (default: on for netlists with diodes, with the
     /// netlist's `.options` tolerances, off otherwise; see [`dirac_sim::TruncationControl`]).

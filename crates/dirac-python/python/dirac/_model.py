@@ -157,7 +157,9 @@ class Model:
                 of the velocities at every row).
             start_ramp: take the first step as geometrically growing substeps, which damp the
                 fast modes of a stiff start off its slow manifold (``dirac run --start-ramp``;
-                ``None`` keeps the scene's ``start_ramp``, off for a netlist).
+                ``None`` keeps the scene's ``start_ramp``; a netlist takes it, and ramps the
+                stretch after every source breakpoint, when its modal check finds a damped mode
+                the method would leave ringing; ``False`` turns both off).
             refine: control the truncation error as SPICE does, taking a step whose estimated
                 local error is too large again as 2^m substeps on the same grid (``dirac run
                 --refine``/``--fixed-step``; ``None``: on for a netlist with diodes, else off).
