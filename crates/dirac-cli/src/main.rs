@@ -212,6 +212,7 @@ impl ModelArgs {
                 self.fixed_step.then_some(false)
             },
             composition: self.composition.clone(),
+            force: self.force,
         }
     }
 }
@@ -524,11 +525,6 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     if matches!(execution, Execution::Assembled(_))
         && let Ok(modes) = prepared.natural_modes()
     {
-        if !args.model.force
-            && let Some(why) = modes.instability(&options, steps as usize)
-        {
-            return Err(Failure::Input(why));
-        }
         for w in modes.warnings(&options) {
             eprintln!("warning: {w}");
         }

@@ -64,6 +64,10 @@ pub struct SweepArgs {
     /// A point that fails numerically leaves NaN outputs instead of stopping the sweep.
     #[arg(long)]
     keep_going: bool,
+    /// Run points whose method amplifies a mode of the model over the run (the trapezoid rule
+    /// on a fast decay), which are otherwise refused before the sweep starts a step.
+    #[arg(long)]
+    force: bool,
     /// Running: the directory for shard-I-of-N.csv (default: the table on stdout). Merging: the
     /// merged table's file (default: stdout).
     #[arg(long)]
@@ -122,6 +126,7 @@ pub(crate) fn sweep(args: &SweepArgs) -> Result<(), Failure> {
         start_ramp: None,
         truncation: None,
         composition: None,
+        force: args.force,
     };
     let outputs = if args.trajectories {
         Some(Outputs::Trajectories)

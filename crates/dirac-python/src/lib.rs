@@ -337,7 +337,7 @@ impl PyModel {
 
     /// Runs the model with the GIL released; returns the signal names, the times and one
     /// column per signal (native `f64` bytes) and the run's summary.
-    #[pyo3(signature = (method = None, representation = None, scheme = None, h = None, t_end = None, signals = None, energy = false, start_ramp = None, refine = None, composition = None))]
+    #[pyo3(signature = (method = None, representation = None, scheme = None, h = None, t_end = None, signals = None, energy = false, start_ramp = None, refine = None, composition = None, force = false))]
     #[allow(clippy::too_many_arguments)]
     fn run<'py>(
         &self,
@@ -352,6 +352,7 @@ impl PyModel {
         start_ramp: Option<bool>,
         refine: Option<bool>,
         composition: Option<&str>,
+        force: bool,
     ) -> PyResult<RunResult<'py>> {
         let settings = settings(
             method,
@@ -365,6 +366,7 @@ impl PyModel {
         .map(|s| RunSettings {
             start_ramp,
             truncation: refine,
+            force,
             ..s
         })
         .map_err(to_py)?;

@@ -328,7 +328,9 @@ impl NaturalModes {
                     } else {
                         "lingers"
                     };
-                    let remedy = if options.start_ramp.is_some() {
+                    let remedy = if options.start_ramp.is_some() && options.corner_ramp.is_some() {
+                        "the start ramp damps it at the start and the ramps after breakpoints at source corners; a switching device can still excite it: use a smaller h there"
+                    } else if options.start_ramp.is_some() {
                         "the start ramp damps it at the start; a source corner or a switching device can still excite it: use a smaller h there"
                     } else {
                         "use a smaller h, start consistently, or damp the start with the start ramp (`--start-ramp`, scene key `start_ramp`)"
@@ -358,7 +360,7 @@ impl NaturalModes {
                 && over_run(r.abs())
             {
                 return Some(format!(
-                    "{} amplifies the damped mode{} of time constant {tau:.4e} by {:.3e} per step at h = {h:e} ({:.3e} steps per time constant), so this run of {steps} steps would blow up; use h ≤ {tau:.3e} or the midpoint rule (`--method midpoint`), which damps every decaying mode (--force runs it anyway)",
+                    "{} amplifies the damped mode{} of time constant {tau:.4e} by {:.3e} per step at h = {h:e} ({:.3e} steps per time constant), so this run of {steps} steps would blow up; use h ≤ {tau:.3e} or the midpoint rule (`--method midpoint`), which damps every decaying mode (forcing the run, `--force` or `force=True`, takes it anyway)",
                     options.discretisation,
                     named(mode),
                     r.abs(),
@@ -372,7 +374,7 @@ impl NaturalModes {
             && over_run(growth)
         {
             return Some(format!(
-                "the step is unstable on the oscillation{} of period {:.4e}: it grows by {growth:.3} per step at h = {h:e}, so this run of {steps} steps would blow up; use h ≤ {:.3e} (10 steps per period) (--force runs it anyway)",
+                "the step is unstable on the oscillation{} of period {:.4e}: it grows by {growth:.3} per step at h = {h:e}, so this run of {steps} steps would blow up; use h ≤ {:.3e} (10 steps per period) (forcing the run, `--force` or `force=True`, takes it anyway)",
                 named(mode),
                 mode.period().unwrap_or(0.0),
                 mode.period().unwrap_or(0.0) / MIN_STEPS_PER_PERIOD,
@@ -425,7 +427,7 @@ impl MethodResponse {
             let mut integrator = Integrator::new(
                 Probe::Oscillator { k: omega * omega },
                 NoConstraints,
-                options.clone(),
+                regular_step(options),
             )
             .ok()?;
             integrator.initialise(&[q], &[v], 0.0).ok()?;
@@ -458,12 +460,22 @@ impl MethodResponse {
     /// one step of `L = −q²/2`, `f = −τ q̇` (that is `τ q̇ + q = 0`) from a consistent start.
     #[must_use]
     pub fn decay(options: &IntegratorOptions, tau: f64) -> Option<f64> {
-        let mut integrator =
-            Integrator::new(Probe::Decay { c: tau }, NoConstraints, options.clone()).ok()?;
+        let mut integrator = Integrator::new(
+            Probe::Decay { c: tau },
+            NoConstraints,
+            regular_step(options),
+        )
+        .ok()?;
         integrator.initialise(&[1.0], &[0.0], 0.0).ok()?;
         integrator.step().ok()?;
         Some(integrator.q()[0])
     }
+}
+
+/// `options` without the ramps of the first step and after breakpoints: the probes ask what the
+/// regular step does to a mode, which a ramped first step would hide.
+fn regular_step(options: &IntegratorOptions) -> IntegratorOptions {
+    options.clone().start_ramp(None).corner_ramp(None)
 }
 
 /// One-coordinate models that measure a method's response to a mode.

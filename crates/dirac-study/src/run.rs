@@ -35,6 +35,9 @@ pub struct RunPlan {
     /// leave ringing, as SPICE restarts with a tiny step after every breakpoint
     /// ([`Model::prepare_plan`], [`dirac_sim::IntegratorOptions::corner_ramp`]).
     pub corner_ramp_auto: bool,
+    /// Refuse the run when the method would amplify a mode of the model over it
+    /// ([`RunSettings::force`] not set; see [`Model::prepare_plan`]).
+    pub refuse_unstable: bool,
 }
 
 impl RunPlan {
@@ -393,6 +396,7 @@ impl Model {
                 && settings.start_ramp.is_none(),
             corner_ramp_auto: matches!(self.built, Built::Netlist { .. })
                 && settings.start_ramp != Some(false),
+            refuse_unstable: !settings.force,
         })
     }
 
@@ -431,6 +435,20 @@ impl Model {
                     options = options.corner_ramp(Some(corner_ramp));
                 }
                 simulation = prepared(options)?;
+            }
+        }
+        // A method that amplifies a mode (the trapezoid rule on a decay much faster than h)
+        // would write a trajectory that blows up: refused before a step is taken.
+        if plan.refuse_unstable && matches!(plan.execution, Execution::Assembled(_)) {
+            if modes.is_none() {
+                modes = simulation.natural_modes().ok();
+            }
+            let steps = usize::try_from(plan.steps()).unwrap_or(usize::MAX);
+            if let Some(why) = modes
+                .as_ref()
+                .and_then(|m| m.instability(simulation.options(), steps))
+            {
+                return Err(StudyError::Settings(why));
             }
         }
         Ok(Prepared {

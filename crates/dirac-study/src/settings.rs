@@ -218,6 +218,11 @@ pub struct RunSettings {
     /// (midpoint, trapezoid; Störmer–Verlet on a separable model) has the composition's order
     /// when the run has no constraints or uses the symmetric scheme.
     pub composition: Option<Composition>,
+    /// Run even when the method would multiply a mode of the model by more than
+    /// [`dirac_sim::UNSTABLE_GROWTH`] over the run ([`dirac_sim::NaturalModes::instability`]:
+    /// the trapezoid rule on a decay much faster than `h`). Without it such a run is refused
+    /// as a setting before it starts ([`crate::Model::prepare_plan`]).
+    pub force: bool,
 }
 
 /// Splits `a,v(x,y),b` at the commas outside parentheses (signal lists keep `v(a,b)` whole).

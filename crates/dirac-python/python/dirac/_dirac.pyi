@@ -36,6 +36,7 @@ class Model:
         start_ramp: Optional[bool] = None,
         refine: Optional[bool] = None,
         composition: Optional[str] = None,
+        force: bool = False,
     ) -> Tuple[List[str], bytes, List[bytes], dict]: ...
     def compare(
         self,

@@ -138,6 +138,7 @@ class Model:
         start_ramp: Optional[bool] = None,
         refine: Optional[bool] = None,
         composition: Optional[str] = None,
+        force: bool = False,
     ) -> Trajectory:
         """Runs the model and returns its :class:`Trajectory`.
 
@@ -169,9 +170,14 @@ class Model:
                 It raises a second-order method to the composition's order when the run has no
                 constraints; with ``method="trapezoid"`` on a separable scene every substep is an
                 explicit Störmer–Verlet step.
+            force: run even when the method would amplify a mode of the model by more than
+                1e6 over the run (the trapezoid rule on a decay much faster than ``h``), which
+                is otherwise refused with an :class:`InputError` before a step is taken
+                (``dirac run --force``).
 
         Raises:
-            InputError: bad settings or signal names, an inconsistent start.
+            InputError: bad settings or signal names, an inconsistent start, a method that
+                would blow up on a mode of the model (see ``force``).
             SimulationError: Newton failed (with ``step``, ``time``, ``residual``).
 
         The GIL is released while the run steps.
@@ -187,6 +193,7 @@ class Model:
             start_ramp=start_ramp,
             refine=refine,
             composition=composition,
+            force=force,
         )
         return Trajectory._from_run(names, t, data, summary)
 
