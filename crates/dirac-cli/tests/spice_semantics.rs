@@ -543,7 +543,8 @@ fn a_diffusion_charge_diode_without_junction_charge_runs_through() {
 /// The variational trapezoid rule is explicit on a degenerate Lagrangian and multiplies a decay
 /// of time constant τ by `1 − h/τ` per step: an RC of τ = 0.5 µs at TSTEP = 50 µs grows by 99
 /// per step and reached 3.6e180 V with exit 0. Such a run is refused as a setting (exit 2, no
-/// output) naming the mode and the remedy; `--force` runs it, and the midpoint rule is accepted.
+/// output) naming the mode and the remedy, by `dirac run` and `dirac compare`; `--force` runs it,
+/// and the midpoint rule is accepted.
 #[test]
 fn a_method_that_amplifies_a_decay_is_refused() {
     let deck = deck(
@@ -582,6 +583,9 @@ fn a_method_that_amplifies_a_decay_is_refused() {
     let last = rows.last().unwrap()[2].abs();
     assert!(last > 1e100, "the forced run blows up as refused: {last:e}");
     assert!(run(&["--method", "midpoint"]).status.success());
+    // `dirac compare` sets its runs up through the same run layer.
+    let compared = dirac(&["compare", deck.to_str().unwrap(), "--method", "trapezoid"]);
+    assert_eq!(compared.status.code(), Some(2), "{compared:?}");
 }
 
 /// An inductor with `IC=1` A closed through 1 MΩ with UIC (τ = L/R = 0.75 µs at h = 50 ms): the

@@ -494,18 +494,23 @@ impl Model {
     }
 
     /// Runs every representation (and for a scene both staggered splittings) with the file's
-    /// signals and reports each one's largest deviation from the monolithic run.
+    /// signals and reports each one's largest deviation from the monolithic run. The monolithic
+    /// run is set up as [`Model::prepare_plan`] sets up every run (the refusal of a method that
+    /// would blow up, a netlist's automatic ramps), and every other run takes its options.
     ///
     /// # Errors
     /// Bad settings, or the monolithic run failing.
     pub fn compare(&self, settings: &RunSettings) -> Result<Vec<Comparison>, StudyError> {
-        let (options, t_end) = self.options_for(settings)?;
-        let signals = self.signals_for(settings)?;
+        let mut plan = self.plan(settings)?;
+        plan.execution = Execution::Assembled(Representation::Monolithic);
+        let (t_end, signals) = (plan.t_end, plan.signals.clone());
+        let mut prepared = self.prepare_plan(plan)?;
+        let options = prepared.options().clone();
+        let reference = prepared.simulation.run(t_end, &signals)?.0;
         let collect = |execution: Execution| -> Result<Trajectory, StudyError> {
             let mut simulation = self.simulation(execution, options.clone(), self.start())?;
             Ok(simulation.run(t_end, &signals)?.0)
         };
-        let reference = collect(Execution::Assembled(Representation::Monolithic))?;
         let mut results = Vec::new();
         for representation in [
             Representation::Monolithic,
