@@ -97,7 +97,8 @@ fn nesting(e: &Expr) -> usize {
 
 #[derive(Debug, Clone, PartialEq)]
 enum Tok {
-    Num(f64),
+    /// A number's value and its text as written (`.3u`), which messages quote.
+    Num(f64, String),
     Ident(String),
     Plus,
     Minus,
@@ -112,7 +113,7 @@ enum Tok {
 impl Tok {
     fn describe(&self) -> String {
         match self {
-            Tok::Num(v) => format!("number {v}"),
+            Tok::Num(_, text) => format!("number `{text}`"),
             Tok::Ident(s) => format!("`{s}`"),
             Tok::Plus => "`+`".into(),
             Tok::Minus => "`-`".into(),
@@ -143,7 +144,7 @@ fn tokenize(span: &Spanned) -> Result<Vec<(Tok, usize)>, NetlistError> {
             match parse_number_prefix(&chars[i..]) {
                 Some((v, used)) => {
                     i += used;
-                    Tok::Num(v)
+                    Tok::Num(v, chars[start..i].iter().collect())
                 }
                 None => {
                     return Err(NetlistError::syntax(
@@ -302,7 +303,7 @@ impl Parser<'_> {
     fn primary(&mut self) -> Result<Expr, NetlistError> {
         let pos = self.pos();
         match self.peek().cloned() {
-            Some(Tok::Num(v)) => {
+            Some(Tok::Num(v, _)) => {
                 self.k += 1;
                 Ok(Expr::Num(v))
             }
@@ -524,6 +525,9 @@ mod tests {
         assert_eq!(err.pos(), Pos::new(1, 12));
         let err = parse(&span("1#")).expect_err("bad");
         assert_eq!(err.pos(), Pos::new(1, 11));
+        // A number is quoted as written, not as its converted value.
+        let err = parse(&span("1.2.3u")).expect_err("bad");
+        assert!(err.to_string().contains("found number `.3u`"), "{err}");
         let deep = format!("{}1{}", "(".repeat(500), ")".repeat(500));
         assert_eq!(
             parse(&span(&deep)).expect_err("bad").kind,

@@ -169,6 +169,19 @@ impl StartRamp {
         }
     }
 
+    /// The ramp over `stretch` from `start` to `target` (`target − start` up to rounding): each
+    /// substep's size (`fraction(j)` of the stretch) and end time, the last one ending on
+    /// `target` exactly.
+    fn pieces(self, start: f64, stretch: f64, target: f64) -> impl Iterator<Item = (f64, f64)> {
+        let pieces = self.substeps();
+        let mut t = start;
+        (0..pieces).map(move |j| {
+            let size = self.fraction(j) * stretch;
+            t = if j + 1 == pieces { target } else { t + size };
+            (size, t)
+        })
+    }
+
     /// Substeps the ramp takes: `per_level · (levels + 1)`.
     #[must_use]
     pub fn substeps(&self) -> usize {
@@ -873,15 +886,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let mut stats = NewtonStats::default();
         match ramp {
             Some(ramp) => {
-                // The substeps of the ramp, the last one ending on t_end exactly.
-                let pieces = ramp.substeps();
-                for j in 0..pieces {
-                    let size = ramp.fraction(j) * h;
-                    let end = if j + 1 == pieces {
-                        t_end
-                    } else {
-                        self.t + size
-                    };
+                for (size, end) in ramp.pieces(self.t, h, t_end) {
                     self.advance_to(size, end, false, &mut stats)?;
                     self.counters.ramp_substeps += 1;
                 }
@@ -969,15 +974,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         target: f64,
         stats: &mut NewtonStats,
     ) -> Result<(), SimError> {
-        let stretch = target - self.t;
-        let pieces = ramp.substeps();
-        for j in 0..pieces {
-            let size = ramp.fraction(j) * stretch;
-            let end = if j + 1 == pieces {
-                target
-            } else {
-                self.t + size
-            };
+        for (size, end) in ramp.pieces(self.t, target - self.t, target) {
             stats.accumulate(&self.advance(size, 0)?);
             self.t = end;
             self.counters.ramp_substeps += 1;

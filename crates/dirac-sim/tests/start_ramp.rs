@@ -236,6 +236,22 @@ fn ramp_keeps_the_grid_and_is_counted() {
     assert!((0..deep.substeps()).all(|j| deep.fraction(j) > 0.0));
 }
 
+/// One midpoint step of size `d` of the series RC driven by `wave` from `(q, t)`, in place:
+/// `(q₊ − q)/d = (v − (q + q₊)/(2C))/R`, so `q₊ = (q (1 − a) + d v / R)/(1 + a)` with
+/// `a = d/(2RC)` and `v` the source at `t + d/2`. Returns the step's power-balance residual
+/// `|E(q₊) − E(q) − d (v − R ī) ī|` (`E = q²/2C`, `ī = (q₊ − q)/d`).
+fn rc_midpoint_substep(wave: &Waveform, r: f64, c: f64, q: &mut f64, t: &mut f64, d: f64) -> f64 {
+    let energy = |q: f64| q * q / (2.0 * c);
+    let v = wave.value(*t + 0.5 * d);
+    let a = d / (2.0 * r * c);
+    let next = (*q * (1.0 - a) + d * v / r) / (1.0 + a);
+    let i = (next - *q) / d;
+    let balance = energy(next) - energy(*q) - d * (v - r * i) * i;
+    *q = next;
+    *t += d;
+    balance.abs()
+}
+
 /// Each ramp substep is an ordinary midpoint step of its own size, so the discrete power
 /// balance `E(q₊) − E(q) = δ (V(t + δ/2) − R ī) ī` (ī = (q₊ − q)/δ) holds on every substep and,
 /// summed, over the ramped first step. A sine-driven series RC with the ramp must equal the
@@ -257,21 +273,13 @@ fn ramp_substeps_are_midpoint_steps_and_balance_power() {
     let (trajectory, summary) = sim.run(1.0, &signals).unwrap();
     let run = trajectory.column(0);
     // The hand recursion: the ramp's substeps, then steps of h.
-    let energy = |q: f64| q * q / (2.0 * c);
     let mut q = q0;
     let mut t = 0.0;
     let mut expected = vec![q];
     let mut worst_balance: f64 = 0.0;
     let mut substep = |q: &mut f64, t: &mut f64, d: f64| {
-        let v = wave.value(*t + 0.5 * d);
-        // (q₊ − q)/d = (v − (q + q₊)/(2C))/R  ⇒  q₊ = (q (1 − a) + d v / R)/(1 + a), a = d/(2RC)
-        let a = d / (2.0 * r * c);
-        let next = (*q * (1.0 - a) + d * v / r) / (1.0 + a);
-        let i = (next - *q) / d;
-        let balance = energy(next) - energy(*q) - d * (v - r * i) * i;
-        worst_balance = worst_balance.max(balance.abs() / energy(q0));
-        *q = next;
-        *t += d;
+        let balance = rc_midpoint_substep(&wave, r, c, q, t, d);
+        worst_balance = worst_balance.max(balance / (q0 * q0 / (2.0 * c)));
     };
     for j in 0..ramp.substeps() {
         substep(&mut q, &mut t, ramp.fraction(j) * h);
@@ -347,17 +355,10 @@ fn corner_ramp_substeps_are_midpoint_steps_and_damp_the_corner() {
     assert_eq!(summary.ramp_substeps, 3 * ramp.substeps());
     assert_eq!(plain_summary.ramp_substeps, 0);
 
-    let energy = |q: f64| q * q / (2.0 * c);
     let mut worst_balance: f64 = 0.0;
     let mut substep = |q: &mut f64, t: &mut f64, d: f64| {
-        let v = wave.value(*t + 0.5 * d);
-        let a = d / (2.0 * r * c);
-        let next = (*q * (1.0 - a) + d * v / r) / (1.0 + a);
-        let i = (next - *q) / d;
-        let balance = energy(next) - energy(*q) - d * (v - r * i) * i;
-        worst_balance = worst_balance.max(balance.abs() / energy(c));
-        *q = next;
-        *t += d;
+        let balance = rc_midpoint_substep(&wave, r, c, q, t, d);
+        worst_balance = worst_balance.max(balance / (c / 2.0));
     };
     let ramp_sizes = |stretch: f64| (0..ramp.substeps()).map(move |j| ramp.fraction(j) * stretch);
     // Step 0 starts on the PWL's first point, step 1 is regular, step 2 starts on the corner at
