@@ -132,6 +132,10 @@ pub struct AssembledModel {
     linear: bool,
     autonomous: bool,
     has_update_limit: bool,
+    /// Parts and couplings that depend on time, the only ones with source breakpoints: the
+    /// query runs every step, and a ladder of 10⁵ sections has one source.
+    timed_parts: Vec<usize>,
+    timed_couplings: Vec<usize>,
 }
 
 impl AssembledModel {
@@ -344,11 +348,14 @@ impl Model for AssembledModel {
     }
 
     fn next_breakpoint(&self, t: f64) -> Option<f64> {
-        let parts = self.parts.iter().filter_map(|p| p.model.next_breakpoint(t));
-        let couplings = self
-            .couplings
+        let parts = self
+            .timed_parts
             .iter()
-            .filter_map(|c| c.element.next_breakpoint(t));
+            .filter_map(|&i| self.parts[i].model.next_breakpoint(t));
+        let couplings = self
+            .timed_couplings
+            .iter()
+            .filter_map(|&i| self.couplings[i].element.next_breakpoint(t));
         parts.chain(couplings).reduce(f64::min)
     }
 
@@ -926,6 +933,12 @@ impl Assembler {
                 has_update_limit: p.model.has_update_limit(),
             })
             .collect();
+        let timed_parts = (0..parts.len())
+            .filter(|&i| !parts[i].model.is_autonomous())
+            .collect();
+        let timed_couplings = (0..couplings.len())
+            .filter(|&i| !couplings[i].element.is_autonomous())
+            .collect();
         let model = AssembledModel {
             groups: group_parts(&hot),
             parts: hot,
@@ -936,6 +949,8 @@ impl Assembler {
             linear,
             autonomous,
             has_update_limit: parts.iter().any(|p| p.model.has_update_limit()),
+            timed_parts,
+            timed_couplings,
         };
         let constraints = AssembledConstraints {
             parts,
