@@ -32,17 +32,6 @@ fn index_of(header: &[String], name: &str) -> usize {
         .unwrap_or_else(|| panic!("{name} column in {header:?}"))
 }
 
-/// An RC divider of τ = (R1 ∥ R2)·C = 0.5 µs behind a 1 µs PULSE edge, stepped at TSTEP = 50 µs
-/// (100 τ), as a SPICE user writes TSTEP as a print interval.
-const FAST_RC_DIVIDER: &str = "fast RC divider at a coarse step
-V1 in 0 PULSE(0 1 0.2m 1u 1u 1m 2m)
-R1 in out 1k
-C1 out 0 1n
-R2 out 0 1k
-.tran 50u 4m
-.end
-";
-
 fn dirac(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_dirac"))
         .args(args)
@@ -558,7 +547,7 @@ fn a_diffusion_charge_diode_without_junction_charge_runs_through() {
 /// and the midpoint rule is accepted.
 #[test]
 fn a_method_that_amplifies_a_decay_is_refused() {
-    let deck = deck("fast_rc.cir", FAST_RC_DIVIDER);
+    let deck = repo("examples/netlists/rc_fast_coarse_tstep.cir");
     let csv = scratch("fast_rc.csv");
     let run = |extra: &[&str]| {
         let _ = std::fs::remove_file(&csv);
@@ -656,7 +645,7 @@ fn a_stiff_uic_start_is_damped_as_spice_damps_it() {
 /// rings, as this test checks too).
 #[test]
 fn a_fast_mode_excited_at_a_source_corner_does_not_ring() {
-    let deck = deck("coarse_tstep.cir", FAST_RC_DIVIDER);
+    let deck = repo("examples/netlists/rc_fast_coarse_tstep.cir");
     let run = |extra: &[&str]| {
         let mut args = vec!["run", deck.to_str().unwrap(), "--json-summary"];
         args.extend_from_slice(extra);

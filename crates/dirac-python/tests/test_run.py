@@ -81,16 +81,12 @@ def test_start_ramp_reaches_the_run_as_on_the_command_line(cli, tmp_path):
     assert gap(ramped) <= 1.1e-6 < 1e-2 <= gap(plain), (gap(ramped), gap(plain))
 
 
-def test_a_method_that_would_blow_up_is_refused(tmp_path):
+def test_a_method_that_would_blow_up_is_refused():
     # The variational trapezoid rule multiplies a decay of time constant tau by 1 - h/tau per
     # step: an RC divider of tau = 0.5 us at h = 50 us grows by 99 per step. The run layer
     # refuses it before a step is taken (InputError naming the mode, as `dirac run` exits 2);
     # force=True takes it and it blows up as the refusal said; the midpoint rule is accepted.
-    path = tmp_path / "fast_rc.cir"
-    path.write_text(
-        "fast RC at a coarse step\nV1 in 0 PULSE(0 1 0.2m 1u 1u 1m 2m)\nR1 in out 1k\n"
-        "C1 out 0 1n\nR2 out 0 1k\n.tran 50u 4m\n.end\n"
-    )
+    path = EXAMPLES / "netlists" / "rc_fast_coarse_tstep.cir"
     with pytest.raises(dirac.InputError, match=r"amplifies the damped mode \(in c1.q\)"):
         dirac.run(path, method="trapezoid")
     forced = dirac.run(path, method="trapezoid", force=True, signals=["v(out)"])

@@ -7,14 +7,10 @@
 
 use dirac_study::{Method, Model, RunSettings, StudyError};
 
-const FAST_RC: &str = "fast RC at a coarse step
-V1 in 0 PULSE(0 1 0.2m 1u 1u 1m 2m)
-R1 in out 1k
-C1 out 0 1n
-R2 out 0 1k
-.tran 50u 4m
-.end
-";
+const FAST_RC: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../../examples/netlists/rc_fast_coarse_tstep.cir"
+);
 
 fn settings(method: Method, force: bool) -> RunSettings {
     RunSettings {
@@ -27,7 +23,7 @@ fn settings(method: Method, force: bool) -> RunSettings {
 
 #[test]
 fn a_method_that_amplifies_a_decay_is_refused_by_the_run_layer() {
-    let model = Model::netlist(FAST_RC, "fast_rc.cir").expect("the netlist reads");
+    let model = Model::from_file(FAST_RC).expect("the netlist reads");
     let trapezoid: Method = "trapezoid".parse().expect("a method");
     let midpoint: Method = "midpoint".parse().expect("a method");
     match model.run(&settings(trapezoid, false)) {
