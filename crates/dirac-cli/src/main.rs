@@ -507,9 +507,8 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
         return out.commit();
     }
     let plan = model.plan(&args.model.settings(args.signals.as_deref()))?;
-    let steps = plan.steps();
     if !args.model.force {
-        guard::check_steps(steps, args.model.max_steps).map_err(Failure::Input)?;
+        guard::check_steps(plan.steps(), args.model.max_steps).map_err(Failure::Input)?;
         if let Some(out) = &args.out {
             guard::check_disk(out, plan.output_rows(), plan.signals.len())
                 .map_err(Failure::Input)?;

@@ -130,10 +130,9 @@ pub struct AssembledModel {
     names: Vec<String>,
     has_force: bool,
     linear: bool,
-    autonomous: bool,
     has_update_limit: bool,
-    /// Parts and couplings that depend on time, the only ones with source breakpoints: the
-    /// query runs every step, and a ladder of 10⁵ sections has one source.
+    /// Parts and couplings that depend on time, the only ones with source breakpoints (the
+    /// query runs every step, and a ladder of 10⁵ sections has one source); none: autonomous.
     timed_parts: Vec<usize>,
     timed_couplings: Vec<usize>,
 }
@@ -312,7 +311,7 @@ impl Model for AssembledModel {
     }
 
     fn is_autonomous(&self) -> bool {
-        self.autonomous
+        self.timed_parts.is_empty() && self.timed_couplings.is_empty()
     }
 
     /// Separable when every part is and no coupling force depends on the flows: the mass
@@ -342,8 +341,11 @@ impl Model for AssembledModel {
             .parts
             .get(part)
             .is_some_and(|p| i >= p.offset && p.model.depends_on_time(i - p.offset));
-        own || self.couplings.iter().any(|c| {
-            !c.element.is_autonomous() && c.ports().iter().any(|p| p.iter().any(|&(j, _)| j == i))
+        own || self.timed_couplings.iter().any(|&c| {
+            self.couplings[c]
+                .ports()
+                .iter()
+                .any(|p| p.iter().any(|&(j, _)| j == i))
         })
     }
 
@@ -921,8 +923,6 @@ impl Assembler {
             .iter()
             .all(|p| p.rows == 0 || p.constraints.is_constant())
             && holonomic.iter().all(|h| h.constraint.is_linear());
-        let autonomous = parts.iter().all(|p| p.model.is_autonomous())
-            && couplings.iter().all(|c| c.element.is_autonomous());
         let hot: Vec<HotPart> = parts
             .iter()
             .map(|p| HotPart {
@@ -947,7 +947,6 @@ impl Assembler {
             names,
             has_force,
             linear,
-            autonomous,
             has_update_limit: parts.iter().any(|p| p.model.has_update_limit()),
             timed_parts,
             timed_couplings,

@@ -418,38 +418,38 @@ impl Model {
         // SPICE damps its start (a backward-Euler first step) and restarts with a tiny step
         // after every breakpoint; midpoint and Gauss steps do neither, so a netlist whose
         // fastest damped mode they would leave ringing takes the start ramp and the ramps after
-        // breakpoints. The modes are those of the start state at this h, with the ramps or
-        // without: kept for the front end's warnings.
+        // breakpoints. A method that amplifies a mode (the trapezoid rule on a decay much
+        // faster than h) would write a trajectory that blows up: refused before a step is
+        // taken. Both decisions read the modes of the start state at this h, which are kept for
+        // the front end's warnings (with the ramps or without, they are the same).
         let start_auto = plan.start_ramp_auto && plan.options.start_ramp.is_none();
         let corner_auto =
             plan.corner_ramp_auto && plan.options.corner_ramp.is_none() && plan.options.breakpoints;
-        let mut modes = None;
-        if (start_auto || corner_auto) && matches!(plan.execution, Execution::Assembled(_)) {
-            modes = simulation.natural_modes().ok();
-            if let Some(corner_ramp) = modes.as_ref().and_then(|m| m.corner_ramp(&plan.options)) {
-                let mut options = plan.options.clone();
-                if start_auto {
-                    options = options.start_ramp(Some(StartRamp::default()));
-                }
-                if corner_auto {
-                    options = options.corner_ramp(Some(corner_ramp));
-                }
-                simulation = prepared(options)?;
+        let modes = (matches!(plan.execution, Execution::Assembled(_))
+            && (start_auto || corner_auto || plan.refuse_unstable))
+            .then(|| simulation.natural_modes().ok())
+            .flatten();
+        if let Some(corner_ramp) = modes
+            .as_ref()
+            .filter(|_| start_auto || corner_auto)
+            .and_then(|m| m.corner_ramp(&plan.options))
+        {
+            let mut options = plan.options.clone();
+            if start_auto {
+                options = options.start_ramp(Some(StartRamp::default()));
             }
+            if corner_auto {
+                options = options.corner_ramp(Some(corner_ramp));
+            }
+            simulation = prepared(options)?;
         }
-        // A method that amplifies a mode (the trapezoid rule on a decay much faster than h)
-        // would write a trajectory that blows up: refused before a step is taken.
-        if plan.refuse_unstable && matches!(plan.execution, Execution::Assembled(_)) {
-            if modes.is_none() {
-                modes = simulation.natural_modes().ok();
-            }
-            let steps = usize::try_from(plan.steps()).unwrap_or(usize::MAX);
-            if let Some(why) = modes
-                .as_ref()
-                .and_then(|m| m.instability(simulation.options(), steps))
-            {
-                return Err(StudyError::Settings(why));
-            }
+        let steps = usize::try_from(plan.steps()).unwrap_or(usize::MAX);
+        if let Some(why) = modes
+            .as_ref()
+            .filter(|_| plan.refuse_unstable)
+            .and_then(|m| m.instability(simulation.options(), steps))
+        {
+            return Err(StudyError::Settings(why));
         }
         Ok(Prepared {
             simulation,
