@@ -507,7 +507,16 @@ impl ForcedDiracStep {
             let (stationarity, kinematic) = r.split_at_mut(s * n);
             let (increments, multipliers) = x.split_at(s * n);
             let forms = &self.forms;
-            for ((&a, &col), &val) in forms.rows().iter().zip(forms.cols()).zip(forms.values()) {
+            let entries = forms.rows().iter().zip(forms.cols()).zip(forms.values());
+            if s == 1 {
+                // The midpoint rule, unrolled: a plain pass over the entries.
+                for ((&a, &col), &val) in entries {
+                    stationarity[col] -= val * multipliers[a];
+                    kinematic[a] += val * increments[col];
+                }
+                return;
+            }
+            for ((&a, &col), &val) in entries {
                 for j in 0..s {
                     stationarity[j * n + col] -= val * multipliers[j * m + a];
                     kinematic[j * m + a] += val * increments[j * n + col];

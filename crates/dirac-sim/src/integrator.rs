@@ -845,11 +845,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// significant bits than the state's round-off anyway.
     pub fn step(&mut self) -> Result<StepReport, SimError> {
         let report = self.step_unflushed()?;
-        for v in self.q.iter_mut().chain(self.p.iter_mut()) {
-            if v.is_subnormal() {
-                *v = 0.0;
-            }
-        }
+        flush_subnormals(&mut self.q);
+        flush_subnormals(&mut self.p);
         Ok(report)
     }
 
@@ -993,13 +990,15 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             (size - h).abs() <= 1e-12 * h + 4.0 * f64::EPSILON * (self.t.abs() + size.abs());
         // The state before this attempt, restored if it fails (preallocated for the first
         // attempt, so a step that needs no cut allocates nothing).
-        let saved = if depth == 0 {
+        let saved = if self.explicit.is_none() && self.stages.len() == 1 && self.history.is_none() {
+            Saved::Untouched
+        } else if depth == 0 {
             self.saved_q.copy_from_slice(&self.q);
             self.saved_p.copy_from_slice(&self.p);
             self.saved_impulse.clone_from(&self.impulse);
-            None
+            Saved::Buffers
         } else {
-            Some((self.q.clone(), self.p.clone(), self.impulse.clone()))
+            Saved::Copy(self.q.clone(), self.p.clone(), self.impulse.clone())
         };
         let t = self.t;
         let mut stats = NewtonStats::default();
@@ -1051,14 +1050,15 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     }
 
     /// Puts back the state before a failed or rejected attempt at time `t`.
-    fn restore(&mut self, saved: Option<(Vec<f64>, Vec<f64>, Vec<f64>)>, t: f64) {
+    fn restore(&mut self, saved: Saved, t: f64) {
         match saved {
-            None => {
+            Saved::Untouched => {}
+            Saved::Buffers => {
                 self.q.copy_from_slice(&self.saved_q);
                 self.p.copy_from_slice(&self.saved_p);
                 self.impulse.clone_from(&self.saved_impulse);
             }
-            Some((q, p, impulse)) => {
+            Saved::Copy(q, p, impulse) => {
                 self.q = q;
                 self.p = p;
                 self.impulse = impulse;
@@ -1093,7 +1093,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         size: f64,
         depth: u32,
         t: f64,
-        saved: Option<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+        saved: Saved,
         stats: NewtonStats,
     ) -> Result<NewtonStats, SimError> {
         let verdict = match (&self.history, &self.options.truncation) {
@@ -1330,9 +1330,12 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                     .step
                     .end_momentum_jacobian(&self.model, &stage.x, &mut end.jacobian);
             }
-            self.p_next.copy_from_slice(&end.at_guess);
+            // Slices, not the vectors: their pointers then stay in registers across the stores.
+            let p_next: &mut [f64] = &mut self.p_next;
+            p_next.copy_from_slice(&end.at_guess);
+            let (x, guess): (&[f64], &[f64]) = (&stage.x, &end.guess);
             for (r, c, e) in end.jacobian.iter() {
-                self.p_next[r] += e * (stage.x[c] - end.guess[c]);
+                p_next[r] += e * (x[c] - guess[c]);
             }
         } else {
             stage
@@ -1742,6 +1745,27 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// The step equations of each substep (for diagnostics and tests).
     pub fn step_equations(&self) -> impl Iterator<Item = &ForcedDiracStep> {
         self.stages.iter().map(|s| &s.step)
+    }
+}
+
+/// The state before an attempt of [`Integrator::advance`], to put back if the attempt fails or
+/// is rejected.
+enum Saved {
+    /// Nothing to put back: a single implicit substep writes the state only once its solve has
+    /// succeeded, and without a truncation rule an accepted substep is never taken back.
+    Untouched,
+    /// In the integrator's preallocated buffers (a first attempt).
+    Buffers,
+    /// A copy (a cut attempt, while the buffers hold the first attempt's state).
+    Copy(Vec<f64>, Vec<f64>, Vec<f64>),
+}
+
+/// Sets the subnormal entries of `v` to zero (see [`Integrator::step`]); zeros keep their sign.
+/// Written as a select so that the pass vectorises.
+fn flush_subnormals(v: &mut [f64]) {
+    for x in v {
+        let tiny = x.abs() < f64::MIN_POSITIVE && *x != 0.0;
+        *x = if tiny { 0.0 } else { *x };
     }
 }
 

@@ -455,7 +455,9 @@ impl<S: LinearSolver> Newton<S> {
                 worst_equation: worst,
             })?;
             stats.iterations += 1;
-            if residual_converged {
+            // Newton is exact on an affine map: the one update is the solution, and the size
+            // tests below (a serial pass over the unknowns) would decide nothing.
+            if residual_converged || (reuse && self.options.affine_shortcut) {
                 self.apply_update(x);
                 return Ok(stats);
             }
@@ -515,9 +517,6 @@ impl<S: LinearSolver> Newton<S> {
                         let jitter = if noise { NOISE_MARGIN * eta } else { 0.0 };
                         u.abs() <= tol * scale + jitter
                     });
-            }
-            if reuse && self.options.affine_shortcut {
-                return Ok(stats);
             }
         }
         unreachable_converged()
@@ -821,22 +820,58 @@ fn unreachable_converged() -> Result<NewtonStats, NewtonError> {
     })
 }
 
-/// Max-norm and the index where it is attained; a NaN or infinity wins (and is returned).
+/// Max-norm and the index where it is attained; a NaN or infinity wins (the first one, and is
+/// returned).
+///
+/// Blocks of [`NORM_BLOCK`] entries are reduced lane-wise (independent maxima, and whether every
+/// magnitude was below infinity, which a NaN is not), so the pass vectorises; only the block
+/// holding the maximum, or the first non-finite entry, is searched for the index.
 fn max_norm(v: &[f64]) -> (f64, usize) {
     let mut best = 0.0;
-    let mut at = 0;
-    for (i, x) in v.iter().enumerate() {
-        let a = x.abs();
-        if a > best || a.is_nan() {
-            best = a;
-            at = i;
-            if !a.is_finite() {
-                break;
+    let mut best_block = 0;
+    for (b, block) in v.chunks(NORM_BLOCK).enumerate() {
+        let mut lanes = [0.0_f64; 4];
+        let mut finite = [true; 4];
+        let quads = block.chunks_exact(4);
+        let tail = quads.remainder();
+        for quad in quads {
+            for i in 0..4 {
+                let a = quad[i].abs();
+                lanes[i] = if a > lanes[i] { a } else { lanes[i] };
+                finite[i] &= a < f64::INFINITY;
             }
         }
+        for (i, x) in tail.iter().enumerate() {
+            let a = x.abs();
+            lanes[i] = if a > lanes[i] { a } else { lanes[i] };
+            finite[i] &= a < f64::INFINITY;
+        }
+        if !finite.iter().all(|&f| f) {
+            let (i, x) = block
+                .iter()
+                .enumerate()
+                .find(|(_, x)| !x.is_finite())
+                .unwrap_or((0, &f64::NAN));
+            return (x.abs(), b * NORM_BLOCK + i);
+        }
+        let m = lanes
+            .iter()
+            .fold(0.0_f64, |m, &a| if a > m { a } else { m });
+        if m > best {
+            best = m;
+            best_block = b;
+        }
     }
+    let at = v
+        .chunks(NORM_BLOCK)
+        .nth(best_block)
+        .and_then(|block| block.iter().position(|x| x.abs() == best))
+        .map_or(0, |i| best_block * NORM_BLOCK + i);
     (best, at)
 }
+
+/// Entries per block of [`max_norm`]'s pass.
+const NORM_BLOCK: usize = 64;
 
 #[cfg(test)]
 mod tests {
@@ -865,6 +900,54 @@ mod tests {
         NewtonOptions {
             reuse_jacobian: false,
             ..NewtonOptions::default()
+        }
+    }
+
+    /// The blocked max-norm against the plain scan it replaces: the largest magnitude and the
+    /// first index attaining it, or the first NaN or infinity, over lengths around the block
+    /// and lane sizes.
+    #[test]
+    fn max_norm_finds_the_first_largest_entry_or_the_first_non_finite_one() {
+        fn plain(v: &[f64]) -> (f64, usize) {
+            let mut best = 0.0;
+            let mut at = 0;
+            for (i, x) in v.iter().enumerate() {
+                let a = x.abs();
+                if !a.is_finite() {
+                    return (a, i);
+                }
+                if a > best {
+                    best = a;
+                    at = i;
+                }
+            }
+            (best, at)
+        }
+        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for len in [0, 1, 3, 4, 5, 63, 64, 65, 130, 1000] {
+            let mut v: Vec<f64> = (0..len).map(|_| next()).collect();
+            assert_eq!(max_norm(&v), plain(&v), "len {len}");
+            if len < 3 {
+                continue;
+            }
+            // A tie: the first index wins.
+            let (m, at) = plain(&v);
+            v[len - 1] = -m;
+            assert_eq!(max_norm(&v).1, at, "tie, len {len}");
+            for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                let mut w = v.clone();
+                w[len / 2] = bad;
+                w[len - 1] = f64::NAN;
+                let (norm, at) = max_norm(&w);
+                assert_eq!(at, len / 2, "len {len}, {bad}");
+                assert!(norm.is_nan() == bad.is_nan() && !norm.is_finite());
+            }
         }
     }
 

@@ -106,6 +106,9 @@ struct Triangular {
     u_ptr: Vec<u32>,
     u_row: Vec<u32>,
     u_val: Vec<f64>,
+    /// Reciprocals of `U`'s diagonal, set by [`SparseLu::factor`] once the pivots pass its test:
+    /// the back substitution multiplies by them (a division's latency lies on its critical path).
+    u_inv: Vec<f64>,
     /// Whether the pattern and pivot order belong to the analysed matrix pattern.
     valid: bool,
 }
@@ -326,7 +329,10 @@ impl LinearSolver for SparseLu {
             slots,
             symbolic,
             lu: SimplicialLu::new(),
-            own: Triangular::default(),
+            own: Triangular {
+                u_inv: Vec::with_capacity(n),
+                ..Triangular::default()
+            },
             column: vec![0.0; n],
             row_perm: vec![0; n],
             row_perm_inv: vec![0; n],
@@ -386,7 +392,8 @@ impl LinearSolver for SparseLu {
         }
         let tol = self.pivot_tol * largest;
         let col_perm = f.symbolic.col_perm().arrays().0;
-        let t = &f.own;
+        let t = &mut f.own;
+        t.u_inv.clear();
         for (j, w) in t.u_ptr.windows(2).enumerate() {
             // The pivot is U's diagonal entry, stored last in its column (checked by `capture`).
             let pivot = t.u_val[w[1] as usize - 1];
@@ -394,6 +401,7 @@ impl LinearSolver for SparseLu {
                 let index = col_perm.get(j).map_or(j, |&c| c as usize);
                 return Err(LinearSolveError::NumericallySingular { index });
             }
+            t.u_inv.push(1.0 / pivot);
         }
         self.factored = true;
         Ok(())
@@ -420,7 +428,7 @@ impl LinearSolver for SparseLu {
         // stored last), scatter by the column permutation. Written out here rather than through
         // `solve_in_place_with_conj`, which copies the right-hand side twice and re-validates
         // both permutations on every call.
-        let w = &mut f.work;
+        let w: &mut [f64] = &mut f.work;
         for (wi, &p) in w.iter_mut().zip(&f.row_perm) {
             *wi = rhs[p as usize];
         }
@@ -435,9 +443,9 @@ impl LinearSolver for SparseLu {
             }
         }
         let (u_ptr, u_row, u_val) = (&t.u_ptr, &t.u_row, &t.u_val);
-        for j in (0..w.len()).rev() {
+        for (j, inv) in t.u_inv.iter().enumerate().rev() {
             let last = u_ptr[j + 1] as usize - 1;
-            w[j] /= u_val[last];
+            w[j] *= inv;
             let xj = w[j];
             if xj != 0.0 {
                 for p in u_ptr[j] as usize..last {
