@@ -5,7 +5,8 @@ use dirac_solve::{DenseLu, LinearSolveError, LinearSolver, SparseLu};
 /// Which linear solver the Newton iteration uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SolverChoice {
-    /// Dense up to [`DenseLu::AUTO_LIMIT`] unknowns, sparse LU above.
+    /// Dense up to [`DenseLu::AUTO_LIMIT`] unknowns, sparse LU above; an integrator's steps with
+    /// a constant Jacobian (a linear circuit), factorised once, always take sparse LU.
     #[default]
     Auto,
     /// Always dense LU.

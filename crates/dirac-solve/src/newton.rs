@@ -831,22 +831,23 @@ fn max_norm(v: &[f64]) -> (f64, usize) {
     let mut best_block = 0;
     for (b, block) in v.chunks(NORM_BLOCK).enumerate() {
         let mut lanes = [0.0_f64; 4];
-        let mut finite = [true; 4];
+        // 1 while every magnitude of the lane was below infinity (a NaN is not).
+        let mut finite = [1.0_f64; 4];
         let quads = block.chunks_exact(4);
         let tail = quads.remainder();
         for quad in quads {
             for i in 0..4 {
                 let a = quad[i].abs();
                 lanes[i] = if a > lanes[i] { a } else { lanes[i] };
-                finite[i] &= a < f64::INFINITY;
+                finite[i] = if a < f64::INFINITY { finite[i] } else { 0.0 };
             }
         }
         for (i, x) in tail.iter().enumerate() {
             let a = x.abs();
             lanes[i] = if a > lanes[i] { a } else { lanes[i] };
-            finite[i] &= a < f64::INFINITY;
+            finite[i] = if a < f64::INFINITY { finite[i] } else { 0.0 };
         }
-        if !finite.iter().all(|&f| f) {
+        if finite.contains(&0.0) {
             let (i, x) = block
                 .iter()
                 .enumerate()
