@@ -1,7 +1,7 @@
 //! Dense LU with partial pivoting on preallocated storage, for small step systems.
 
 use crate::error::LinearSolveError;
-use crate::newton::LinearSolver;
+use crate::newton::{LinearSolver, max_norm};
 
 /// Dense LU factorisation with partial pivoting, allocation-free after [`LinearSolver::analyse`].
 ///
@@ -147,9 +147,10 @@ impl LinearSolver for DenseLu {
                 }
             }
         }
-        match rhs.iter().position(|v| !v.is_finite()) {
-            Some(index) => Err(LinearSolveError::NonFinite { index }),
-            None => Ok(()),
+        // The max-norm's vectorised pass finds the first non-finite entry.
+        match max_norm(rhs) {
+            (norm, index) if !norm.is_finite() => Err(LinearSolveError::NonFinite { index }),
+            _ => Ok(()),
         }
     }
 }

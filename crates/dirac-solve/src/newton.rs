@@ -823,37 +823,34 @@ fn unreachable_converged() -> Result<NewtonStats, NewtonError> {
 /// Max-norm and the index where it is attained; a NaN or infinity wins (the first one, and is
 /// returned).
 ///
-/// Blocks of [`NORM_BLOCK`] entries are reduced lane-wise (independent maxima, and whether every
-/// magnitude was below infinity, which a NaN is not), so the pass vectorises; only the block
-/// holding the maximum, or the first non-finite entry, is searched for the index.
-fn max_norm(v: &[f64]) -> (f64, usize) {
+/// Blocks of [`NORM_BLOCK`] entries are reduced lane-wise (independent maxima and sums of the
+/// magnitudes), so the pass vectorises; a block whose sum is not finite (it holds a NaN or an
+/// infinity, or its finite magnitudes overflowed) is searched for a non-finite entry, and only
+/// the block holding the maximum is searched for its index.
+pub(crate) fn max_norm(v: &[f64]) -> (f64, usize) {
     let mut best = 0.0;
     let mut best_block = 0;
     for (b, block) in v.chunks(NORM_BLOCK).enumerate() {
         let mut lanes = [0.0_f64; 4];
-        // 1 while every magnitude of the lane was below infinity (a NaN is not).
-        let mut finite = [1.0_f64; 4];
+        let mut sums = [0.0_f64; 4];
         let quads = block.chunks_exact(4);
         let tail = quads.remainder();
         for quad in quads {
             for i in 0..4 {
                 let a = quad[i].abs();
                 lanes[i] = if a > lanes[i] { a } else { lanes[i] };
-                finite[i] = if a < f64::INFINITY { finite[i] } else { 0.0 };
+                sums[i] += a;
             }
         }
         for (i, x) in tail.iter().enumerate() {
             let a = x.abs();
             lanes[i] = if a > lanes[i] { a } else { lanes[i] };
-            finite[i] = if a < f64::INFINITY { finite[i] } else { 0.0 };
+            sums[i] += a;
         }
-        if finite.contains(&0.0) {
-            let (i, x) = block
-                .iter()
-                .enumerate()
-                .find(|(_, x)| !x.is_finite())
-                .unwrap_or((0, &f64::NAN));
-            return (x.abs(), b * NORM_BLOCK + i);
+        if !sums.iter().sum::<f64>().is_finite()
+            && let Some(i) = block.iter().position(|x| !x.is_finite())
+        {
+            return (block[i].abs(), b * NORM_BLOCK + i);
         }
         let m = lanes
             .iter()
@@ -941,6 +938,11 @@ mod tests {
             let (m, at) = plain(&v);
             v[len - 1] = -m;
             assert_eq!(max_norm(&v).1, at, "tie, len {len}");
+            // Finite magnitudes whose sum overflows are no non-finite entry.
+            let mut huge = v.clone();
+            huge[0] = f64::MAX;
+            huge[1] = -f64::MAX;
+            assert_eq!(max_norm(&huge), plain(&huge), "overflowing sum, len {len}");
             for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
                 let mut w = v.clone();
                 w[len / 2] = bad;

@@ -8,7 +8,7 @@ use faer::sparse::linalg::{LuError, SupernodalThreshold};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 
 use crate::error::LinearSolveError;
-use crate::newton::LinearSolver;
+use crate::newton::{LinearSolver, max_norm};
 use crate::triplets::PatternMismatch;
 
 /// Sparse LU factorisation on faer, allocation-free in the Newton loop.
@@ -457,9 +457,10 @@ impl LinearSolver for SparseLu {
         for (out, &c) in rhs.iter_mut().zip(col_inv) {
             *out = w[c as usize];
         }
-        match rhs.iter().position(|v| !v.is_finite()) {
-            Some(index) => Err(LinearSolveError::NonFinite { index }),
-            None => Ok(()),
+        // The max-norm's vectorised pass finds the first non-finite entry.
+        match max_norm(rhs) {
+            (norm, index) if !norm.is_finite() => Err(LinearSolveError::NonFinite { index }),
+            _ => Ok(()),
         }
     }
 }
