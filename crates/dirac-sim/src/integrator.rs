@@ -2093,6 +2093,69 @@ mod tests {
         }
     }
 
+    /// A step whose first attempt fails is taken again as two halves from the state before it:
+    /// the force is NaN only at the midpoint time of step 3, which the full step's quadrature node
+    /// hits and the halves' nodes miss. The run must equal one that takes steps 0–2 of `h`, two
+    /// steps of `h/2` from the same state, and the rest of `h`, to round-off (the two solve the
+    /// halves from different Newton guesses; a failed attempt that left anything behind in the
+    /// state would show as a difference of the size of a step).
+    #[test]
+    fn a_cut_step_starts_again_from_the_state_before_it() {
+        let h = 0.1;
+        let (q0, p0) = ([0.3, -0.2], [0.5, 0.1]);
+        let poisoned = 3.0 * h + 0.5 * h;
+        let mut model = Masses::new(&[1.0, 2.0], &[1.0, 3.0]);
+        model.nan_at = poisoned;
+        let mut sim = Integrator::new(model, NoConstraints, options(h)).unwrap();
+        sim.set_state(&q0, &p0, 0.0).unwrap();
+        let mut whole = Integrator::new(
+            Masses::new(&[1.0, 2.0], &[1.0, 3.0]),
+            NoConstraints,
+            options(h),
+        )
+        .unwrap();
+        whole.set_state(&q0, &p0, 0.0).unwrap();
+        let mut half = Integrator::new(
+            Masses::new(&[1.0, 2.0], &[1.0, 3.0]),
+            NoConstraints,
+            options(0.5 * h),
+        )
+        .unwrap();
+        for k in 0..6 {
+            sim.step().unwrap();
+            if k == 3 {
+                half.set_state(whole.q(), whole.p(), whole.t()).unwrap();
+                half.step().unwrap();
+                half.step().unwrap();
+                let (q, p) = (half.q().to_vec(), half.p().to_vec());
+                whole.set_state(&q, &p, 4.0 * h).unwrap();
+            } else {
+                whole.step().unwrap();
+            }
+            for (a, b) in sim
+                .q()
+                .iter()
+                .chain(sim.p())
+                .zip(whole.q().iter().chain(whole.p()))
+            {
+                assert!((a - b).abs() <= 1e-14, "after step {k}: {a} against {b}");
+            }
+        }
+        assert_eq!(sim.counters().step_cuts, 1);
+        // Control: the unpoisoned run differs after step 3 (the halves are another scheme).
+        let mut plain = Integrator::new(
+            Masses::new(&[1.0, 2.0], &[1.0, 3.0]),
+            NoConstraints,
+            options(h),
+        )
+        .unwrap();
+        plain.set_state(&q0, &p0, 0.0).unwrap();
+        for _ in 0..6 {
+            plain.step().unwrap();
+        }
+        assert!((plain.q()[0] - sim.q()[0]).abs() > 1e-6);
+    }
+
     /// A model that returns NaN in a step: an error naming the step, its start time and the
     /// likely cause, and equations and unknowns described by name.
     #[test]

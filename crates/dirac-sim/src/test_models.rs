@@ -2,11 +2,13 @@
 
 use dirac_core::{ForceJacobian, LagrangianHessian, Model};
 
-/// Point masses on a line, `L = Σ ½ mᵢvᵢ² − ½ kᵢxᵢ²`; the force is NaN where `x₀ > nan_above`.
+/// Point masses on a line, `L = Σ ½ mᵢvᵢ² − ½ kᵢxᵢ²`; the force is NaN where `x₀ > nan_above`
+/// and at the time `nan_at` (to within 1e-12).
 pub struct Masses {
     pub m: Vec<f64>,
     pub k: Vec<f64>,
     pub nan_above: f64,
+    pub nan_at: f64,
 }
 
 impl Masses {
@@ -15,6 +17,7 @@ impl Masses {
             m: m.to_vec(),
             k: k.to_vec(),
             nan_above: f64::INFINITY,
+            nan_at: f64::NAN,
         }
     }
 }
@@ -41,10 +44,11 @@ impl Model for Masses {
         }
     }
     fn has_force(&self) -> bool {
-        self.nan_above.is_finite()
+        self.nan_above.is_finite() || self.nan_at.is_finite()
     }
-    fn force(&self, q: &[f64], _v: &[f64], _t: f64, f: &mut [f64]) {
-        f.fill(if q[0] > self.nan_above { f64::NAN } else { 0.0 });
+    fn force(&self, q: &[f64], _v: &[f64], t: f64, f: &mut [f64]) {
+        let poisoned = q[0] > self.nan_above || (t - self.nan_at).abs() < 1e-12;
+        f.fill(if poisoned { f64::NAN } else { 0.0 });
     }
     fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, _j: &mut ForceJacobian) {}
     fn coordinate_name(&self, i: usize) -> String {
