@@ -2103,24 +2103,17 @@ mod tests {
     fn a_cut_step_starts_again_from_the_state_before_it() {
         let h = 0.1;
         let (q0, p0) = ([0.3, -0.2], [0.5, 0.1]);
-        let poisoned = 3.0 * h + 0.5 * h;
-        let mut model = Masses::new(&[1.0, 2.0], &[1.0, 3.0]);
-        model.nan_at = poisoned;
-        let mut sim = Integrator::new(model, NoConstraints, options(h)).unwrap();
-        sim.set_state(&q0, &p0, 0.0).unwrap();
-        let mut whole = Integrator::new(
-            Masses::new(&[1.0, 2.0], &[1.0, 3.0]),
-            NoConstraints,
-            options(h),
-        )
-        .unwrap();
-        whole.set_state(&q0, &p0, 0.0).unwrap();
-        let mut half = Integrator::new(
-            Masses::new(&[1.0, 2.0], &[1.0, 3.0]),
-            NoConstraints,
-            options(0.5 * h),
-        )
-        .unwrap();
+        // The same masses, poisoned at `nan_at`, stepped by `step`, from (q0, p0) at t = 0.
+        let integrator = |nan_at: f64, step: f64| {
+            let mut model = Masses::new(&[1.0, 2.0], &[1.0, 3.0]);
+            model.nan_at = nan_at;
+            let mut sim = Integrator::new(model, NoConstraints, options(step)).unwrap();
+            sim.set_state(&q0, &p0, 0.0).unwrap();
+            sim
+        };
+        let mut sim = integrator(3.0 * h + 0.5 * h, h);
+        let mut whole = integrator(f64::NAN, h);
+        let mut half = integrator(f64::NAN, 0.5 * h);
         for k in 0..6 {
             sim.step().unwrap();
             if k == 3 {
@@ -2143,13 +2136,7 @@ mod tests {
         }
         assert_eq!(sim.counters().step_cuts, 1);
         // Control: the unpoisoned run differs after step 3 (the halves are another scheme).
-        let mut plain = Integrator::new(
-            Masses::new(&[1.0, 2.0], &[1.0, 3.0]),
-            NoConstraints,
-            options(h),
-        )
-        .unwrap();
-        plain.set_state(&q0, &p0, 0.0).unwrap();
+        let mut plain = integrator(f64::NAN, h);
         for _ in 0..6 {
             plain.step().unwrap();
         }
