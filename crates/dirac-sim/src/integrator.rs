@@ -1398,6 +1398,14 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             return Ok(Affine::No);
         }
         let unknowns = self.stages[0].step.unknowns();
+        // The stage's solver now only builds the map (2n + 1 solves of one factorisation), so
+        // the per-step gain of sparse LU on a constant Jacobian (see [`stage_solver`]) never comes
+        // and its symbolic analysis is pure set-up cost: `Auto` follows the size rule here.
+        if self.options.solver == SolverChoice::Auto {
+            let stage = &mut self.stages[0];
+            let options = *stage.newton.options();
+            stage.newton = Newton::new(AutoLu::for_size(SolverChoice::Auto, unknowns), options);
+        }
         let mut x = vec![0.0; unknowns * 2 * n];
         let mut p = vec![0.0; n * 2 * n];
         let mut column = vec![0.0; 2 * n];

@@ -6,7 +6,8 @@ use dirac_solve::{DenseLu, LinearSolveError, LinearSolver, SparseLu};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SolverChoice {
     /// Dense up to [`DenseLu::AUTO_LIMIT`] unknowns, sparse LU above; an integrator's steps with
-    /// a constant Jacobian (a linear circuit), factorised once, always take sparse LU.
+    /// a constant Jacobian (a linear circuit), factorised once, take sparse LU at every size,
+    /// unless they only build the affine step map (`IntegratorOptions::affine_map`).
     #[default]
     Auto,
     /// Always dense LU.
