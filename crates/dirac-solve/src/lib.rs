@@ -15,6 +15,7 @@
 mod dense;
 mod error;
 mod newton;
+mod ordering;
 mod sparse;
 mod structure;
 mod triplets;
