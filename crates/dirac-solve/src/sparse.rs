@@ -569,10 +569,11 @@ impl Factors {
 const SPLIT_MIN: usize = 128;
 
 /// The split order is kept if its warm-up fill is at most this multiple of COLAMD's. Measured
-/// (`chain_profile` and an RLC ladder with every section active, side by side with COLAMD's
-/// order): the rigid chain's split has 12 % more fill (13682 against 12187 entries at 32 links)
-/// and its steps cost 16–30 % less at 8 to 128 links (with fewer Newton iterations and
-/// factorisations, see docs/rigid.md); the ladder's has 0.2 % more and its steps cost 26 % less.
+/// side by side with COLAMD's order: on an RLC ladder with every section active the split has
+/// 0.2 % more fill and the steps cost 26 % less, all of it from the overlap (the same halves
+/// listed one after the other cost what COLAMD's order does); on the rigid chain (`chain_profile`,
+/// 8 to 128 links) it has 12 % more fill and the steps cost 16–30 % less, none of it from the
+/// overlap but from fewer Newton updates and factorisations per step (docs/rigid.md).
 const SPLIT_MAX_FILL: f64 = 1.25;
 
 /// Position in the compressed-column value array of every triplet. Row indices are sorted and
