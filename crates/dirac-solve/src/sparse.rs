@@ -926,6 +926,48 @@ mod tests {
         }
     }
 
+    /// Patterns the split order meets in assembled models, each taking it and solved as dense LU
+    /// solves it: two
+    /// ladders side by side (two components, each cut) with unknowns of their own (a diagonal
+    /// entry only), and a ladder with a few long-range couplings (an unsymmetric pair of entries
+    /// between distant sections), whose level structure is shallow where the couplings jump.
+    #[test]
+    fn split_patterns_solve_as_dense_lu() {
+        let mut rng = Rng(9);
+        let (a, b) = (ladder(150, &mut rng), ladder(170, &mut rng));
+        let mut two = Problem::new(a.n + b.n + 5);
+        for (p, shift) in [(&a, 0), (&b, a.n)] {
+            for ((&r, &c), &v) in p.rows.iter().zip(&p.cols).zip(&p.vals) {
+                two.add(r + shift, c + shift, v);
+            }
+        }
+        for k in a.n + b.n..two.n {
+            two.add(k, k, rng.uniform(1.0, 2.0));
+        }
+        let mut coupled = ladder(300, &mut rng);
+        for _ in 0..4 {
+            let (r, c) = (rng.below(coupled.n), rng.below(coupled.n));
+            coupled.add(r, c, rng.uniform(-0.1, 0.1));
+            coupled.add(c, r, rng.uniform(-0.1, 0.1));
+        }
+        for p in [two, coupled] {
+            let mut lu = SparseLu::new();
+            lu.analyse(p.n, &p.rows, &p.cols).unwrap();
+            let f = lu.factors.as_ref().unwrap();
+            let split = Dissection::new(
+                f.matrix.symbolic(),
+                &colamd_order(f.matrix.symbolic()).unwrap(),
+            );
+            assert_eq!(Some(&f.col_fwd), split.map(|d| d.order()).as_ref());
+            let x_true = random_vector(p.n, &mut rng);
+            let rhs = p.apply(&x_true);
+            let xs = solve_with(&mut lu, &p, &rhs);
+            let xd = solve_with(&mut DenseLu::new(), &p, &rhs);
+            assert_close(&xs, &xd, 1e-12);
+            assert_close(&xs, &x_true, 1e-10);
+        }
+    }
+
     #[test]
     fn matches_dense_lu_on_kkt_systems() {
         let mut rng = Rng(2);
