@@ -1467,6 +1467,17 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .step
                 .jacobian(&self.model, &self.constraints, &stage.x, &mut jacobian);
             let size = stage.step.unknowns();
+            // A zero-free diagonal is a perfect matching: full structural rank, nothing to
+            // diagnose (the common case of models with a mass on every coordinate).
+            let mut on_diagonal = vec![false; size];
+            for (&r, &c) in jacobian.rows().iter().zip(jacobian.cols()) {
+                if r == c {
+                    on_diagonal[r] = true;
+                }
+            }
+            if on_diagonal.iter().all(|&d| d) {
+                continue;
+            }
             let entries: Vec<(usize, usize)> = jacobian
                 .rows()
                 .iter()
