@@ -32,7 +32,7 @@ use crate::triplets::PatternMismatch;
 ///   duplicates) and first refactorises with the pivot order and the `L`/`U` pattern of the last
 ///   pivoting factorisation (no pivot search, no graph traversal), kept while every pivot passes
 ///   threshold partial pivoting (`PIVOT_THRESHOLD`, 0.1). Otherwise it runs faer's simplicial
-///   left-looking LU with partial pivoting, reusing the symbolic analysis and all storage, and
+///   left-looking LU with partial pivoting, reusing the column order and all storage, and
 ///   keeps a copy of its factors in pivot order for the next refactorisation and the solves.
 ///   Every pivot is then checked: one not above `1e-14` times
 ///   the largest matrix entry is reported as [`LinearSolveError::NumericallySingular`]. With rows
@@ -134,15 +134,19 @@ impl Triangular {
                 )));
             }
         }
+        // faer's storage can be longer than the factors (it keeps what earlier pivot orders
+        // needed): only the first `col_ptr[n]` entries are live.
+        let l_nnz = l_pattern.col_ptr().last().map_or(0, |&e| e as usize);
         refill(&mut self.l_ptr, l_pattern.col_ptr());
-        refill(&mut self.l_row, l_pattern.row_idx());
-        refill(&mut self.l_val, l_val);
+        refill(&mut self.l_row, &l_pattern.row_idx()[..l_nnz]);
+        refill(&mut self.l_val, &l_val[..l_nnz]);
         let u = lu.u_factor_unsorted();
         let (u_pattern, u_val) = u.parts();
         let (ptr, row) = (u_pattern.col_ptr(), u_pattern.row_idx());
+        let u_nnz = ptr.last().map_or(0, |&e| e as usize);
         refill(&mut self.u_ptr, ptr);
-        refill(&mut self.u_row, row);
-        refill(&mut self.u_val, u_val);
+        refill(&mut self.u_row, &row[..u_nnz]);
+        refill(&mut self.u_val, &u_val[..u_nnz]);
         for (j, w) in ptr.windows(2).enumerate() {
             let (start, end) = (w[0] as usize, w[1] as usize);
             if end == start || row[end - 1] as usize != j {
@@ -269,6 +273,7 @@ impl LinearSolver for SparseLu {
     ) -> Result<(), LinearSolveError> {
         self.analysed = false;
         self.factored = false;
+        self.reused_pivots = false;
         self.factors = None;
         if rows.len() != cols.len() {
             return Err(PatternMismatch {
@@ -348,12 +353,20 @@ impl LinearSolver for SparseLu {
             req,
             mem,
         };
-        let colamd_fill = factors.warm_up(colamd.clone())?;
-        // A split with too much fill goes back to COLAMD's order (warmed up again).
-        if let Some(order) = split
-            && factors.warm_up(order)? as f64 > SPLIT_MAX_FILL * colamd_fill as f64
-        {
-            factors.warm_up(colamd)?;
+        let colamd_fill = factors.warm_up(colamd)?;
+        if let Some(order) = split {
+            // COLAMD's warmed-up factors are kept aside while the split is tried, and come back
+            // if the split fills in too much (or fails: COLAMD's order did not).
+            let colamd_state = factors.take_order();
+            factors.row_perm = vec![0; n];
+            factors.row_perm_inv = vec![0; n];
+            factors.own.u_inv = Vec::with_capacity(n);
+            let kept = factors
+                .warm_up(order)
+                .is_ok_and(|fill| fill as f64 <= SPLIT_MAX_FILL * colamd_fill as f64);
+            if !kept {
+                factors.restore_order(colamd_state);
+            }
         }
         self.factors = Some(factors);
         self.analysed = true;
@@ -562,7 +575,40 @@ impl Factors {
         self.own.capture(&self.lu)?;
         Ok(self.own.l_val.len() + self.own.u_val.len())
     }
+
+    /// The state a warm-up sets, to keep one order's while another is tried.
+    fn take_order(&mut self) -> OrderState {
+        OrderState {
+            lu: std::mem::take(&mut self.lu),
+            own: std::mem::take(&mut self.own),
+            row_perm: std::mem::take(&mut self.row_perm),
+            row_perm_inv: std::mem::take(&mut self.row_perm_inv),
+            col_fwd: std::mem::take(&mut self.col_fwd),
+            col_inv: std::mem::take(&mut self.col_inv),
+        }
+    }
+
+    fn restore_order(&mut self, kept: OrderState) {
+        self.lu = kept.lu;
+        self.own = kept.own;
+        self.row_perm = kept.row_perm;
+        self.row_perm_inv = kept.row_perm_inv;
+        self.col_fwd = kept.col_fwd;
+        self.col_inv = kept.col_inv;
+    }
 }
+
+/// One column order's warmed-up factors ([`Factors::take_order`]).
+struct OrderState {
+    lu: SimplicialLu<u32, f64>,
+    own: Triangular,
+    row_perm: Vec<u32>,
+    row_perm_inv: Vec<u32>,
+    col_fwd: Vec<u32>,
+    col_inv: Vec<u32>,
+}
+
+impl Factors {}
 
 /// Patterns with fewer unknowns keep COLAMD's order without trying the split: their dependency
 /// chains are short, and the second warm-up would be set-up cost for little.
@@ -1208,7 +1254,45 @@ mod tests {
     #[test]
     fn factor_and_solve_do_not_allocate() {
         let mut rng = Rng(6);
-        let p = kkt(400, 150, &mut rng);
+        let kkt_system = kkt(400, 150, &mut rng);
+        // A ladder keeps the split column order; a wide grid strip has a split that fills in too
+        // much and goes back to COLAMD's order (both checked here, so that the test covers the
+        // storage each path leaves).
+        let ladder_system = ladder(300, &mut rng);
+        let strip = grid(24, 40, &mut rng);
+        for (p, split) in [
+            (&kkt_system, None),
+            (&ladder_system, Some(true)),
+            (&strip, Some(false)),
+        ] {
+            assert_factor_and_solve_do_not_allocate(p, split, &mut rng);
+        }
+    }
+
+    /// A `width × length` grid of unknowns, each coupled to its four neighbours (unsymmetric
+    /// values, dominant diagonal).
+    fn grid(width: usize, length: usize, rng: &mut Rng) -> Problem {
+        let mut p = Problem::new(width * length);
+        let at = |i: usize, j: usize| i * width + j;
+        for i in 0..length {
+            for j in 0..width {
+                p.add(at(i, j), at(i, j), rng.uniform(4.5, 5.5));
+                if j + 1 < width {
+                    p.add(at(i, j), at(i, j + 1), rng.uniform(-1.0, 0.0));
+                    p.add(at(i, j + 1), at(i, j), rng.uniform(-1.0, 0.0));
+                }
+                if i + 1 < length {
+                    p.add(at(i, j), at(i + 1, j), rng.uniform(-1.0, 0.0));
+                    p.add(at(i + 1, j), at(i, j), rng.uniform(-1.0, 0.0));
+                }
+            }
+        }
+        p
+    }
+
+    /// Checks that after `analyse` the factorisations and solves of `p` allocate nothing, and,
+    /// with `split = Some(kept)`, that `p` has a split order and whether `analyse` kept it.
+    fn assert_factor_and_solve_do_not_allocate(p: &Problem, split: Option<bool>, rng: &mut Rng) {
         let mut lu = SparseLu::new();
         let before = counting::allocations();
         let probe = std::hint::black_box(vec![1u8; 16]);
@@ -1224,6 +1308,13 @@ mod tests {
             counting::allocations() > before,
             "analyse was expected to allocate"
         );
+        let f = lu.factors.as_ref().unwrap();
+        let colamd = colamd_order(f.matrix.symbolic()).unwrap();
+        let dissection = Dissection::new(f.matrix.symbolic(), &colamd);
+        assert_eq!(dissection.is_some(), split.is_some());
+        if let Some(kept) = split {
+            assert_eq!(f.col_fwd != colamd, kept);
+        }
         let mut vals = p.vals.clone();
         let mut x = vec![0.0; p.n];
         let before = counting::allocations();
@@ -1238,6 +1329,12 @@ mod tests {
             }
         }
         assert_eq!(counting::allocations() - before, 0);
+        // And the factors kept are right ones: the last values solve to the true solution.
+        let last = Problem { vals, ..p.clone() };
+        let x_true = random_vector(p.n, rng);
+        let mut x = last.apply(&x_true);
+        lu.solve_in_place(&mut x).unwrap();
+        assert_close(&x, &x_true, 1e-10);
     }
 
     #[test]
