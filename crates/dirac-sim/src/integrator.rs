@@ -1782,7 +1782,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
 /// step size, so a step costs its triangular solves, and sparse ones beat dense ones at every size
 /// measured (midpoint steps of the RLC ladder of 1 to 10 sections, 3 to 30 unknowns: 5 to 27 %
 /// cheaper; a one-unknown oscillator ties); otherwise `choice` decides (for a Jacobian stamped
-/// again, dense and sparse tie on small systems, see [`DenseLu::AUTO_LIMIT`]).
+/// again, dense and sparse tie on small systems, see [`DenseLu::AUTO_LIMIT`]). A stage that only
+/// builds the affine step map gets the size rule's solver instead ([`Integrator::build_affine`]).
 ///
 /// [`DenseLu::AUTO_LIMIT`]: dirac_solve::DenseLu::AUTO_LIMIT
 fn stage_solver(choice: SolverChoice, constant_jacobian: bool) -> SolverChoice {

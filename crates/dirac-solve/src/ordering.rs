@@ -57,111 +57,66 @@ pub(crate) fn colamd_order(
     Ok(fwd)
 }
 
-/// The cuts of a pattern's components, from which [`Dissection::order`] builds split orders.
-pub(crate) struct Dissection {
-    graph: Graph,
-    level: Vec<usize>,
-    rank: Vec<usize>,
-    pieces: Vec<Piece>,
-}
-
-/// A component of the pattern's graph, cut or whole.
-enum Piece {
-    Whole(Vec<usize>),
-    Cut {
-        near: Vec<usize>,
-        far: Vec<usize>,
-        separator: Vec<usize>,
-    },
-}
-
-impl Dissection {
-    /// Cuts every long thin component of the graph of `A + Aᵀ`, or `None` if there is none.
-    ///
-    /// Every component of at least [`MIN_SPLIT`] vertices is cut at the smallest level of the
-    /// middle third of a breadth-first level structure rooted at a pseudo-peripheral vertex, if
-    /// that level is small (at most `1/`[`MAX_SEPARATOR_SHARE`] of the component). `fwd` is
-    /// COLAMD's order: it orders the components not cut and breaks ties.
-    pub(crate) fn new(pattern: SymbolicSparseColMatRef<'_, u32>, fwd: &[u32]) -> Option<Self> {
-        let n = pattern.ncols();
-        let graph = Graph::symmetric(pattern);
-        let mut rank = vec![0_usize; n];
-        for (k, &c) in fwd.iter().enumerate() {
-            rank[c as usize] = k;
-        }
-        let mut visited = vec![false; n];
-        let mut level = vec![usize::MAX; n];
-        let mut pieces = Vec::new();
-        for &start in fwd {
-            let start = start as usize;
-            if visited[start] {
-                continue;
-            }
-            let members = graph.reach(start, &mut visited);
-            let cut = (members.len() >= MIN_SPLIT)
-                .then(|| graph.bisect(&members, &mut level))
-                .flatten();
-            pieces.push(match cut {
-                Some((near, far, separator)) => Piece::Cut {
-                    near,
-                    far,
-                    separator,
-                },
-                None => Piece::Whole(members),
-            });
-        }
-        pieces
-            .iter()
-            .any(|p| matches!(p, Piece::Cut { .. }))
-            .then_some(Self {
-                graph,
-                level,
-                rank,
-                pieces,
-            })
+/// COLAMD's order `fwd` split so that independent dependency chains alternate, or `None` if no
+/// component of the graph of `A + Aᵀ` is long and thin enough to cut.
+///
+/// A component of at least [`MIN_SPLIT`] vertices whose breadth-first levels from a
+/// pseudo-peripheral vertex all hold at most [`MAX_WIDTH`] vertices is cut at the smallest level
+/// of the middle third, if that level is at most `1/`[`MAX_SEPARATOR_SHARE`] of the component.
+/// Each half is ordered from its far end towards the separator ([`towards_separator`]), a
+/// component not cut in COLAMD's order (which also breaks ties); the columns of all these
+/// sequences are listed alternately, then the separators. Components do not interact, nor do the
+/// halves of a cut before its separator, so the alternation creates no fill.
+pub(crate) fn split_order(
+    pattern: SymbolicSparseColMatRef<'_, u32>,
+    fwd: &[u32],
+) -> Option<Vec<u32>> {
+    let n = pattern.ncols();
+    let graph = Graph::symmetric(pattern);
+    let mut rank = vec![0_usize; n];
+    for (k, &c) in fwd.iter().enumerate() {
+        rank[c as usize] = k;
     }
-
-    /// The split order: each half ordered from its far end towards the separator
-    /// ([`towards_separator`]), a component not cut in COLAMD's order, the columns of all these
-    /// sequences listed alternately, then the separators. Components do not interact, nor do the
-    /// halves of a cut before its separator, so the alternation creates no fill.
-    pub(crate) fn order(&self) -> Vec<u32> {
-        let mut sequences: Vec<Vec<u32>> = Vec::new();
-        let mut separators: Vec<u32> = Vec::new();
-        for piece in &self.pieces {
-            match piece {
-                Piece::Whole(members) => sequences.push(by_rank(members.clone(), &self.rank)),
-                Piece::Cut {
-                    near,
-                    far,
-                    separator,
-                } => {
-                    for (half, is_far) in [(near, false), (far, true)] {
-                        sequences.push(towards_separator(
-                            half.clone(),
-                            &self.graph,
-                            &self.level,
-                            &self.rank,
-                            is_far,
-                        ));
-                    }
-                    separators.extend(by_rank(separator.clone(), &self.rank));
-                }
-            }
+    let mut visited = vec![false; n];
+    let mut level = vec![usize::MAX; n];
+    let mut sequences: Vec<Vec<u32>> = Vec::new();
+    let mut separators: Vec<u32> = Vec::new();
+    let mut cut_any = false;
+    for &start in fwd {
+        let start = start as usize;
+        if visited[start] {
+            continue;
         }
-        // Longest first, so that the sequences still running at position `k` are a prefix.
-        sequences.sort_by_key(|s| std::cmp::Reverse(s.len()));
-        let mut order = Vec::with_capacity(self.rank.len());
-        let mut running = sequences.len();
-        for k in 0..sequences.first().map_or(0, Vec::len) {
-            while sequences[running - 1].len() <= k {
-                running -= 1;
+        let members = graph.reach(start, &mut visited);
+        let cut = (members.len() >= MIN_SPLIT)
+            .then(|| graph.bisect(&members, &mut level))
+            .flatten();
+        match cut {
+            Some((near, far, separator)) => {
+                cut_any = true;
+                // `level` holds this component's levels until the next component is cut.
+                sequences.push(towards_separator(near, &graph, &level, &rank, false));
+                sequences.push(towards_separator(far, &graph, &level, &rank, true));
+                separators.extend(by_rank(separator, &rank));
             }
-            order.extend(sequences[..running].iter().map(|s| s[k]));
+            None => sequences.push(by_rank(members, &rank)),
         }
-        order.extend(separators);
-        order
     }
+    if !cut_any {
+        return None;
+    }
+    // Longest first, so that the sequences still running at position `k` are a prefix.
+    sequences.sort_by_key(|s| std::cmp::Reverse(s.len()));
+    let mut order = Vec::with_capacity(n);
+    let mut running = sequences.len();
+    for k in 0..sequences.first().map_or(0, Vec::len) {
+        while sequences[running - 1].len() <= k {
+            running -= 1;
+        }
+        order.extend(sequences[..running].iter().map(|s| s[k]));
+    }
+    order.extend(separators);
+    Some(order)
 }
 
 /// The vertices of one half in elimination order from its far end towards the separator: by
@@ -419,7 +374,7 @@ mod tests {
         let p = pattern(n, &tridiagonal(n));
         let fwd = colamd_order(p.as_ref()).unwrap();
         assert!(is_permutation(&fwd, n));
-        let order = Dissection::new(p.as_ref(), &fwd).unwrap().order();
+        let order = split_order(p.as_ref(), &fwd).unwrap();
         assert!(is_permutation(&order, n));
         let separator = order[n - 1] as usize;
         assert!((separator as i64 - 500).abs() <= 1, "separator {separator}");
@@ -461,7 +416,7 @@ mod tests {
         }
         let p = pattern(n, &dense);
         let fwd = colamd_order(p.as_ref()).unwrap();
-        assert!(Dissection::new(p.as_ref(), &fwd).is_none());
+        assert!(split_order(p.as_ref(), &fwd).is_none());
         let side = 40;
         let mut mesh = Vec::new();
         for i in 0..side * side {
@@ -475,10 +430,10 @@ mod tests {
         }
         let p = pattern(side * side, &mesh);
         let fwd = colamd_order(p.as_ref()).unwrap();
-        assert!(Dissection::new(p.as_ref(), &fwd).is_none());
+        assert!(split_order(p.as_ref(), &fwd).is_none());
         let short = pattern(40, &tridiagonal(40));
         let fwd = colamd_order(short.as_ref()).unwrap();
-        assert!(Dissection::new(short.as_ref(), &fwd).is_none());
+        assert!(split_order(short.as_ref(), &fwd).is_none());
     }
 
     /// Two separate paths: each is split, and all four halves alternate before the separators.
@@ -489,7 +444,7 @@ mod tests {
         e.extend(tridiagonal(m).into_iter().map(|(r, c)| (r + m, c + m)));
         let p = pattern(2 * m, &e);
         let fwd = colamd_order(p.as_ref()).unwrap();
-        let order = Dissection::new(p.as_ref(), &fwd).unwrap().order();
+        let order = split_order(p.as_ref(), &fwd).unwrap();
         assert!(is_permutation(&order, 2 * m));
         let head: Vec<usize> = order[..4].iter().map(|&c| c as usize).collect();
         // The first four columns are the far ends of the four halves: two per path.

@@ -9,7 +9,7 @@ use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 
 use crate::error::LinearSolveError;
 use crate::newton::{LinearSolver, max_norm};
-use crate::ordering::{Dissection, colamd_order};
+use crate::ordering::{colamd_order, split_order};
 use crate::triplets::PatternMismatch;
 
 /// Sparse LU factorisation on faer, allocation-free in the Newton loop.
@@ -68,18 +68,10 @@ struct Factors {
     matrix: SparseColMat<u32, f64>,
     /// `slots[t]` is the position of triplet `t` in `matrix`'s value array.
     slots: Vec<u32>,
-    /// Column order: `col_fwd[k]` is the column eliminated at step `k` (COLAMD's, or its split
-    /// into interleaved halves); `col_inv` is its inverse.
-    col_fwd: Vec<u32>,
-    col_inv: Vec<u32>,
-    /// faer's numeric factors (filled by a pivoting factorisation).
-    lu: SimplicialLu<u32, f64>,
-    /// The factors the solves use, in pivot order (see [`Triangular`]).
-    own: Triangular,
+    /// The column order and the factors made with it.
+    order: Ordered,
     /// Dense work column of a refactorisation, zero between calls.
     column: Vec<f64>,
-    row_perm: Vec<u32>,
-    row_perm_inv: Vec<u32>,
     /// The permuted right-hand side of a solve.
     work: Vec<f64>,
     /// Workspace of factorisation and solve.
@@ -92,16 +84,44 @@ impl Clone for Factors {
         Self {
             matrix: self.matrix.clone(),
             slots: self.slots.clone(),
-            col_fwd: self.col_fwd.clone(),
-            col_inv: self.col_inv.clone(),
-            lu: self.lu.clone(),
-            own: self.own.clone(),
+            order: self.order.clone(),
             column: self.column.clone(),
-            row_perm: self.row_perm.clone(),
-            row_perm_inv: self.row_perm_inv.clone(),
             work: self.work.clone(),
             req: self.req,
             mem: MemBuffer::new(self.req),
+        }
+    }
+}
+
+/// A column order and what a factorisation with it sets: the row pivots and the factors. One
+/// value per order, so that [`SparseLu::analyse`] can keep one aside while it tries another.
+#[derive(Clone)]
+struct Ordered {
+    /// `col_fwd[k]` is the column eliminated at step `k` (COLAMD's, or its split into
+    /// interleaved halves); `col_inv` is its inverse.
+    col_fwd: Vec<u32>,
+    col_inv: Vec<u32>,
+    row_perm: Vec<u32>,
+    row_perm_inv: Vec<u32>,
+    /// faer's numeric factors (filled by a pivoting factorisation).
+    lu: SimplicialLu<u32, f64>,
+    /// The factors the solves use, in pivot order (see [`Triangular`]).
+    own: Triangular,
+}
+
+impl Ordered {
+    /// Storage for `n` unknowns, without an order yet.
+    fn new(n: usize) -> Self {
+        Self {
+            col_fwd: Vec::new(),
+            col_inv: Vec::new(),
+            row_perm: vec![0; n],
+            row_perm_inv: vec![0; n],
+            lu: SimplicialLu::new(),
+            own: Triangular {
+                u_inv: Vec::with_capacity(n),
+                ..Triangular::default()
+            },
         }
     }
 }
@@ -331,9 +351,8 @@ impl LinearSolver for SparseLu {
         }
         let colamd = colamd_order(pattern.as_ref())?;
         let split = (n >= SPLIT_MIN)
-            .then(|| Dissection::new(pattern.as_ref(), &colamd))
-            .flatten()
-            .map(|d| d.order());
+            .then(|| split_order(pattern.as_ref(), &colamd))
+            .flatten();
         let nnz = pattern.row_idx().len();
         let req = StackReq::or(
             simplicial::factorize_simplicial_numeric_lu_scratch::<u32, f64>(n, n),
@@ -344,16 +363,8 @@ impl LinearSolver for SparseLu {
         let mut factors = Factors {
             matrix: SparseColMat::new(pattern, vec![0.0; nnz]),
             slots,
-            col_fwd: Vec::new(),
-            col_inv: Vec::new(),
-            lu: SimplicialLu::new(),
-            own: Triangular {
-                u_inv: Vec::with_capacity(n),
-                ..Triangular::default()
-            },
+            order: Ordered::new(n),
             column: vec![0.0; n],
-            row_perm: vec![0; n],
-            row_perm_inv: vec![0; n],
             work: vec![0.0; n],
             req,
             mem,
@@ -362,15 +373,12 @@ impl LinearSolver for SparseLu {
         if let Some(order) = split {
             // COLAMD's warmed-up factors are kept aside while the split is tried, and come back
             // if the split fills in too much (or fails: COLAMD's order did not).
-            let colamd_state = factors.take_order();
-            factors.row_perm = vec![0; n];
-            factors.row_perm_inv = vec![0; n];
-            factors.own.u_inv = Vec::with_capacity(n);
+            let colamd_state = std::mem::replace(&mut factors.order, Ordered::new(n));
             let kept = factors
                 .warm_up(order)
                 .is_ok_and(|fill| fill as f64 <= self.split_max_fill * colamd_fill as f64);
             if !kept {
-                factors.restore_order(colamd_state);
+                factors.order = colamd_state;
             }
         }
         self.factors = Some(factors);
@@ -409,14 +417,14 @@ impl LinearSolver for SparseLu {
             }
             largest = largest.max(v.abs());
         }
-        self.reused_pivots = f.own.valid && refactor(f);
+        self.reused_pivots = f.order.own.valid && refactor(f);
         if !self.reused_pivots {
             numeric_lu(f)?;
-            f.own.capture(&f.lu)?;
+            f.order.own.capture(&f.order.lu)?;
         }
         let tol = self.pivot_tol * largest;
-        let col_perm = &f.col_fwd;
-        let t = &mut f.own;
+        let col_perm = &f.order.col_fwd;
+        let t = &mut f.order.own;
         t.u_inv.clear();
         for (j, w) in t.u_ptr.windows(2).enumerate() {
             // The pivot is U's diagonal entry, stored last in its column (checked by `capture`).
@@ -453,10 +461,10 @@ impl LinearSolver for SparseLu {
         // `solve_in_place_with_conj`, which copies the right-hand side twice and re-validates
         // both permutations on every call.
         let w: &mut [f64] = &mut f.work;
-        for (wi, &p) in w.iter_mut().zip(&f.row_perm) {
+        for (wi, &p) in w.iter_mut().zip(&f.order.row_perm) {
             *wi = rhs[p as usize];
         }
-        let t = &f.own;
+        let t = &f.order.own;
         let (l_ptr, l_row, l_val) = (&t.l_ptr, &t.l_row, &t.l_val);
         for j in 0..w.len() {
             let xj = w[j];
@@ -477,7 +485,7 @@ impl LinearSolver for SparseLu {
                 }
             }
         }
-        for (out, &c) in rhs.iter_mut().zip(&f.col_inv) {
+        for (out, &c) in rhs.iter_mut().zip(&f.order.col_inv) {
             *out = w[c as usize];
         }
         // The max-norm's vectorised pass finds the first non-finite entry.
@@ -495,15 +503,16 @@ impl LinearSolver for SparseLu {
 /// threshold partial pivoting. Returns whether it kept them; otherwise `f.own` is invalid until
 /// the next pivoting factorisation is captured.
 fn refactor(f: &mut Factors) -> bool {
-    let t = &mut f.own;
+    let o = &mut f.order;
+    let t = &mut o.own;
     let x = &mut f.column;
     let (a_pattern, a_val) = f.matrix.parts();
     let (a_ptr, a_row) = (a_pattern.col_ptr(), a_pattern.row_idx());
     let mut same_pivots = true;
-    for (j, &c) in f.col_fwd.iter().enumerate() {
+    for (j, &c) in o.col_fwd.iter().enumerate() {
         let c = c as usize;
         for p in a_ptr[c] as usize..a_ptr[c + 1] as usize {
-            x[f.row_perm_inv[a_row[p] as usize] as usize] = a_val[p];
+            x[o.row_perm_inv[a_row[p] as usize] as usize] = a_val[p];
         }
         let last = t.u_ptr[j + 1] as usize - 1;
         for p in t.u_ptr[j] as usize..last {
@@ -538,11 +547,12 @@ fn refactor(f: &mut Factors) -> bool {
 
 /// Numeric factorisation of `f.matrix` into `f.lu`, reusing all storage.
 fn numeric_lu(f: &mut Factors) -> Result<(), LinearSolveError> {
-    let col_perm = PermRef::new_checked(&f.col_fwd, &f.col_inv, f.col_fwd.len());
+    let o = &mut f.order;
+    let col_perm = PermRef::new_checked(&o.col_fwd, &o.col_inv, o.col_fwd.len());
     simplicial::factorize_simplicial_numeric_lu(
-        &mut f.row_perm,
-        &mut f.row_perm_inv,
-        &mut f.lu,
+        &mut o.row_perm,
+        &mut o.row_perm_inv,
+        &mut o.lu,
         f.matrix.as_ref(),
         col_perm,
         MemStack::new(&mut f.mem),
@@ -566,54 +576,23 @@ impl Factors {
     /// Newton loop normally does not allocate; its numeric result is not used). Returns the fill,
     /// `nnz(L) + nnz(U)`.
     fn warm_up(&mut self, order: Vec<u32>) -> Result<usize, LinearSolveError> {
-        self.col_inv.resize(order.len(), 0);
+        let o = &mut self.order;
+        o.col_inv.resize(order.len(), 0);
         for (k, &c) in order.iter().enumerate() {
-            self.col_inv[c as usize] = k as u32;
+            o.col_inv[c as usize] = k as u32;
         }
-        self.col_fwd = order;
+        o.col_fwd = order;
         let mut seed = 0x2545_f491_4f6c_dd1d_u64;
         for v in self.matrix.val_mut() {
             seed = lcg(seed);
             *v = 0.5 + unit(seed);
         }
         numeric_lu(self)?;
-        self.own.capture(&self.lu)?;
-        Ok(self.own.l_val.len() + self.own.u_val.len())
-    }
-
-    /// The state a warm-up sets, to keep one order's while another is tried.
-    fn take_order(&mut self) -> OrderState {
-        OrderState {
-            lu: std::mem::take(&mut self.lu),
-            own: std::mem::take(&mut self.own),
-            row_perm: std::mem::take(&mut self.row_perm),
-            row_perm_inv: std::mem::take(&mut self.row_perm_inv),
-            col_fwd: std::mem::take(&mut self.col_fwd),
-            col_inv: std::mem::take(&mut self.col_inv),
-        }
-    }
-
-    fn restore_order(&mut self, kept: OrderState) {
-        self.lu = kept.lu;
-        self.own = kept.own;
-        self.row_perm = kept.row_perm;
-        self.row_perm_inv = kept.row_perm_inv;
-        self.col_fwd = kept.col_fwd;
-        self.col_inv = kept.col_inv;
+        let o = &mut self.order;
+        o.own.capture(&o.lu)?;
+        Ok(o.own.l_val.len() + o.own.u_val.len())
     }
 }
-
-/// One column order's warmed-up factors ([`Factors::take_order`]).
-struct OrderState {
-    lu: SimplicialLu<u32, f64>,
-    own: Triangular,
-    row_perm: Vec<u32>,
-    row_perm_inv: Vec<u32>,
-    col_fwd: Vec<u32>,
-    col_inv: Vec<u32>,
-}
-
-impl Factors {}
 
 /// Patterns with fewer unknowns keep COLAMD's order without trying the split: their dependency
 /// chains are short, and the second warm-up would be set-up cost for little.
@@ -956,10 +935,12 @@ mod tests {
             let f = lu.factors.as_ref().unwrap();
             let colamd = colamd_order(f.matrix.symbolic()).unwrap();
             if p.n < SPLIT_MIN {
-                assert_eq!(f.col_fwd, colamd);
+                assert_eq!(f.order.col_fwd, colamd);
             } else {
-                let split = Dissection::new(f.matrix.symbolic(), &colamd).unwrap();
-                assert_eq!(f.col_fwd, split.order());
+                assert_eq!(
+                    Some(&f.order.col_fwd),
+                    split_order(f.matrix.symbolic(), &colamd).as_ref()
+                );
             }
             for _ in 0..3 {
                 lu.factor(&p.vals).unwrap();
@@ -1005,11 +986,11 @@ mod tests {
             let mut lu = SparseLu::new();
             lu.analyse(p.n, &p.rows, &p.cols).unwrap();
             let f = lu.factors.as_ref().unwrap();
-            let split = Dissection::new(
+            let split = split_order(
                 f.matrix.symbolic(),
                 &colamd_order(f.matrix.symbolic()).unwrap(),
             );
-            assert_eq!(Some(&f.col_fwd), split.map(|d| d.order()).as_ref());
+            assert_eq!(Some(&f.order.col_fwd), split.as_ref());
             let x_true = random_vector(p.n, &mut rng);
             let rhs = p.apply(&x_true);
             let xs = solve_with(&mut lu, &p, &rhs);
@@ -1302,10 +1283,12 @@ mod tests {
         );
         let f = lu.factors.as_ref().unwrap();
         let colamd = colamd_order(f.matrix.symbolic()).unwrap();
-        let dissection = Dissection::new(f.matrix.symbolic(), &colamd);
-        assert_eq!(dissection.is_some(), split.is_some());
+        assert_eq!(
+            split_order(f.matrix.symbolic(), &colamd).is_some(),
+            split.is_some()
+        );
         if let Some(kept) = split {
-            assert_eq!(f.col_fwd != colamd, kept);
+            assert_eq!(f.order.col_fwd != colamd, kept);
         }
         let mut vals = p.vals.clone();
         let mut x = vec![0.0; p.n];
