@@ -135,9 +135,48 @@ pub struct AssembledModel {
     /// query runs every step, and a ladder of 10⁵ sections has one source); none: autonomous.
     timed_parts: Vec<usize>,
     timed_couplings: Vec<usize>,
+    /// The one part's model when it is the whole system (it covers every coordinate and there
+    /// are no couplings): its gradient and force are the system's, called directly (an explicit
+    /// composition of a one-part scene evaluates them once per substep, a few nanoseconds each).
+    sole: Option<Arc<dyn Model + Send + Sync>>,
 }
 
 impl AssembledModel {
+    /// [`Model::lagrangian_gradient`] part by part, then the coupling potentials in `L`.
+    fn gradient_of_parts(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+        let covered: usize = self.parts.last().map_or(0, |p| p.offset + p.dim);
+        lq[covered..].fill(0.0);
+        lv[covered..].fill(0.0);
+        for g in &self.groups {
+            g.model.lagrangian_gradient_at(&g.offsets, q, v, lq, lv);
+        }
+        for c in self
+            .couplings
+            .iter()
+            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
+        {
+            let g = c
+                .element
+                .potential_gradient(combine(q, &c.a), combine(q, &c.b));
+            for (side, coefficients) in c.ports().into_iter().enumerate() {
+                for &(i, k) in coefficients {
+                    lq[i] -= k * g[side];
+                }
+            }
+        }
+    }
+
+    /// [`Model::force`] part by part, then the couplings' forces.
+    fn force_of_parts(&self, q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
+        // One pass zeroes the coordinates of the parts without a force (a fill per instance was
+        // a library call per one-coordinate capacitor); the parts with a force set theirs.
+        f.fill(0.0);
+        for g in self.groups.iter().filter(|g| g.has_force) {
+            g.model.force_at(&g.offsets, q, v, t, f);
+        }
+        self.stamp_coupling_force(q, v, t, f);
+    }
+
     fn stamp_coupling_force(&self, q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
         for c in &self.couplings {
             let x = [combine(q, &c.a), combine(q, &c.b)];
@@ -181,26 +220,13 @@ impl Model for AssembledModel {
         l
     }
 
+    // Inlined into the integrator (another crate), so that a one-part system costs one dynamic
+    // call per evaluation, the part's.
+    #[inline]
     fn lagrangian_gradient(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        let covered: usize = self.parts.last().map_or(0, |p| p.offset + p.dim);
-        lq[covered..].fill(0.0);
-        lv[covered..].fill(0.0);
-        for g in &self.groups {
-            g.model.lagrangian_gradient_at(&g.offsets, q, v, lq, lv);
-        }
-        for c in self
-            .couplings
-            .iter()
-            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
-        {
-            let g = c
-                .element
-                .potential_gradient(combine(q, &c.a), combine(q, &c.b));
-            for (side, coefficients) in c.ports().into_iter().enumerate() {
-                for &(i, k) in coefficients {
-                    lq[i] -= k * g[side];
-                }
-            }
+        match &self.sole {
+            Some(model) => model.lagrangian_gradient(q, v, lq, lv),
+            None => self.gradient_of_parts(q, v, lq, lv),
         }
     }
 
@@ -240,14 +266,13 @@ impl Model for AssembledModel {
         self.has_force
     }
 
+    #[inline]
     fn force(&self, q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
-        // One pass zeroes the coordinates of the parts without a force (a fill per instance was
-        // a library call per one-coordinate capacitor); the parts with a force set theirs.
-        f.fill(0.0);
-        for g in self.groups.iter().filter(|g| g.has_force) {
-            g.model.force_at(&g.offsets, q, v, t, f);
+        match &self.sole {
+            Some(model) if self.has_force => model.force(q, v, t, f),
+            Some(_) => f.fill(0.0),
+            None => self.force_of_parts(q, v, t, f),
         }
-        self.stamp_coupling_force(q, v, t, f);
     }
 
     fn force_jacobian(&self, q: &[f64], v: &[f64], t: f64, jac: &mut ForceJacobian) {
@@ -933,6 +958,10 @@ impl Assembler {
         let timed_couplings = (0..couplings.len())
             .filter(|&i| !couplings[i].element.is_autonomous())
             .collect();
+        let sole = match hot.as_slice() {
+            [part] if part.dim == dim && couplings.is_empty() => Some(Arc::clone(&part.model)),
+            _ => None,
+        };
         let model = AssembledModel {
             groups: group_parts(&hot),
             parts: hot,
@@ -944,6 +973,7 @@ impl Assembler {
             has_update_limit: parts.iter().any(|p| p.model.has_update_limit()),
             timed_parts,
             timed_couplings,
+            sole,
         };
         let constraints = AssembledConstraints {
             parts,
@@ -1524,6 +1554,72 @@ mod tests {
             println!("{rep}: derivatives against central differences {worst:.1e}");
             assert!(worst <= DIFFERENCES, "{rep}: derivatives off by {worst:e}");
         }
+    }
+
+    /// A one-part system is the part: its gradient and force are the part's, bit for bit, in
+    /// every representation; a coupling between two of the part's own ports adds its spring and
+    /// damper to them (so the part alone is no longer the whole system).
+    #[test]
+    fn a_one_part_system_is_the_part_unless_coupled_to_itself() {
+        let bead = Bead {
+            m: 1.3,
+            k: 0.7,
+            a: 0.2,
+            c: 0.05,
+        };
+        let (q, v) = ([0.4, -0.9], [1.1, 0.3]);
+        let mut alone = Interconnection::new();
+        alone
+            .add_subsystem(
+                Subsystem::new("P", Pair)
+                    .with_port("a", 0)
+                    .with_port("b", 1),
+            )
+            .unwrap();
+        let mut single = Interconnection::new();
+        single.add_subsystem(Subsystem::new("B", bead)).unwrap();
+        for rep in [
+            Representation::Monolithic,
+            Representation::Constraint,
+            Representation::InteractionForce,
+        ] {
+            for (graph, part) in [
+                (&alone, &Pair as &dyn Model),
+                (&single, &bead as &dyn Model),
+            ] {
+                let model = Assembler::assemble(graph, rep).unwrap().model;
+                let n = part.dim();
+                let (mut lq, mut lv) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+                let (mut pq, mut pv) = (vec![0.0; n], vec![0.0; n]);
+                model.lagrangian_gradient(&q[..n], &v[..n], &mut lq, &mut lv);
+                part.lagrangian_gradient(&q[..n], &v[..n], &mut pq, &mut pv);
+                assert_eq!((&lq, &lv), (&pq, &pv), "{rep}: gradient");
+                let (mut f, mut pf) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+                model.force(&q[..n], &v[..n], 0.0, &mut f);
+                part.force(&q[..n], &v[..n], 0.0, &mut pf);
+                assert_eq!(f, pf, "{rep}: force");
+            }
+        }
+        // P's ports a = q₀ and b = q₁ joined by a spring (k = 3, rest 0.2) and a damper (c = 0.4).
+        let mut coupled = alone.clone();
+        let (a, b) = (
+            coupled.port("P", "a").unwrap(),
+            coupled.port("P", "b").unwrap(),
+        );
+        coupled.coupling("s", a, b, LinearSpring { k: 3.0, rest: 0.2 });
+        coupled.coupling("d", a, b, LinearDamper { c: 0.4 });
+        let model = Assembler::assemble(&coupled, Representation::Monolithic)
+            .unwrap()
+            .model;
+        let (mut lq, mut lv) = ([0.0; 2], [0.0; 2]);
+        model.lagrangian_gradient(&q, &v, &mut lq, &mut lv);
+        let stretch = 3.0 * (q[0] - q[1] - 0.2);
+        assert!((lq[0] - (-(q[0] - q[1]) - stretch)).abs() <= 1e-15);
+        assert!((lq[1] - ((q[0] - q[1]) + 0.3 * v[0] + stretch)).abs() <= 1e-15);
+        let mut f = [f64::NAN; 2];
+        model.force(&q, &v, 0.0, &mut f);
+        let damping = -0.4 * (v[0] - v[1]);
+        assert_eq!(f, [damping, -damping]);
     }
 
     /// The constraint rows, written out: P's internal row at P's offset, then one row per node,
