@@ -408,12 +408,50 @@ enum Affine {
 /// The end momentum of a step with a constant Newton matrix as an affine map of the unknowns.
 #[derive(Debug)]
 struct LinearEnd {
-    /// `E = ∂p_{k+1}/∂x`, stamped at the first step (empty until then).
-    jacobian: Triplets,
+    /// `E = ∂p_{k+1}/∂x`, stamped at the first step (empty until then), by rows: row `r`'s
+    /// entries are `start[r]..start[r + 1]` of `cols` and `values`, in the order stamped.
+    start: Vec<usize>,
+    cols: Vec<usize>,
+    values: Vec<f64>,
     /// The guess `x₀` of the current step.
     guess: Vec<f64>,
     /// `p_{k+1}(x₀)`.
     at_guess: Vec<f64>,
+}
+
+impl LinearEnd {
+    /// Keeps `E` (triplets of an `n`-row matrix) by rows, each row's entries in stamped order.
+    fn set_jacobian(&mut self, jacobian: &Triplets, n: usize) {
+        let mut start = vec![0; n + 1];
+        for &r in jacobian.rows() {
+            start[r + 1] += 1;
+        }
+        for r in 0..n {
+            start[r + 1] += start[r];
+        }
+        let mut next = start.clone();
+        self.cols = vec![0; jacobian.len()];
+        self.values = vec![0.0; jacobian.len()];
+        for (r, c, e) in jacobian.iter() {
+            self.cols[next[r]] = c;
+            self.values[next[r]] = e;
+            next[r] += 1;
+        }
+        self.start = start;
+    }
+
+    /// `p_{k+1}(x) = p_{k+1}(x₀) + E (x − x₀)` into `p`. Row by row with the sum in a register:
+    /// the same additions in the same order as entry by entry into `p`, without a store and a
+    /// reload per entry.
+    fn end_momentum(&self, x: &[f64], p: &mut [f64]) {
+        for (r, (pr, at)) in p.iter_mut().zip(&self.at_guess).enumerate() {
+            let range = self.start[r]..self.start[r + 1];
+            *pr = self.cols[range.clone()]
+                .iter()
+                .zip(&self.values[range])
+                .fold(*at, |acc, (&c, e)| acc + e * (x[c] - self.guess[c]));
+        }
+    }
 }
 
 /// One substep of a scheme: its step equations, its Newton solver (which keeps that substep's
@@ -523,7 +561,9 @@ impl Stage {
             known: 0,
             scratch: vec![0.0; unknowns],
             linear_end: LinearEnd {
-                jacobian: Triplets::new(),
+                start: Vec::new(),
+                cols: Vec::new(),
+                values: Vec::new(),
                 guess: vec![0.0; unknowns],
                 at_guess: vec![0.0; model.dim()],
             },
@@ -1336,18 +1376,14 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let stage = &mut self.stages[i];
         if constant {
             let end = &mut stage.linear_end;
-            if end.jacobian.is_empty() {
+            if end.start.is_empty() {
+                let mut jacobian = Triplets::new();
                 stage
                     .step
-                    .end_momentum_jacobian(&self.model, &stage.x, &mut end.jacobian);
+                    .end_momentum_jacobian(&self.model, &stage.x, &mut jacobian);
+                end.set_jacobian(&jacobian, self.p_next.len());
             }
-            // Slices, not the vectors: their pointers then stay in registers across the stores.
-            let p_next: &mut [f64] = &mut self.p_next;
-            p_next.copy_from_slice(&end.at_guess);
-            let (x, guess): (&[f64], &[f64]) = (&stage.x, &end.guess);
-            for (r, c, e) in end.jacobian.iter() {
-                p_next[r] += e * (x[c] - guess[c]);
-            }
+            end.end_momentum(&stage.x, &mut self.p_next);
         } else {
             stage
                 .step
