@@ -420,8 +420,10 @@ struct LinearEnd {
 }
 
 impl LinearEnd {
-    /// Keeps `E` (triplets of an `n`-row matrix) by rows, each row's entries in stamped order.
-    fn set_jacobian(&mut self, jacobian: &Triplets, n: usize) {
+    /// Keeps `E` (triplets with one row per momentum) by rows, each row's entries in stamped
+    /// order.
+    fn set_jacobian(&mut self, jacobian: &Triplets) {
+        let n = self.at_guess.len();
         let mut start = vec![0; n + 1];
         for &r in jacobian.rows() {
             start[r + 1] += 1;
@@ -1381,7 +1383,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 stage
                     .step
                     .end_momentum_jacobian(&self.model, &stage.x, &mut jacobian);
-                end.set_jacobian(&jacobian, self.p_next.len());
+                end.set_jacobian(&jacobian);
             }
             end.end_momentum(&stage.x, &mut self.p_next);
         } else {
