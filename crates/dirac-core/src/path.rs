@@ -92,8 +92,8 @@ pub(crate) struct NodeTable {
 impl NodeTable {
     pub fn new(path: &PolynomialPath, rule: &QuadratureRule) -> Self {
         let s = path.degree();
-        let mut phi = Vec::new();
-        let mut dphi = Vec::new();
+        let mut phi = Vec::with_capacity(rule.nodes().len() * (s + 1));
+        let mut dphi = Vec::with_capacity(rule.nodes().len() * (s + 1));
         for &c in rule.nodes() {
             for j in 0..=s {
                 phi.push(path.basis(c, j));

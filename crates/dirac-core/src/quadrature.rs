@@ -102,10 +102,16 @@ impl QuadratureRule {
         Self::sorted(QuadratureKind::Lobatto(n), nodes, weights)
     }
 
-    fn sorted(kind: QuadratureKind, nodes: Vec<f64>, weights: Vec<f64>) -> Self {
-        let mut pairs: Vec<(f64, f64)> = nodes.into_iter().zip(weights).collect();
-        pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let (mut nodes, weights): (Vec<f64>, Vec<f64>) = pairs.into_iter().unzip();
+    fn sorted(kind: QuadratureKind, mut nodes: Vec<f64>, mut weights: Vec<f64>) -> Self {
+        // Insertion sort of the pairs by node, in place (a handful of nodes).
+        for i in 1..nodes.len() {
+            let mut j = i;
+            while j > 0 && nodes[j - 1].total_cmp(&nodes[j]).is_gt() {
+                nodes.swap(j - 1, j);
+                weights.swap(j - 1, j);
+                j -= 1;
+            }
+        }
         // Pin symmetric nodes exactly (c and 1 − c), and the ends, to keep symmetric rules symmetric.
         let n = nodes.len();
         for i in 0..n / 2 {

@@ -191,9 +191,10 @@ struct BlockMerge {
 
 impl BlockMerge {
     fn new(hess: &LagrangianHessian, used: [bool; 4]) -> Self {
-        let mut index = std::collections::HashMap::new();
-        let mut positions = Vec::new();
-        let mut slot = Vec::new();
+        let count = hess.qq.len() + 2 * hess.qv.len() + hess.vv.len();
+        let mut index = std::collections::HashMap::with_capacity(count);
+        let mut positions = Vec::with_capacity(count);
+        let mut slot = Vec::with_capacity(count);
         let terms = hess
             .qq
             .iter()
