@@ -1,7 +1,7 @@
 //! Dense LU with partial pivoting on preallocated storage, for small step systems.
 
 use crate::error::LinearSolveError;
-use crate::newton::{LinearSolver, max_norm};
+use crate::newton::LinearSolver;
 
 /// Dense LU factorisation with partial pivoting, allocation-free after [`LinearSolver::analyse`].
 ///
@@ -15,6 +15,9 @@ pub struct DenseLu {
     rows: Vec<usize>,
     cols: Vec<usize>,
     a: Vec<f64>,
+    /// `1/U_kk`: the back substitution multiplies instead of dividing (a division's latency sits
+    /// on the substitution's dependency chain).
+    inv_pivot: Vec<f64>,
     perm: Vec<usize>,
     work: Vec<f64>,
 }
@@ -52,6 +55,7 @@ impl Default for DenseLu {
             rows: Vec::new(),
             cols: Vec::new(),
             a: Vec::new(),
+            inv_pivot: Vec::new(),
             perm: Vec::new(),
             work: Vec::new(),
         }
@@ -69,6 +73,7 @@ impl LinearSolver for DenseLu {
         self.rows = rows.to_vec();
         self.cols = cols.to_vec();
         self.a = vec![0.0; n * n];
+        self.inv_pivot = vec![0.0; n];
         self.perm = (0..n).collect();
         self.work = vec![0.0; n];
         Ok(())
@@ -104,6 +109,7 @@ impl LinearSolver for DenseLu {
                 }
             }
             let inv = 1.0 / a[k * n + k];
+            self.inv_pivot[k] = inv;
             for i in k + 1..n {
                 a[k * n + i] *= inv;
             }
@@ -138,8 +144,8 @@ impl LinearSolver for DenseLu {
         }
         // Backward substitution with the upper factor.
         for k in (0..n).rev() {
-            let col = &a[k * n..k * n + k + 1];
-            rhs[k] /= col[k];
+            let col = &a[k * n..k * n + k];
+            rhs[k] *= self.inv_pivot[k];
             let xk = rhs[k];
             if xk != 0.0 {
                 for (r, u) in rhs[..k].iter_mut().zip(&col[..k]) {
@@ -147,11 +153,13 @@ impl LinearSolver for DenseLu {
                 }
             }
         }
-        // The max-norm's vectorised pass finds the first non-finite entry.
-        match max_norm(rhs) {
-            (norm, index) if !norm.is_finite() => Err(LinearSolveError::NonFinite { index }),
-            _ => Ok(()),
+        // A non-finite entry makes the sum non-finite (so may a finite overflow: then look).
+        if !rhs.iter().sum::<f64>().is_finite()
+            && let Some(index) = rhs.iter().position(|x| !x.is_finite())
+        {
+            return Err(LinearSolveError::NonFinite { index });
         }
+        Ok(())
     }
 }
 
@@ -188,6 +196,30 @@ mod tests {
         for (got, want) in b.iter().zip(&x) {
             assert!((got - want).abs() < 1e-14, "{got} vs {want}");
         }
+    }
+
+    /// The finiteness check of a solve: a NaN in the right-hand side is an error, while finite
+    /// entries whose sum overflows are a valid solution (the check sums the entries first).
+    #[test]
+    fn a_nan_solution_is_an_error_and_an_overflowing_sum_is_not() {
+        // A = I: the solution is the right-hand side.
+        let (r, c) = pattern(3);
+        let vals: Vec<f64> = r
+            .iter()
+            .zip(&c)
+            .map(|(i, j)| if i == j { 1.0 } else { 0.0 })
+            .collect();
+        let mut lu = DenseLu::new();
+        lu.analyse(3, &r, &c).unwrap();
+        lu.factor(&vals).unwrap();
+        let mut b = [1.0, f64::NAN, 2.0];
+        assert!(matches!(
+            lu.solve_in_place(&mut b),
+            Err(LinearSolveError::NonFinite { .. })
+        ));
+        let mut big = [f64::MAX, f64::MAX, -1.0];
+        assert_eq!(lu.solve_in_place(&mut big), Ok(()));
+        assert_eq!(big, [f64::MAX, f64::MAX, -1.0]);
     }
 
     #[test]
