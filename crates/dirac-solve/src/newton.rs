@@ -826,8 +826,34 @@ fn unreachable_converged() -> Result<NewtonStats, NewtonError> {
 /// Blocks of [`NORM_BLOCK`] entries are reduced lane-wise (independent maxima and sums of the
 /// magnitudes), so the pass vectorises; a block whose sum is not finite (it holds a NaN or an
 /// infinity, or its finite magnitudes overflowed) is searched for a non-finite entry, and only
-/// the block holding the maximum is searched for its index.
+/// the block holding the maximum is searched for its index. Vectors of at most [`SHORT_NORM`]
+/// entries (a few-dof model's step) take one plain pass instead: the blocked pass's set-up and
+/// second search cost more than the whole vector there.
+#[inline]
 pub(crate) fn max_norm(v: &[f64]) -> (f64, usize) {
+    if v.len() <= SHORT_NORM {
+        let mut best = 0.0;
+        let mut at = 0;
+        for (i, x) in v.iter().enumerate() {
+            let a = x.abs();
+            if !a.is_finite() {
+                return (a, i);
+            }
+            if a > best {
+                best = a;
+                at = i;
+            }
+        }
+        return (best, at);
+    }
+    blocked_max_norm(v)
+}
+
+/// Vectors up to this length take [`max_norm`]'s plain pass.
+const SHORT_NORM: usize = 16;
+
+/// [`max_norm`]'s blocked pass.
+fn blocked_max_norm(v: &[f64]) -> (f64, usize) {
     let mut best = 0.0;
     let mut best_block = 0;
     for (b, block) in v.chunks(NORM_BLOCK).enumerate() {
@@ -928,7 +954,7 @@ mod tests {
             seed ^= seed << 17;
             (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
-        for len in [0, 1, 3, 4, 5, 63, 64, 65, 130, 1000] {
+        for len in [0, 1, 3, 4, 5, 16, 17, 63, 64, 65, 130, 1000] {
             let mut v: Vec<f64> = (0..len).map(|_| next()).collect();
             assert_eq!(max_norm(&v), plain(&v), "len {len}");
             if len < 3 {
