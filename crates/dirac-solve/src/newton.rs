@@ -932,20 +932,15 @@ mod tests {
     /// and lane sizes.
     #[test]
     fn max_norm_finds_the_first_largest_entry_or_the_first_non_finite_one() {
+        // The specification: the first non-finite entry if there is one, else the largest
+        // magnitude and the first index attaining it.
         fn plain(v: &[f64]) -> (f64, usize) {
-            let mut best = 0.0;
-            let mut at = 0;
-            for (i, x) in v.iter().enumerate() {
-                let a = x.abs();
-                if !a.is_finite() {
-                    return (a, i);
-                }
-                if a > best {
-                    best = a;
-                    at = i;
-                }
+            if let Some(i) = v.iter().position(|x| !x.is_finite()) {
+                return (v[i].abs(), i);
             }
-            (best, at)
+            let largest = v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            let at = v.iter().position(|x| x.abs() == largest).unwrap_or(0);
+            (largest, at)
         }
         let mut seed = 0x2545_f491_4f6c_dd1d_u64;
         let mut next = move || {
