@@ -71,7 +71,9 @@ pub struct IntegratorOptions {
     pub h: f64,
     /// Dense or sparse linear algebra.
     pub solver: SolverChoice,
-    /// Newton tolerances.
+    /// Newton tolerances. [`IntegratorOptions::new`] takes the defaults with
+    /// [`NewtonOptions::accept_at_equation_roundoff`] on; steps of models with update limits
+    /// (exponential devices) run with it off whatever is set here.
     pub newton: NewtonOptions,
     /// Opt-in: for small linear autonomous models with constant constraint forms, precompute the
     /// step as a fixed affine map of `(q_k, p_k)` and apply it by matrix–vector products (see
@@ -212,7 +214,10 @@ impl IntegratorOptions {
             scheme: Scheme::Plus,
             h,
             solver: SolverChoice::Auto,
-            newton: NewtonOptions::default(),
+            newton: NewtonOptions {
+                accept_at_equation_roundoff: true,
+                ..NewtonOptions::default()
+            },
             affine_map: false,
             breakpoints: true,
             composition: Composition::single(),
@@ -2027,6 +2032,7 @@ fn newton_options<M: Model>(
     }
     if model.has_update_limit() {
         newton.start_contraction = None;
+        newton.accept_at_equation_roundoff = false;
     }
     newton
 }
