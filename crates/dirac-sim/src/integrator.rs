@@ -935,7 +935,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let t_end = self.t0 + (self.k + 1) as f64 * h;
         // An explicit step that nothing splits (no start ramp, no source breakpoint ahead, no
         // error control) is one pass over its substeps, without the general path's bookkeeping
-        // (a tenth of a Hénon–Heiles step); if it fails, the general path takes it again and
+        // (about 6 % of a Hénon–Heiles step); if it fails, the general path takes it again and
         // cuts it.
         let unsplit = !self.options.breakpoints
             || (self.options.corner_ramp.is_none() && self.model.next_breakpoint(self.t).is_none());
