@@ -142,6 +142,14 @@ pub struct AssembledModel {
 }
 
 impl AssembledModel {
+    /// The couplings whose potential is part of `L` (monolithic representation): the ones the
+    /// Lagrangian, its gradient and its Hessian include.
+    fn couplings_in_lagrangian(&self) -> impl Iterator<Item = &GlobalCoupling> {
+        self.couplings
+            .iter()
+            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
+    }
+
     /// [`Model::lagrangian_gradient`] part by part, then the coupling potentials in `L`.
     fn gradient_of_parts(&self, q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
         let covered: usize = self.parts.last().map_or(0, |p| p.offset + p.dim);
@@ -150,11 +158,7 @@ impl AssembledModel {
         for g in &self.groups {
             g.model.lagrangian_gradient_at(&g.offsets, q, v, lq, lv);
         }
-        for c in self
-            .couplings
-            .iter()
-            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
-        {
+        for c in self.couplings_in_lagrangian() {
             let g = c
                 .element
                 .potential_gradient(combine(q, &c.a), combine(q, &c.b));
@@ -210,11 +214,7 @@ impl Model for AssembledModel {
             let r = p.offset..p.offset + p.dim;
             l += p.model.lagrangian(&q[r.clone()], &v[r]);
         }
-        for c in self
-            .couplings
-            .iter()
-            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
-        {
+        for c in self.couplings_in_lagrangian() {
             l -= c.element.potential(combine(q, &c.a), combine(q, &c.b));
         }
         l
@@ -241,11 +241,7 @@ impl Model for AssembledModel {
         h.qq.set_offset(0, 0);
         h.qv.set_offset(0, 0);
         h.vv.set_offset(0, 0);
-        for c in self
-            .couplings
-            .iter()
-            .filter(|c| c.potential_in_lagrangian && c.element.has_potential())
-        {
+        for c in self.couplings_in_lagrangian() {
             let hess = c
                 .element
                 .potential_hessian(combine(q, &c.a), combine(q, &c.b));
