@@ -369,16 +369,16 @@ impl LinearSolver for SparseLu {
             req,
             mem,
         };
-        let colamd_fill = factors.warm_up(colamd)?;
+        let colamd_fill = factors.warm_up(colamd.clone())?;
         if let Some(order) = split {
-            // COLAMD's warmed-up factors are kept aside while the split is tried, and come back
-            // if the split fills in too much (or fails: COLAMD's order did not).
-            let colamd_state = std::mem::replace(&mut factors.order, Ordered::new(n));
+            // The split is warmed up in COLAMD's storage, already grown to about the size it
+            // needs; if it fills in too much (or fails: COLAMD's order did not), COLAMD's order
+            // is warmed up again.
             let kept = factors
                 .warm_up(order)
                 .is_ok_and(|fill| fill as f64 <= self.split_max_fill * colamd_fill as f64);
             if !kept {
-                factors.order = colamd_state;
+                factors.warm_up(colamd)?;
             }
         }
         self.factors = Some(factors);
