@@ -1537,14 +1537,18 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .jacobian(&self.model, &self.constraints, &stage.x, &mut jacobian);
             let size = stage.step.unknowns();
             // A zero-free diagonal is a perfect matching: full structural rank, nothing to
-            // diagnose (the common case of models with a mass on every coordinate).
+            // diagnose (the common case of models with a mass on every coordinate). Otherwise
+            // (multiplier rows) a matching search decides, and the partition below is built only
+            // when it finds none.
             let mut on_diagonal = vec![false; size];
             for (&r, &c) in jacobian.rows().iter().zip(jacobian.cols()) {
                 if r == c {
                     on_diagonal[r] = true;
                 }
             }
-            if on_diagonal.iter().all(|&d| d) {
+            if on_diagonal.iter().all(|&d| d)
+                || Structure::has_perfect_matching(size, jacobian.rows(), jacobian.cols())
+            {
                 continue;
             }
             let entries: Vec<(usize, usize)> = jacobian

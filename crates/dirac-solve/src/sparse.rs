@@ -637,7 +637,11 @@ fn slot_map(
 /// which depends on the column order and misses some cases: on random 30×30 patterns with a
 /// planted deficiency it let 11 % through, returning NaN or finite garbage (|x| ~ 1e18). This is Duff's augmenting-path algorithm (MC21, as in
 /// CSparse's `cs_maxtrans`) with a cheap-assignment lookahead, written without recursion.
-fn structural_rank_check(n: usize, col_ptr: &[u32], row_idx: &[u32]) -> Result<(), usize> {
+pub(crate) fn structural_rank_check(
+    n: usize,
+    col_ptr: &[u32],
+    row_idx: &[u32],
+) -> Result<(), usize> {
     const NONE: usize = usize::MAX;
     let mut row_match = vec![NONE; n]; // column matched to each row
     let mut cheap: Vec<usize> = col_ptr[..n].iter().map(|&p| p as usize).collect();

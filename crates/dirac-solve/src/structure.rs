@@ -121,6 +121,41 @@ impl Structure {
         self.cols
     }
 
+    /// Whether the square `n × n` pattern of the triplets `(rows[t], cols[t])` (duplicates
+    /// allowed) has a perfect matching, i.e. admits a nonsingular matrix. A cheaper test than
+    /// [`Structure::analyse`] (one column-compressed copy and an augmenting-path search, no
+    /// partition) for callers that need the partition only when the answer is no.
+    ///
+    /// # Panics
+    /// If `rows` and `cols` differ in length or an entry lies outside `n × n` (programming
+    /// errors of the caller).
+    #[must_use]
+    pub fn has_perfect_matching(n: usize, rows: &[usize], cols: &[usize]) -> bool {
+        assert_eq!(rows.len(), cols.len(), "one column per row index");
+        if u32::try_from(n.max(rows.len())).is_err() {
+            let entries: Vec<(usize, usize)> =
+                rows.iter().copied().zip(cols.iter().copied()).collect();
+            return Self::analyse(n, n, &entries, &vec![0; n]).rank() == n;
+        }
+        // Column-compressed, 32-bit (both sizes checked above).
+        let mut col_ptr = vec![0_u32; n + 1];
+        for &c in cols {
+            assert!(c < n, "entry in column {c} outside {n}x{n}");
+            col_ptr[c + 1] += 1;
+        }
+        for c in 0..n {
+            col_ptr[c + 1] += col_ptr[c];
+        }
+        let mut fill = col_ptr.clone();
+        let mut row_idx = vec![0_u32; rows.len()];
+        for (&r, &c) in rows.iter().zip(cols) {
+            assert!(r < n, "entry in row {r} outside {n}x{n}");
+            row_idx[fill[c] as usize] = r as u32;
+            fill[c] += 1;
+        }
+        crate::sparse::structural_rank_check(n, &col_ptr, &row_idx).is_ok()
+    }
+
     /// The structural rank: the size of a maximum matching.
     #[must_use]
     pub fn rank(&self) -> usize {
@@ -350,6 +385,46 @@ fn maximum_matching(adjacency: &Csr, rows: usize, cols: usize) -> (Vec<usize>, V
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `has_perfect_matching` (MC21's augmenting paths over columns) agrees with the rank of
+    /// [`Structure::analyse`] (Hopcroft–Karp over rows) on random square patterns with
+    /// duplicates, both answers occurring, and on the empty pattern.
+    #[test]
+    fn perfect_matching_test_agrees_with_the_full_analysis() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = |m: usize| {
+            seed = seed
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (seed >> 33) as usize % m
+        };
+        let (mut full, mut deficient) = (0, 0);
+        for _ in 0..2000 {
+            let n = 1 + next(12);
+            let count = next(3 * n + 1);
+            let (rows, cols): (Vec<usize>, Vec<usize>) =
+                (0..count).map(|_| (next(n), next(n))).unzip();
+            let entries: Vec<(usize, usize)> =
+                rows.iter().copied().zip(cols.iter().copied()).collect();
+            let expected = flat(n, n, &entries).rank() == n;
+            assert_eq!(
+                Structure::has_perfect_matching(n, &rows, &cols),
+                expected,
+                "{n}x{n}: {entries:?}"
+            );
+            if expected {
+                full += 1;
+            } else {
+                deficient += 1;
+            }
+        }
+        assert!(
+            full > 100 && deficient > 100,
+            "{full} full, {deficient} deficient"
+        );
+        assert!(Structure::has_perfect_matching(0, &[], &[]));
+        assert!(!Structure::has_perfect_matching(1, &[], &[]));
+    }
 
     fn flat(rows: usize, cols: usize, entries: &[(usize, usize)]) -> Structure {
         Structure::analyse(rows, cols, entries, &vec![0; cols])
