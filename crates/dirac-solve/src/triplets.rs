@@ -31,6 +31,9 @@ pub struct PatternMismatch {
 }
 
 impl Triplets {
+    /// Entries reserved when the first entry is recorded.
+    const FIRST_CAPACITY: usize = 32;
+
     /// An empty stream in recording mode.
     #[must_use]
     pub fn new() -> Self {
@@ -81,6 +84,13 @@ impl Triplets {
             }
             self.cursor += 1;
         } else {
+            // The first entry reserves room for a small model's pattern, instead of growing
+            // from empty through several reallocations (streams never written stay unallocated).
+            if self.rows.capacity() == 0 {
+                self.rows.reserve(Self::FIRST_CAPACITY);
+                self.cols.reserve(Self::FIRST_CAPACITY);
+                self.values.reserve(Self::FIRST_CAPACITY);
+            }
             self.rows.push(row);
             self.cols.push(col);
             self.values.push(value);
