@@ -170,11 +170,9 @@ pub struct ForcedDiracStep {
     node_values: Vec<f64>,
     /// One Jacobian block's derivative terms summed over the nodes.
     node_sums: Vec<f64>,
-    /// Per block `(j, l)` (index `j·s + l − 1`), which of `merge_kinds` says where its Hessian
-    /// terms land (chosen at the first stamp).
-    merges: Vec<Option<usize>>,
-    /// The distinct block merges: a merge depends only on the Hessian's pattern and on which of
-    /// its four kinds a block uses, so the blocks share a few (one or two in practice).
+    /// Where a Jacobian block's Hessian terms land, one merge per set of Hessian kinds a block
+    /// uses (built at the first stamp that needs it): a merge depends only on the Hessian's
+    /// pattern and on that set, so the blocks share a few (one or two in practice).
     merge_kinds: Vec<([bool; 4], BlockMerge)>,
     /// One block's entries at its distinct positions.
     merged: Vec<f64>,
@@ -268,7 +266,6 @@ impl ForcedDiracStep {
             later: vec![0.0; s * n],
             node_values: Vec::new(),
             node_sums: Vec::new(),
-            merges: vec![None; (s + 1) * s],
             merge_kinds: Vec::new(),
             merged: Vec::new(),
         }
@@ -613,15 +610,13 @@ impl ForcedDiracStep {
                     },
                     &mut sums,
                 );
-                let kind = *self.merges[j * s + l - 1].get_or_insert_with(|| {
-                    self.merge_kinds
-                        .iter()
-                        .position(|(u, _)| *u == used)
-                        .unwrap_or_else(|| {
-                            self.merge_kinds.push((used, BlockMerge::new(&hess, used)));
-                            self.merge_kinds.len() - 1
-                        })
-                });
+                let kind = match self.merge_kinds.iter().position(|(u, _)| *u == used) {
+                    Some(kind) => kind,
+                    None => {
+                        self.merge_kinds.push((used, BlockMerge::new(&hess, used)));
+                        self.merge_kinds.len() - 1
+                    }
+                };
                 let merge = &self.merge_kinds[kind].1;
                 merged.clear();
                 merged.resize(merge.positions.len(), 0.0);
