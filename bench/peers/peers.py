@@ -783,12 +783,8 @@ C_MAX_SINGLE_S = 300.0  # ~5 minutes for one N: larger N are skipped
 C_TIMEOUT_S = 330.0  # a single ngspice process running longer is stopped (and N recorded as too slow)
 
 
-def ladder_netlist(n: int) -> str:
-    """The netlist of examples/gen_ladder.rs, plus TMAX = 0.01, method=trap and an rusage report.
-
-    Only v(n1) is saved, so that ngspice does not keep all 3N vectors of 1000+ points in memory
-    (the measured transient time does not depend on the signal we keep).
-    """
+def ladder_elements(n: int) -> list[str]:
+    """The title and element lines of scene C's ladder (as examples/gen_ladder.rs writes them)."""
     out = [
         f"RLC ladder of {n} sections (R = 0.1, L = 1, C = 1), 1 V DC source",
         "V1 n0 0 DC 1",
@@ -797,7 +793,16 @@ def ladder_netlist(n: int) -> str:
         out.append(f"R{k} n{k - 1} m{k} 0.1")
         out.append(f"L{k} m{k} n{k} 1")
         out.append(f"C{k} n{k} 0 1")
-    out += [
+    return out
+
+
+def ladder_netlist(n: int) -> str:
+    """The netlist of examples/gen_ladder.rs, plus TMAX = 0.01, method=trap and an rusage report.
+
+    Only v(n1) is saved, so that ngspice does not keep all 3N vectors of 1000+ points in memory
+    (the measured transient time does not depend on the signal we keep).
+    """
+    out = ladder_elements(n) + [
         ".options method=trap",
         ".save v(n1)",
         ".tran 0.01 10 0 0.01 uic",
@@ -892,6 +897,105 @@ def sweep_c(sections: list[int], emit) -> None:
                     )
                     break
             prev = (n, best)
+
+
+# Scene C's accuracy rows (`Cacc-N`, SCENES.md): ngspice's runs scored like dirac's and the
+# compiled peers', max over capacitors of |v_k(10) − v_k,ref(10)|. The first setting is the scene's
+# own (reltol 1e-3, TMAX = 0.01); the others let ngspice take longer steps at tighter reltol.
+C_ACCURACY_MAX = 10_000
+C_ACCURACY_SETTINGS = [(1e-3, 0.01), (1e-3, 0.05), (1e-5, 0.2), (1e-7, 0.2)]
+
+
+def ladder_reference(n: int, t_end: float = 10.0) -> np.ndarray:
+    """Capacitor voltages of scene C's ladder at `t_end`, exactly up to round-off: the ladder is
+    linear and time-invariant, so x(t) = exp(tA)·x(0) for the state (i₁…i_N, v₁…v_N, 1), whose last
+    component carries the 1 V source (SciPy's `expm_multiply`, a truncated Taylor series with
+    scaling chosen for double precision; Al-Mohy and Higham 2011)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.linalg import expm_multiply
+
+    rows, cols, vals = [], [], []
+    src = 2 * n
+    for k in range(n):
+        # L i_k' = v_{k−1} − v_k − R i_k (v₀ = 1), C v_k' = i_k − i_{k+1}; L = C = 1, R = 0.1.
+        rows += [k, k, k, n + k]
+        cols += [src if k == 0 else n + k - 1, n + k, k, k]
+        vals += [1.0, -1.0, -0.1, 1.0]
+        if k + 1 < n:
+            rows.append(n + k)
+            cols.append(k + 1)
+            vals.append(-1.0)
+    a = csr_matrix((vals, (rows, cols)), shape=(2 * n + 1, 2 * n + 1))
+    x0 = np.zeros(2 * n + 1)
+    x0[src] = 1.0
+    return expm_multiply(a * t_end, x0)[n : 2 * n]
+
+
+def ladder_reference_check(n: int = 50) -> float:
+    """How far `ladder_reference` is from a dense matrix exponential (Padé, scipy.linalg.expm) of
+    the same system: noted with every run so that the reference's accuracy is on record."""
+    from scipy.linalg import expm
+
+    a = np.zeros((2 * n + 1, 2 * n + 1))
+    for k in range(n):
+        a[k, 2 * n if k == 0 else n + k - 1] += 1.0
+        a[k, n + k] -= 1.0
+        a[k, k] -= 0.1
+        a[n + k, k] += 1.0
+        if k + 1 < n:
+            a[n + k, k + 1] -= 1.0
+    dense = expm(10.0 * a)[n : 2 * n, 2 * n]
+    return float(np.max(np.abs(dense - ladder_reference(n))))
+
+
+def ladder_accuracy_netlist(n: int, reltol: float, tmax: float, raw: str) -> str:
+    """Scene C's ladder with every capacitor voltage written over the last 0.01 s only (TSTART =
+    9.99; TMAX is given, so the output window does not bound the step) as an ASCII raw file."""
+    body = ladder_elements(n) + [
+        f".options method=trap reltol={reltol:g}",
+        f".tran 0.01 10 9.99 {tmax:g} uic",
+        ".control",
+        "set filetype=ascii",
+        "run",
+        "rusage trantime traniter tranpoints accept rejected",
+        f"write {raw}",
+        ".endc",
+        ".end",
+    ]
+    return "\n".join(body) + "\n"
+
+
+def sweep_c_accuracy(sections: list[int], quick: bool, emit) -> None:
+    note(
+        f"Cacc ngspice: reference exp(10·A)·x(0) by scipy expm_multiply; at N = 50 it differs from "
+        f"a dense Padé expm by {ladder_reference_check():.2g}"
+    )
+    settings = C_ACCURACY_SETTINGS[:1] if quick else C_ACCURACY_SETTINGS
+    with tempfile.TemporaryDirectory() as d:
+        for n in (n for n in sections if n <= C_ACCURACY_MAX):
+            ref = ladder_reference(n)
+            for reltol, tmax in settings:
+                path, raw = os.path.join(d, "c.cir"), os.path.join(d, "c.raw")
+                with open(path, "w") as fh:
+                    fh.write(ladder_accuracy_netlist(n, reltol, tmax, raw))
+                try:
+                    best, first = math.inf, None
+                    for rep in range(1 if quick else 3):
+                        res = run_ngspice_once(path)
+                        first = first or (res, raw_last_point(raw))
+                        best = min(best, res[0])
+                        if res[0] > BEST_OF_ONE_S:
+                            break
+                except Exception as e:  # noqa: BLE001
+                    note(f"Cacc-{n} ngspice reltol {reltol:g} TMAX {tmax:g} failed: {e}")
+                    continue
+                (_, accepted, iters, _), last = first
+                v = np.array([last[f"v(n{k})"] for k in range(1, n + 1)])
+                err = float(np.max(np.abs(v - ref)))
+                emit(row(f"Cacc-{n}", "ngspice", f"trap-tmax{tmax:g}", f"{reltol:.0e}", best,
+                         accepted, iters, err, math.nan))
+                print(f"  Cacc-{n} ngspice trap reltol {reltol:.0e} TMAX {tmax:g}: {best:.3e} s, "
+                      f"{accepted} points, error {err:.3e}", file=sys.stderr, flush=True)
 
 
 def rc_netlist(n: int, reltol: float, raw: str) -> str:
@@ -989,6 +1093,7 @@ def main(argv=None) -> int:
         else:
             sections = [10, 100, 1000] if args.quick else [10, 100, 1000, 10000, 100000]
         sweep_c(sections, emit)
+        sweep_c_accuracy(sections, args.quick, emit)
     else:
         if args.sections:
             ap.error("--sections applies to scene C only")
