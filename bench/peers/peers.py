@@ -997,6 +997,10 @@ def sweep_c_accuracy(sections: list[int], quick: bool, emit) -> None:
                 except Exception as e:  # noqa: BLE001
                     note(f"Cacc-{n} ngspice reltol {reltol:g} TMAX {tmax:g} failed: {e}")
                     continue
+                if best <= 0.0:
+                    note(f"Cacc-{n} ngspice reltol {reltol:g} TMAX {tmax:g}: transient time below "
+                         f"ngspice's 1 ms resolution: row skipped")
+                    continue
                 if timed[1:3] != written[1:3]:
                     note(f"Cacc-{n} ngspice reltol {reltol:g} TMAX {tmax:g}: the timed deck took "
                          f"{timed[1]} points and {timed[2]} iterations, the written one {written[1]} "
