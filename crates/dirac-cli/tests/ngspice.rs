@@ -74,6 +74,14 @@ struct Case {
     /// the same scheme on it, so every error must equal ngspice's within its [`Kind`]'s factor;
     /// otherwise within [`DIFFERENT_SCHEME`].
     same_scheme: bool,
+    /// ngspice at h steps over some of the sources' corners, so its error is not the same scheme's
+    /// and only the upper bound applies: ngspice-39 sets no breakpoints at the corners of a PWL
+    /// with `td=` (it steps 0.492 → 0.502 ms over the corner at 0.5 ms of `rc_pwl_repeat.cir`,
+    /// where the same waveform written without `td` gets a timepoint at 0.5 ms and a restart
+    /// with small steps) nor at the repeated corners of `r=` (1.395 → 1.405 ms over 1.4 ms); its
+    /// values are right, its steps are not. Ours land on every corner: 3–7 times ngspice's
+    /// accuracy there.
+    ngspice_misses_corners: bool,
     /// A circuit with diodes: judged with [`DIODE_FACTOR`], upper bound only (ngspice's error there
     /// includes its Newton tolerance, `RELTOL` = 1e-3 of each node, which ours does not).
     diodes: bool,
@@ -88,6 +96,7 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "out", "0", 1e-6)],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -96,6 +105,7 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "m", "0", 1e-6), ("q(c2)", "out", "0", 0.47e-6)],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C2",
     },
     Case {
@@ -104,6 +114,16 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "top", "0", 2e-6)],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
+        mutated_card: "C1",
+    },
+    Case {
+        file: "rc_pwl_repeat.cir",
+        // PWL(…) r=0.2m td=0.3m, continuous at every restart; C1 m 0 0.47u IC=0, C2 out 0 0.1u IC=0
+        caps: &[("q(c1)", "m", "0", 0.47e-6), ("q(c2)", "out", "0", 0.1e-6)],
+        same_scheme: true,
+        diodes: false,
+        ngspice_misses_corners: true,
         mutated_card: "C1",
     },
     Case {
@@ -112,6 +132,7 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "b", "0", 10e-6)],
         same_scheme: false,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -120,6 +141,7 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "1", "0", 3.0)],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -128,6 +150,7 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "p", "0", 1e-6), ("q(c2)", "s", "0", 1e-6)],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C2",
     },
     Case {
@@ -140,6 +163,7 @@ const CASES: &[Case] = &[
         ],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
         // The subcircuit's C1: all three sections change.
         mutated_card: "C1",
     },
@@ -155,6 +179,7 @@ const CASES: &[Case] = &[
         ],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -163,6 +188,7 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "out", "0", 100e-9)],
         same_scheme: false,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -171,6 +197,7 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "b", "0", 10e-9)],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -179,6 +206,7 @@ const CASES: &[Case] = &[
         caps: &[("q(c1)", "a", "0", 1e-6)],
         same_scheme: true,
         diodes: false,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
 ];
@@ -192,6 +220,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[("q(c1)", "out", "0", 100e-6)],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -199,6 +228,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[("q(c1)", "out", "0", 47e-6)],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -206,6 +236,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[("q(c1)", "in", "out", 10e-6)],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -213,6 +244,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[("q(c1)", "out", "0", 1e-6)],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -220,6 +252,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "R1",
     },
     Case {
@@ -227,6 +260,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[("q(c1)", "in", "a", 10e-6), ("q(c2)", "out", "0", 10e-6)],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C2",
     },
     Case {
@@ -238,6 +272,7 @@ const DIODE_CASES: &[Case] = &[
         ],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C3",
     },
     Case {
@@ -245,6 +280,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "R1",
     },
     Case {
@@ -252,6 +288,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[("q(c1)", "out", "0", 100e-6)],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -259,6 +296,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[("q(c1)", "in", "out", 1e-6)],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
     Case {
@@ -266,6 +304,7 @@ const DIODE_CASES: &[Case] = &[
         caps: &[("q(c1)", "a", "0", 1e-9)],
         same_scheme: false,
         diodes: true,
+        ngspice_misses_corners: false,
         mutated_card: "C1",
     },
 ];
@@ -424,6 +463,18 @@ fn source_args(card: &str, name: &str) -> Option<Vec<f64>> {
     )
 }
 
+/// The literal value of `name=value` after a source function's closing parenthesis (`r=`, `td=`
+/// of PWL).
+fn option_after(card: &str, name: &str) -> Option<f64> {
+    let lower = card.to_ascii_lowercase();
+    let tail = &lower[lower.rfind(')')? + 1..];
+    tail.split_whitespace().find_map(|w| {
+        let (key, value) = w.split_once('=')?;
+        (key == name)
+            .then(|| spice_number(value).unwrap_or_else(|| panic!("non-literal `{w}` in `{card}`")))
+    })
+}
+
 /// A netlist with its `.tran` step and stop time and its source breakpoints.
 #[derive(Clone)]
 struct Deck {
@@ -469,8 +520,18 @@ impl Deck {
                     start += per;
                 }
             } else if let Some(a) = source_args(card, "pwl") {
-                // PWL(T1 V1 T2 V2 ...): a corner at every Ti.
-                breaks.extend(a.iter().step_by(2));
+                // PWL(T1 V1 T2 V2 ...) [r=R] [td=TD]: a corner at every TD + Ti; with `r`, after
+                // the last point the times in (R, Tn] again, every Tn − R.
+                let td = option_after(card, "td").unwrap_or(0.0);
+                let times: Vec<f64> = a.iter().step_by(2).copied().collect();
+                breaks.extend(times.iter().map(|t| t + td));
+                if let (Some(r), Some(&last)) = (option_after(card, "r"), times.last()) {
+                    let mut shift = last - r;
+                    while td + r + shift < tstop {
+                        breaks.extend(times.iter().filter(|&&t| t > r).map(|t| t + td + shift));
+                        shift += last - r;
+                    }
+                }
             } else if let Some(a) = source_args(card, "sin") {
                 // SIN(VO VA FREQ TD THETA): the sine starts (with a kink) at TD.
                 if let Some(&td) = a.get(3) {
@@ -1065,7 +1126,7 @@ fn judge(case: &Case, runs: &Runs) -> Verdict {
                 ),
             ));
         }
-        if !case.diodes && exceeds(r.e_ng / f, r.e_dirac) {
+        if !case.diodes && !case.ngspice_misses_corners && exceeds(r.e_ng / f, r.e_dirac) {
             failures.push((
                 Check::SameScheme,
                 format!(
@@ -1221,6 +1282,10 @@ enum Cases {
     /// precision in the unmutated judgement) is the same at every time and under every
     /// integration method, so a time shift or another method cannot show on it.
     Dynamic,
+    /// The dynamic cases that the same-scheme bound judges: not those where ngspice at h steps
+    /// over corners ([`Case::ngspice_misses_corners`]), whose ngspice error is already a
+    /// different scheme's (under Gear's method too: 0.041–0.106 of ours on `rc_pwl_repeat.cir`).
+    SameScheme,
 }
 
 /// Judges the `cases` with their runs changed by `mutate` and requires each verdict to fail one of
@@ -1234,7 +1299,13 @@ fn control(
     let judged: Vec<(&Case, &Runs)> = CASES
         .iter()
         .zip(baseline())
-        .filter(|(case, runs)| cases == Cases::All || !measure(case, runs).iter().all(Row::exact))
+        .filter(|(case, runs)| match cases {
+            Cases::All => true,
+            Cases::Dynamic => !measure(case, runs).iter().all(Row::exact),
+            Cases::SameScheme => {
+                !case.ngspice_misses_corners && !measure(case, runs).iter().all(Row::exact)
+            }
+        })
         .collect();
     let verdicts: Vec<Verdict> = std::thread::scope(|s| {
         let handles: Vec<_> = judged
@@ -1254,7 +1325,12 @@ fn control(
         .iter()
         .filter(|c| !judged.iter().any(|(j, _)| j.file == c.file))
     {
-        println!("  {:<18} not judged: a DC steady state", case.file);
+        let why = if case.ngspice_misses_corners && cases == Cases::SameScheme {
+            "ngspice at h steps over its corners"
+        } else {
+            "a DC steady state"
+        };
+        println!("  {:<18} not judged: {why}", case.file);
     }
     for v in &verdicts {
         let checks: Vec<Check> = v.failures.iter().map(|(c, _)| *c).collect();
@@ -1279,7 +1355,7 @@ fn control(
 fn control_gear_method_fails() {
     control(
         "ngspice at h with method=gear",
-        Cases::Dynamic,
+        Cases::SameScheme,
         &[Check::SameScheme, Check::Accuracy],
         |case, runs| {
             let scratch = Scratch::new(&format!("{}-gear", case.file.trim_end_matches(".cir")));

@@ -19,9 +19,12 @@ use dirac_graph::{Check, PartError};
 ///   `τ > PER`: `V1` for `τ ≤ 0` or `τ ≥ TR + PW + TF`, a linear rise over `(0, TR)`, `V2` on
 ///   `[TR, TR + PW]`, a linear fall over `(TR + PW, TR + PW + TF)`. `TR = 0` or `TF = 0` are ideal
 ///   edges; `PER = ∞` is a single pulse. (ngspice's optional eighth parameter is not supported.)
-/// - [`Waveform::Pwl`] `PWL(T1 V1 T2 V2 …)`: `V1` for `t ≤ T1`, linear interpolation on
-///   `(Tᵢ₋₁, Tᵢ]`, the last value held for `t > Tₙ`. Equal consecutive times make a step (the value
-///   at the step time is the left one, as in ngspice).
+/// - [`Waveform::Pwl`] `PWL(T1 V1 T2 V2 …) [r=R] [td=TD]`: with `τ = t − TD`, `V1` for `τ ≤ T1`,
+///   linear interpolation on `(Tᵢ₋₁, Tᵢ]`, and for `τ > Tₙ` the last value held or, with `r=R`
+///   (`R` one of the times `Tᵢ` before `Tₙ`), the stretch `(R, Tₙ]` repeated forever with period
+///   `Tₙ − R`. Equal consecutive times make a step; at a step, a repetition's restart included, the
+///   value is the left one (ngspice takes the left one at a PWL step and at the first restart; at
+///   the later restarts its rounding of `τ` decides).
 ///
 /// ```
 /// use dirac_components::Waveform;
@@ -65,8 +68,17 @@ pub enum Waveform {
         /// `PER`: period (`f64::INFINITY`: one pulse).
         period: f64,
     },
-    /// Piecewise linear `PWL(T1 V1 T2 V2 …)`, times non-decreasing (see [`Waveform::pwl`]).
-    Pwl(Vec<(f64, f64)>),
+    /// Piecewise linear `PWL(T1 V1 T2 V2 …) [r=R] [td=TD]` (see [`Waveform::pwl`] and
+    /// [`Waveform::pwl_repeating`]).
+    Pwl {
+        /// `(time, value)` points, times non-decreasing.
+        points: Vec<(f64, f64)>,
+        /// `TD`: the whole sequence starts this much later.
+        delay: f64,
+        /// `R`: after the last point the stretch from this time (one of the points' times, before
+        /// the last) to the last point repeats; `None` holds the last value.
+        repeat: Option<f64>,
+    },
 }
 
 impl Waveform {
@@ -117,7 +129,46 @@ impl Waveform {
             points.windows(2).all(|w| w[0].0 <= w[1].0),
             "PWL times must be non-decreasing"
         );
-        Self::Pwl(points)
+        Self::Pwl {
+            points,
+            delay: 0.0,
+            repeat: None,
+        }
+    }
+
+    /// `PWL(T1 V1 T2 V2 …) r=repeat td=delay`: [`Waveform::pwl`] delayed by `delay`, repeating the
+    /// stretch from the point at time `repeat` to the last point after it ends (`None`: held).
+    ///
+    /// ```
+    /// use dirac_components::Waveform;
+    /// // A 1 ms triangle from 0 to 1 V, repeated from t = 0, starting 0.5 ms late.
+    /// let w = Waveform::pwl_repeating(vec![(0.0, 0.0), (0.5e-3, 1.0), (1e-3, 0.0)], 0.5e-3, Some(0.0));
+    /// assert_eq!(w.value(0.25e-3), 0.0);
+    /// assert!((w.value(2.75e-3) - 0.5).abs() < 1e-12); // τ = 2.25 ms: 0.25 ms into the third cycle
+    /// ```
+    ///
+    /// # Panics
+    /// As [`Waveform::pwl`]; and if `repeat` is not one of the times before the last.
+    #[must_use]
+    pub fn pwl_repeating(
+        points: impl Into<Vec<(f64, f64)>>,
+        delay: f64,
+        repeat: Option<f64>,
+    ) -> Self {
+        let Self::Pwl { points, .. } = Self::pwl(points) else {
+            unreachable!("Waveform::pwl makes a PWL")
+        };
+        if let (Some(r), Some(&(last, _))) = (repeat, points.last()) {
+            assert!(
+                r < last && points.iter().any(|p| p.0 == r),
+                "the PWL repeat time must be one of the times before the last"
+            );
+        }
+        Self::Pwl {
+            points,
+            delay,
+            repeat,
+        }
     }
 
     /// Checks the waveform of a source of type `part` whose key is `key`: every value finite,
@@ -168,7 +219,11 @@ impl Waveform {
                 c.non_negative(&k("fall"), *fall)?;
                 c.non_negative(&k("width"), *width)?;
             }
-            Self::Pwl(points) => {
+            Self::Pwl {
+                points,
+                delay,
+                repeat,
+            } => {
                 if points.is_empty() {
                     return Err(c.fail(&k("points"), 0.0, "must hold at least one point"));
                 }
@@ -178,6 +233,15 @@ impl Waveform {
                     c.finite(&at, p.1)?;
                     if i > 0 && p.0 < points[i - 1].0 {
                         return Err(c.fail(&at, p.0, "must not come before the previous time"));
+                    }
+                }
+                c.finite(&k("delay"), *delay)?;
+                if let (Some(r), Some(&(last, _))) = (repeat, points.last()) {
+                    if !points.iter().any(|p| p.0 == *r) {
+                        return Err(c.fail(&k("repeat"), *r, "must be one of the points' times"));
+                    }
+                    if *r >= last {
+                        return Err(c.fail(&k("repeat"), *r, "must come before the last time"));
                     }
                 }
             }
@@ -235,7 +299,28 @@ impl Waveform {
                 let k = ((t - delay) / period).floor();
                 first(delay + k * period).or_else(|| first(delay + (k + 1.0) * period))
             }
-            Self::Pwl(points) => points.iter().map(|p| p.0).find(|&c| c > t),
+            Self::Pwl {
+                points,
+                delay,
+                repeat,
+            } => {
+                let after = |shift: f64, from: f64| {
+                    points
+                        .iter()
+                        .map(|p| p.0)
+                        .filter(|&c| c > from)
+                        .map(|c| c + shift + delay)
+                        .find(|&c| c > t)
+                };
+                if let Some(c) = after(0.0, f64::NEG_INFINITY) {
+                    return Some(c);
+                }
+                // Past the last point: the corners of the repeated stretch, cycle by cycle.
+                let (r, last) = (repeat.as_ref()?, points.last()?.0);
+                let period = last - r;
+                let k = ((t - delay - r) / period).floor().max(0.0);
+                after(k * period, *r).or_else(|| after((k + 1.0) * period, *r))
+            }
         }
     }
 
@@ -293,16 +378,29 @@ impl Waveform {
                     )
                 }
             }
-            Self::Pwl(points) => {
+            Self::Pwl {
+                points,
+                delay,
+                repeat,
+            } => {
                 let (Some(&(t0, v0)), Some(&(t_end, v_end))) = (points.first(), points.last())
                 else {
                     return (0.0, 0.0);
                 };
+                let mut t = t - delay;
                 if t < t0 {
                     return (v0, 0.0);
                 }
                 if t > t_end {
-                    return (v_end, 0.0);
+                    match repeat {
+                        // Back into (R, Tₙ] by whole periods: the left value at each restart.
+                        Some(r) if *r < t_end => {
+                            let period = t_end - r;
+                            t -= ((t - t_end) / period).ceil() * period;
+                            t = t.clamp(*r, t_end);
+                        }
+                        _ => return (v_end, 0.0),
+                    }
                 }
                 // First point with time ≥ t; the segment ends there.
                 let i = points.partition_point(|p| p.0 < t).max(1);
@@ -427,6 +525,71 @@ mod tests {
             assert!((w.value(t) - v).abs() < 1e-15, "PWL at {t}: {}", w.value(t));
         }
         assert_eq!(Waveform::pwl(vec![(0.0, 2.5)]).value(-3.0), 2.5);
+    }
+
+    /// `PWL(0 0 1 2 1 -1 3 0) r=1 td=0.5`, worked out by hand from ngspice's `vsrcload.c`
+    /// (`τ = t − TD`; past `Tₙ = 3`, `τ ← R + (τ − R) mod (Tₙ − R)` with `R = 1`, period 2): the
+    /// ramp (at its first point with the first piece's slope, as without a delay), the step at 1
+    /// (left value 2), the stretch (1, 3] from −1 up to 0, then that stretch again and again,
+    /// with the left value at each restart.
+    #[test]
+    fn pwl_repeats_and_delays_as_ngspice() {
+        let w = Waveform::pwl_repeating(
+            vec![(0.0, 0.0), (1.0, 2.0), (1.0, -1.0), (3.0, 0.0)],
+            0.5,
+            Some(1.0),
+        );
+        let cases = [
+            (0.0, 0.0, 0.0),
+            (0.5, 0.0, 2.0),
+            (1.0, 1.0, 2.0),
+            (1.5, 2.0, 2.0),
+            (2.5, -0.5, 0.5),
+            (3.5, 0.0, 0.5),
+            (4.0, -0.75, 0.5),
+            (5.5, 0.0, 0.5),
+            (6.5, -0.5, 0.5),
+            (101.0, -0.25, 0.5),
+        ];
+        for (t, v, d) in cases {
+            assert!(
+                (w.value(t) - v).abs() < 1e-13,
+                "value at {t}: {}",
+                w.value(t)
+            );
+            assert!(
+                (w.derivative(t) - d).abs() < 1e-13,
+                "slope at {t}: {}",
+                w.derivative(t)
+            );
+        }
+        let mut t = -1.0;
+        let mut corners = Vec::new();
+        while let Some(b) = w.next_breakpoint(t) {
+            if b > 10.0 {
+                break;
+            }
+            corners.push(b);
+            t = b;
+        }
+        assert_eq!(corners, [0.5, 1.5, 3.5, 5.5, 7.5, 9.5]);
+        // Without `r`, the last value is held and the corners end with the last point.
+        let held = Waveform::pwl_repeating(vec![(0.0, 1.0), (1.0, 3.0)], 2.0, None);
+        assert_eq!(held.value(2.5), 2.0);
+        assert_eq!(held.value(50.0), 3.0);
+        assert_eq!(held.next_breakpoint(2.5), Some(3.0));
+        assert_eq!(held.next_breakpoint(3.0), None);
+        assert!(w.check("voltage_source", "waveform").is_ok());
+        let bad = Waveform::Pwl {
+            points: vec![(0.0, 0.0), (1.0, 1.0)],
+            delay: 0.0,
+            repeat: Some(0.5),
+        };
+        let err = bad
+            .check("voltage_source", "waveform")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("waveform.repeat"), "{err}");
     }
 
     #[test]

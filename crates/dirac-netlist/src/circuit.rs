@@ -231,7 +231,11 @@ pub fn waveform(spec: &SourceSpec) -> Waveform {
             width: *pw,
             period: if *per > 0.0 { *per } else { f64::INFINITY },
         },
-        SourceSpec::Pwl(points) => Waveform::Pwl(points.clone()),
+        SourceSpec::Pwl { points, td, r } => Waveform::Pwl {
+            points: points.clone(),
+            delay: *td,
+            repeat: *r,
+        },
     }
 }
 

@@ -263,7 +263,7 @@ fn source(
                 per: at(6),
             }
         }
-        SourceFn::Pwl(args) => {
+        SourceFn::Pwl(args, repeat, delay) => {
             let v = eval_all(args)?;
             let points: Vec<(f64, f64)> = v.chunks_exact(2).map(|c| (c[0], c[1])).collect();
             for k in 1..points.len() {
@@ -292,7 +292,32 @@ fn source(
                     ));
                 }
             }
-            SourceSpec::Pwl(points)
+            let td = delay
+                .as_ref()
+                .map(|d| scope.eval(d))
+                .transpose()?
+                .unwrap_or(0.0);
+            let r = match repeat {
+                None => None,
+                Some(a) => {
+                    let r = scope.eval(a)?;
+                    // ngspice's `vsrcpar.c` refuses both, and a zero period would have no value.
+                    let last = points.last().map_or(f64::NAN, |p| p.0);
+                    if !points.iter().any(|p| p.0 == r) || r >= last {
+                        return Err(NetlistError::bad_value(
+                            a.pos,
+                            a.text.clone(),
+                            format!(
+                                "PWL repeat time `r={}` = {r} must be one of the time points before \
+                                 the last ({last})",
+                                a.text
+                            ),
+                        ));
+                    }
+                    Some(r)
+                }
+            };
+            SourceSpec::Pwl { points, td, r }
         }
     })
 }

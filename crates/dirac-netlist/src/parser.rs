@@ -42,7 +42,8 @@ pub(crate) enum SourceFn {
     Dc(ExprTok),
     Sin(Vec<ExprTok>),
     Pulse(Vec<ExprTok>),
-    Pwl(Vec<ExprTok>),
+    /// The points, then the `r=` and `td=` options.
+    Pwl(Vec<ExprTok>, Option<ExprTok>, Option<ExprTok>),
 }
 
 /// What kind of element a card is, with its element-specific fields.
@@ -333,6 +334,43 @@ impl<'a> CardParser<'a> {
         }
     }
 
+    /// ngspice's options after `PWL(…)`, `r=R` (repeat from time `R`) and `td=TD` (delay), in
+    /// either order, each at most once.
+    fn pwl_options(&mut self) -> Result<(Option<ExprTok>, Option<ExprTok>), NetlistError> {
+        let (mut repeat, mut delay) = (None, None);
+        while let Some(w) = self.cur.peek_word() {
+            let slot = match w.as_str() {
+                "r" => &mut repeat,
+                "td" => &mut delay,
+                _ => break,
+            };
+            let Some(word) = self.cur.word() else { break };
+            let name = Name::plain(&word);
+            if !self.cur.eat('=') {
+                return Err(NetlistError::syntax(
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "PWL option `{}` needs `=value` in card `{}`",
+                        name.orig, self.text
+                    ),
+                ));
+            }
+            if slot.is_some() {
+                return Err(NetlistError::syntax(
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "PWL option `{}` given twice in card `{}`",
+                        name.orig, self.text
+                    ),
+                ));
+            }
+            *slot = Some(self.assigned_value(&name)?);
+        }
+        Ok((repeat, delay))
+    }
+
     /// Reads the arguments of `SIN`/`PULSE`/`PWL`: in parentheses, or to the end of the card.
     fn function_args(&mut self) -> Result<Vec<ExprTok>, NetlistError> {
         let mut args = Vec::new();
@@ -436,22 +474,12 @@ impl<'a> CardParser<'a> {
                             ),
                         ));
                     }
-                    // PWL options such as `r=` and `td=` are not supported.
-                    if f == "pwl" && self.cur.peek_word().is_some() {
-                        let save_pos = self.cur.pos();
-                        let w = self.cur.peek_word().unwrap_or_default();
-                        if matches!(w.as_str(), "r" | "td") {
-                            return Err(NetlistError::unsupported_in(
-                                save_pos,
-                                &w,
-                                &format!("PWL option `{w}`"),
-                                &self.text,
-                            ));
-                        }
-                    }
                     tran = Some(match f.as_str() {
                         "pulse" => SourceFn::Pulse(args),
-                        "pwl" => SourceFn::Pwl(args),
+                        "pwl" => {
+                            let (repeat, delay) = self.pwl_options()?;
+                            SourceFn::Pwl(args, repeat, delay)
+                        }
                         _ => SourceFn::Sin(args),
                     });
                 }

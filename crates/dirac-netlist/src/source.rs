@@ -8,8 +8,10 @@
 //! - `PULSE(V1 V2 TD TR TF PW PER)`: with `τ = t − TD`, if `τ > PER` then `τ −= PER·⌊τ/PER⌋`;
 //!   `V1` for `τ ≤ 0` or `τ ≥ TR+PW+TF`, `V2` for `TR ≤ τ ≤ TR+PW`, linear ramps in between.
 //!   `TR`, `TF` absent or 0 mean `TSTEP`; `PW`, `PER` absent or 0 mean `TSTOP`.
-//! - `PWL(t1 v1 t2 v2 ...)`: `v1` before `t1`, the last value after the last time, linear
-//!   interpolation in between (at a time point, the segment ending there is used).
+//! - `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`: with `τ = t − TD`, `v1` before `t1`, linear
+//!   interpolation in between (at a time point, the segment ending there is used), and after the
+//!   last time the last value, or with `r=R` the stretch from the time point `R` to the last one
+//!   repeated.
 //!
 //! A [`SourceSpec`] in a [`Netlist`](super::Netlist) that has a `.tran` card has these defaults
 //! already resolved (see [`SourceSpec::resolved`]), so [`SourceSpec::value`] is then exactly
@@ -53,11 +55,29 @@ pub enum SourceSpec {
         /// Period (0 = default `TSTOP`, until resolved; an unresolved 0 means no repetition).
         per: f64,
     },
-    /// `PWL(t1 v1 t2 v2 ...)`: time–value points with non-decreasing times.
-    Pwl(Vec<(f64, f64)>),
+    /// `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`.
+    Pwl {
+        /// Time–value points with non-decreasing times.
+        points: Vec<(f64, f64)>,
+        /// `td=`: delay of the whole sequence (0 when absent).
+        td: f64,
+        /// `r=`: the time point from which the sequence repeats after its last point (`None`: the
+        /// last value is held).
+        r: Option<f64>,
+    },
 }
 
 impl SourceSpec {
+    /// `PWL(t1 v1 t2 v2 ...)` without `r=` or `td=`.
+    #[must_use]
+    pub fn pwl(points: Vec<(f64, f64)>) -> Self {
+        Self::Pwl {
+            points,
+            td: 0.0,
+            r: None,
+        }
+    }
+
     /// The waveform's value at time `t` (seconds), by ngspice's definitions. See the module docs
     /// for how unresolved defaults are treated.
     pub fn value(&self, t: f64) -> f64 {
@@ -117,7 +137,7 @@ impl SourceSpec {
     pub fn value_with_defaults(&self, t: f64, tstep: f64, tstop: f64) -> f64 {
         match self {
             SourceSpec::Dc(v) => *v,
-            SourceSpec::Pwl(_) => self.value(t),
+            SourceSpec::Pwl { .. } => self.value(t),
             _ => self.resolved(tstep, tstop).value(t),
         }
     }
@@ -127,7 +147,7 @@ impl SourceSpec {
     pub fn derivative_with_defaults(&self, t: f64, tstep: f64, tstop: f64) -> f64 {
         match self {
             SourceSpec::Dc(_) => 0.0,
-            SourceSpec::Pwl(_) => self.derivative(t),
+            SourceSpec::Pwl { .. } => self.derivative(t),
             _ => self.resolved(tstep, tstop).derivative(t),
         }
     }

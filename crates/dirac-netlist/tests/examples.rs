@@ -55,7 +55,7 @@ fn all_example_netlists_parse() {
                     SourceSpec::Dc(_) => dc = true,
                     SourceSpec::Sin { .. } => sin = true,
                     SourceSpec::Pulse { .. } => pulse = true,
-                    SourceSpec::Pwl(_) => pwl = true,
+                    SourceSpec::Pwl { .. } => pwl = true,
                 }
             }
         }

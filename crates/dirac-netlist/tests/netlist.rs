@@ -184,7 +184,7 @@ R1 a b 1
     );
     assert_eq!(
         source_of(&net, "i2"),
-        &SourceSpec::Pwl(vec![(0.0, 0.0), (1e-3, 1.0), (2e-3, 1.0)])
+        &SourceSpec::pwl(vec![(0.0, 0.0), (1e-3, 1.0), (2e-3, 1.0)])
     );
     assert!(matches!(
         source_of(&net, "v7"),
@@ -657,17 +657,54 @@ fn unsupported_cards() {
     }
 }
 
+/// ngspice's `r=` and `td=` after `PWL(…)`, in either order and any case; `r` must be one of the
+/// time points before the last (ngspice's `vsrcpar.c` refuses the others).
+#[test]
+fn pwl_repeat_and_delay_options() {
+    let net = parse(
+        "t\nV1 a 0 PWL(0 0 1m 1 2m 0) r=0 td=0.5m\nI1 a 0 PWL(0 0 1 1 1 2 3 0) TD={2*1} R=1\n\
+         V2 b 0 PWL(0 1 1 2)\nR1 a 0 1\nR2 b 0 1\n",
+    );
+    assert_eq!(
+        source_of(&net, "v1"),
+        &SourceSpec::Pwl {
+            points: vec![(0.0, 0.0), (1e-3, 1.0), (2e-3, 0.0)],
+            td: 0.5e-3,
+            r: Some(0.0)
+        }
+    );
+    assert_eq!(
+        source_of(&net, "i1"),
+        &SourceSpec::Pwl {
+            points: vec![(0.0, 0.0), (1.0, 1.0), (1.0, 2.0), (3.0, 0.0)],
+            td: 2.0,
+            r: Some(1.0)
+        }
+    );
+    assert_eq!(
+        source_of(&net, "v2"),
+        &SourceSpec::pwl(vec![(0.0, 1.0), (1.0, 2.0)])
+    );
+    // τ = t − 0.5 ms, period 2 ms: at t = 3 ms, τ = 2.5 ms → 0.5 ms into the second cycle.
+    assert!((source_of(&net, "v1").value(3e-3) - 0.5).abs() < 1e-12);
+    let e = assert_err("t\nV1 a 0 PWL(0 0 1 1) r=0.5\n", ErrorKind::BadValue, 2, 23);
+    assert!(e.message.contains("one of the time points"), "{e}");
+    assert_err("t\nV1 a 0 PWL(0 0 1 1) r=1\n", ErrorKind::BadValue, 2, 23);
+    let e = assert_err(
+        "t\nV1 a 0 PWL(0 0 1 1) td=1 td=2\n",
+        ErrorKind::Syntax,
+        2,
+        26,
+    );
+    assert!(e.message.contains("given twice"), "{e}");
+    assert_err("t\nV1 a 0 PWL(0 0 1 1) r 0\n", ErrorKind::Syntax, 2, 21);
+}
+
 #[test]
 fn unsupported_features_inside_cards() {
     let e = assert_err("t\nV1 a 0 EXP(0 1 1n)\n", ErrorKind::Unsupported, 2, 8);
     assert!(e.message.contains("not supported"), "{e}");
     assert!(e.message.contains("EXP"), "{e}");
-    assert_err(
-        "t\nV1 a 0 PWL(0 0 1 1) r=0\n",
-        ErrorKind::Unsupported,
-        2,
-        21,
-    );
     let e = assert_err("t\nR1 a 0 1k tc1=0.01\n", ErrorKind::Unsupported, 2, 11);
     assert!(e.message.contains("parameter `tc1`") && e.message.contains("not supported"));
     assert_err("t\n.model q1 NPN(BF=100)\n", ErrorKind::Unsupported, 2, 11);

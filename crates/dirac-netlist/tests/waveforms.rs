@@ -171,7 +171,7 @@ fn pulse_defaults_from_tran() {
 
 #[test]
 fn pwl_interpolates_and_holds() {
-    let w = SourceSpec::Pwl(vec![(0.0, 0.0), (1.0, 2.0), (3.0, -2.0)]);
+    let w = SourceSpec::pwl(vec![(0.0, 0.0), (1.0, 2.0), (3.0, -2.0)]);
     check(
         &w,
         &[
@@ -186,12 +186,12 @@ fn pwl_interpolates_and_holds() {
             (1e6, -2.0, 0.0),
         ],
     );
-    let late = SourceSpec::Pwl(vec![(1.0, 5.0), (2.0, 7.0)]);
+    let late = SourceSpec::pwl(vec![(1.0, 5.0), (2.0, 7.0)]);
     check(&late, &[(0.0, 5.0, 0.0), (1.5, 6.0, 2.0), (9.0, 7.0, 0.0)]);
     // A repeated time is a jump: the old value up to it, the new one after.
-    let step = SourceSpec::Pwl(vec![(0.0, 0.0), (1.0, 0.0), (1.0, 3.0), (2.0, 3.0)]);
+    let step = SourceSpec::pwl(vec![(0.0, 0.0), (1.0, 0.0), (1.0, 3.0), (2.0, 3.0)]);
     check(&step, &[(1.0, 0.0, 0.0), (1.0 + 1e-9, 3.0, 0.0)]);
-    assert_eq!(SourceSpec::Pwl(vec![(1.0, 4.0)]).value(1.0), 4.0);
+    assert_eq!(SourceSpec::pwl(vec![(1.0, 4.0)]).value(1.0), 4.0);
     assert_eq!(SourceSpec::Dc(3.0).value(7.0), 3.0);
     assert_eq!(SourceSpec::Dc(3.0).derivative(7.0), 0.0);
 }

@@ -128,12 +128,21 @@ fn waveform(spec: &SourceSpec) -> String {
                 number(*pw)
             )
         }
-        SourceSpec::Pwl(points) => {
+        SourceSpec::Pwl { points, td, r } => {
             let list: Vec<String> = points
                 .iter()
                 .map(|(t, v)| format!("[{}, {}]", number(*t), number(*v)))
                 .collect();
-            format!("{{ shape = \"pwl\", points = [{}] }}", list.join(", "))
+            let delay = if *td != 0.0 {
+                format!(", delay = {}", number(*td))
+            } else {
+                String::new()
+            };
+            let repeat = r.map_or(String::new(), |r| format!(", repeat = {}", number(r)));
+            format!(
+                "{{ shape = \"pwl\", points = [{}]{delay}{repeat} }}",
+                list.join(", ")
+            )
         }
     }
 }

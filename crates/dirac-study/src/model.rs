@@ -516,7 +516,7 @@ fn element_keys(element: &Element) -> Vec<&'static str> {
                 "waveform.width",
                 "waveform.period",
             ],
-            SourceSpec::Pwl(_) => Vec::new(),
+            SourceSpec::Pwl { .. } => Vec::new(),
         },
     }
 }

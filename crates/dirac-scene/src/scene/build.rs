@@ -482,7 +482,15 @@ fn waveform(w: &WaveformSpec) -> Waveform {
             width: *width,
             period: period.unwrap_or(f64::INFINITY),
         },
-        WaveformSpec::Pwl(points) => Waveform::Pwl(points.iter().map(|p| (p[0], p[1])).collect()),
+        WaveformSpec::Pwl {
+            points,
+            delay,
+            repeat,
+        } => Waveform::Pwl {
+            points: points.iter().map(|p| (p[0], p[1])).collect(),
+            delay: *delay,
+            repeat: *repeat,
+        },
     }
 }
 

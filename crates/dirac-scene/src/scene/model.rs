@@ -309,9 +309,18 @@ pub enum WaveformSpec {
         /// Period (`None`: a single pulse).
         period: Option<f64>,
     },
-    /// `{ shape = "pwl", points = [[0, 0], [1e-3, 5]] }`: `(time, value)` points, times
-    /// non-decreasing.
-    Pwl(Vec<[f64; 2]>),
+    /// `{ shape = "pwl", points = [[0, 0], [1e-3, 5]], delay = 0, repeat = 0 }`: `(time, value)`
+    /// points, times non-decreasing; the optional `delay` (SPICE's `td=`) shifts the whole
+    /// sequence and `repeat` (SPICE's `r=`, one of the points' times before the last) repeats the
+    /// stretch from that time to the last point forever.
+    Pwl {
+        /// `(time, value)` points.
+        points: Vec<[f64; 2]>,
+        /// Delay of the whole sequence.
+        delay: f64,
+        /// Time from which the sequence repeats after its last point (`None`: held).
+        repeat: Option<f64>,
+    },
 }
 
 /// The raw table of a waveform, all keys optional (checked against the shape afterwards).
@@ -333,11 +342,12 @@ struct WaveformTable {
     width: Option<f64>,
     period: Option<f64>,
     points: Option<Vec<[f64; 2]>>,
+    repeat: Option<f64>,
 }
 
 impl WaveformTable {
     fn into_spec<E: de::Error>(self) -> Result<WaveformSpec, E> {
-        let given: [(&str, bool); 14] = [
+        let given: [(&str, bool); 15] = [
             ("value", self.value.is_some()),
             ("offset", self.offset.is_some()),
             ("amplitude", self.amplitude.is_some()),
@@ -352,6 +362,7 @@ impl WaveformTable {
             ("width", self.width.is_some()),
             ("period", self.period.is_some()),
             ("points", self.points.is_some()),
+            ("repeat", self.repeat.is_some()),
         ];
         let allowed: &[&str] = match self.shape.as_str() {
             "dc" => &["value"],
@@ -364,7 +375,7 @@ impl WaveformTable {
                 "phase",
             ],
             "pulse" => &["v1", "v2", "delay", "rise", "fall", "width", "period"],
-            "pwl" => &["points"],
+            "pwl" => &["points", "delay", "repeat"],
             other => {
                 return Err(E::custom(format!(
                     "unknown waveform shape `{other}`, expected one of `dc`, `sin`, `pulse`, `pwl`"
@@ -403,11 +414,13 @@ impl WaveformTable {
                 width: need(self.width, "width")?,
                 period: self.period,
             },
-            _ => {
-                WaveformSpec::Pwl(self.points.ok_or_else(|| {
+            _ => WaveformSpec::Pwl {
+                points: self.points.ok_or_else(|| {
                     E::custom("a `pwl` waveform needs the key `points`".to_string())
-                })?)
-            }
+                })?,
+                delay: self.delay.unwrap_or(0.0),
+                repeat: self.repeat,
+            },
         })
     }
 }
@@ -456,10 +469,20 @@ impl Serialize for WaveformSpec {
                 }
                 m.end()
             }
-            Self::Pwl(points) => {
-                let mut m = s.serialize_map(Some(2))?;
+            Self::Pwl {
+                points,
+                delay,
+                repeat,
+            } => {
+                let mut m = s.serialize_map(None)?;
                 m.serialize_entry("shape", "pwl")?;
                 m.serialize_entry("points", points)?;
+                if *delay != 0.0 {
+                    m.serialize_entry("delay", delay)?;
+                }
+                if let Some(r) = repeat {
+                    m.serialize_entry("repeat", r)?;
+                }
                 m.end()
             }
         }
