@@ -78,9 +78,10 @@ struct Case {
     /// and only the upper bound applies: ngspice-39 sets no breakpoints at the corners of a PWL
     /// with `td=` (it steps 0.492 → 0.502 ms over the corner at 0.5 ms of `rc_pwl_repeat.cir`,
     /// where the same waveform written without `td` gets a timepoint at 0.5 ms and a restart
-    /// with small steps) nor at the repeated corners of `r=` (1.395 → 1.405 ms over 1.4 ms); its
-    /// values are right, its steps are not. Ours land on every corner: 3–7 times ngspice's
-    /// accuracy there.
+    /// with small steps) nor at the repeated corners of `r=` (1.395 → 1.405 ms over 1.4 ms), nor
+    /// at an `EXP`'s kinks (0.1996 → 0.2096 ms over TD1 = 0.2 ms of `rc_exp.cir`, 1.4996 →
+    /// 1.5096 ms over TD2); its values are right, its steps are not. Ours land on every corner:
+    /// 2–7 times ngspice's accuracy there.
     ngspice_misses_corners: bool,
     /// A circuit with diodes: judged with [`DIODE_FACTOR`], upper bound only (ngspice's error there
     /// includes its Newton tolerance, `RELTOL` = 1e-3 of each node, which ours does not).
@@ -122,6 +123,17 @@ const CASES: &[Case] = &[
         // PWL(…) r=0.2m td=0.3m, continuous at every restart; C1 m 0 0.47u IC=0, C2 out 0 0.1u IC=0
         caps: &[("q(c1)", "m", "0", 0.47e-6), ("q(c2)", "out", "0", 0.1e-6)],
         same_scheme: true,
+        diodes: false,
+        ngspice_misses_corners: true,
+        mutated_card: "C1",
+    },
+    Case {
+        file: "rc_exp.cir",
+        // EXP(0 2 0.2m 0.3m 1.5m 0.5m): not piecewise linear, so not the same scheme (midpoint
+        // samples the source at the step's middle, trap averages its ends); ngspice-39 steps over
+        // its kinks at TD1 and TD2. C1 m 0 0.22u IC=0, C2 out 0 0.1u IC=0
+        caps: &[("q(c1)", "m", "0", 0.22e-6), ("q(c2)", "out", "0", 0.1e-6)],
+        same_scheme: false,
         diodes: false,
         ngspice_misses_corners: true,
         mutated_card: "C1",
@@ -532,6 +544,14 @@ impl Deck {
                         shift += last - r;
                     }
                 }
+            } else if let Some(a) = source_args(card, "exp") {
+                // EXP(V1 V2 TD1 TAU1 TD2 TAU2): the rise starts (with a kink) at TD1, the fall at TD2.
+                assert_eq!(
+                    a.len(),
+                    6,
+                    "the harness needs all six EXP arguments: `{card}`"
+                );
+                breaks.extend([a[2], a[4]]);
             } else if let Some(a) = source_args(card, "sin") {
                 // SIN(VO VA FREQ TD THETA): the sine starts (with a kink) at TD.
                 if let Some(&td) = a.get(3) {

@@ -19,6 +19,9 @@ use dirac_graph::{Check, PartError};
 ///   `τ > PER`: `V1` for `τ ≤ 0` or `τ ≥ TR + PW + TF`, a linear rise over `(0, TR)`, `V2` on
 ///   `[TR, TR + PW]`, a linear fall over `(TR + PW, TR + PW + TF)`. `TR = 0` or `TF = 0` are ideal
 ///   edges; `PER = ∞` is a single pulse. (ngspice's optional eighth parameter is not supported.)
+/// - [`Waveform::Exp`] `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`: `V1` for `t ≤ TD1`, then
+///   `V1 + (V2 − V1)(1 − e^{−(t−TD1)/TAU1})`, and for `t > TD2` plus `(V1 − V2)(1 − e^{−(t−TD2)/TAU2})`.
+///   A zero time constant is an ideal edge.
 /// - [`Waveform::Pwl`] `PWL(T1 V1 T2 V2 …) [r=R] [td=TD]`: with `τ = t − TD`, `V1` for `τ ≤ T1`,
 ///   linear interpolation on `(Tᵢ₋₁, Tᵢ]`, and for `τ > Tₙ` the last value held or, with `r=R`
 ///   (`R` one of the times `Tᵢ` before `Tₙ`), the stretch `(R, Tₙ]` repeated forever with period
@@ -67,6 +70,21 @@ pub enum Waveform {
         width: f64,
         /// `PER`: period (`f64::INFINITY`: one pulse).
         period: f64,
+    },
+    /// Exponential rise and fall `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`.
+    Exp {
+        /// `V1`: initial value.
+        v1: f64,
+        /// `V2`: the value the rise tends to.
+        v2: f64,
+        /// `TD1`: start of the rise.
+        rise_delay: f64,
+        /// `TAU1`: time constant of the rise (0: an ideal edge).
+        rise_tau: f64,
+        /// `TD2`: start of the fall back towards `V1`.
+        fall_delay: f64,
+        /// `TAU2`: time constant of the fall (0: an ideal edge).
+        fall_tau: f64,
     },
     /// Piecewise linear `PWL(T1 V1 T2 V2 …) [r=R] [td=TD]` (see [`Waveform::pwl`] and
     /// [`Waveform::pwl_repeating`]).
@@ -219,6 +237,21 @@ impl Waveform {
                 c.non_negative(&k("fall"), *fall)?;
                 c.non_negative(&k("width"), *width)?;
             }
+            Self::Exp {
+                v1,
+                v2,
+                rise_delay,
+                rise_tau,
+                fall_delay,
+                fall_tau,
+            } => {
+                c.finite(&k("v1"), *v1)?;
+                c.finite(&k("v2"), *v2)?;
+                c.finite(&k("rise_delay"), *rise_delay)?;
+                c.non_negative(&k("rise_tau"), *rise_tau)?;
+                c.finite(&k("fall_delay"), *fall_delay)?;
+                c.non_negative(&k("fall_tau"), *fall_tau)?;
+            }
             Self::Pwl {
                 points,
                 delay,
@@ -264,8 +297,8 @@ impl Waveform {
     }
 
     /// The first corner strictly after `t`: where the value or its slope jumps (a `PULSE`'s four
-    /// corners in every period, a `PWL` point, a `SIN`'s delayed start). `None` for `DC`, an
-    /// undelayed `SIN`, and after the last corner.
+    /// corners in every period, a `PWL` point, a `SIN`'s delayed start, an `EXP`'s two delays).
+    /// `None` for `DC`, an undelayed `SIN`, and after the last corner.
     #[must_use]
     pub fn next_breakpoint(&self, t: f64) -> Option<f64> {
         match self {
@@ -298,6 +331,18 @@ impl Waveform {
                 }
                 let k = ((t - delay) / period).floor();
                 first(delay + k * period).or_else(|| first(delay + (k + 1.0) * period))
+            }
+            Self::Exp {
+                v1,
+                v2,
+                rise_delay,
+                fall_delay,
+                ..
+            } => {
+                let moves = v1 != v2;
+                [*rise_delay, *fall_delay]
+                    .into_iter()
+                    .find(|&c| moves && c > t)
             }
             Self::Pwl {
                 points,
@@ -377,6 +422,33 @@ impl Waveform {
                         (v1 - v2) / fall,
                     )
                 }
+            }
+            Self::Exp {
+                v1,
+                v2,
+                rise_delay,
+                rise_tau,
+                fall_delay,
+                fall_tau,
+            } => {
+                // `step` of height `a` starting at `t0` with time constant `tau`: value and slope.
+                let relax = |a: f64, t0: f64, tau: f64| {
+                    if tau == 0.0 {
+                        (a, 0.0)
+                    } else {
+                        let e = (-(t - t0) / tau).exp();
+                        (a * (1.0 - e), a * e / tau)
+                    }
+                };
+                if t <= *rise_delay {
+                    return (*v1, 0.0);
+                }
+                let (rise, rise_slope) = relax(v2 - v1, *rise_delay, *rise_tau);
+                if t <= *fall_delay {
+                    return (v1 + rise, rise_slope);
+                }
+                let (fall, fall_slope) = relax(v1 - v2, *fall_delay, *fall_tau);
+                (v1 + rise + fall, rise_slope + fall_slope)
             }
             Self::Pwl {
                 points,
@@ -590,6 +662,66 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("waveform.repeat"), "{err}");
+    }
+
+    /// `EXP(1 3 1 0.5 2 0.25)` by hand from ngspice's `vsrcload.c`: 1 up to TD1 = 1, then
+    /// `1 + 2(1 − e^{−(t−1)/0.5})`, and after TD2 = 2 minus `2(1 − e^{−(t−2)/0.25})`.
+    #[test]
+    fn exp_rises_and_falls_as_ngspice() {
+        let w = Waveform::Exp {
+            v1: 1.0,
+            v2: 3.0,
+            rise_delay: 1.0,
+            rise_tau: 0.5,
+            fall_delay: 2.0,
+            fall_tau: 0.25,
+        };
+        let rise = |t: f64| 2.0 * (1.0 - (-(t - 1.0) / 0.5).exp());
+        let fall = |t: f64| -2.0 * (1.0 - (-(t - 2.0) / 0.25).exp());
+        let cases = [
+            (0.0, 1.0, 0.0),
+            (1.0, 1.0, 0.0),
+            (1.5, 1.0 + rise(1.5), 4.0 * (-1.0f64).exp()),
+            (2.0, 1.0 + rise(2.0), 4.0 * (-2.0f64).exp()),
+            (
+                2.5,
+                1.0 + rise(2.5) + fall(2.5),
+                4.0 * (-3.0f64).exp() - 8.0 * (-2.0f64).exp(),
+            ),
+        ];
+        for (t, v, d) in cases {
+            assert!(
+                (w.value(t) - v).abs() < 1e-14,
+                "value at {t}: {}",
+                w.value(t)
+            );
+            assert!(
+                (w.derivative(t) - d).abs() < 1e-13,
+                "slope at {t}: {}",
+                w.derivative(t)
+            );
+        }
+        assert_eq!(w.next_breakpoint(0.0), Some(1.0));
+        assert_eq!(w.next_breakpoint(1.0), Some(2.0));
+        assert_eq!(w.next_breakpoint(2.0), None);
+        // Zero time constants are ideal edges.
+        let edges = Waveform::Exp {
+            v1: 0.0,
+            v2: 1.0,
+            rise_delay: 1.0,
+            rise_tau: 0.0,
+            fall_delay: 2.0,
+            fall_tau: 0.0,
+        };
+        assert_eq!(
+            [
+                edges.value(1.0),
+                edges.value(1.5),
+                edges.value(2.0),
+                edges.value(2.5)
+            ],
+            [0.0, 1.0, 1.0, 0.0]
+        );
     }
 
     #[test]

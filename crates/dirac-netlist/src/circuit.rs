@@ -231,6 +231,21 @@ pub fn waveform(spec: &SourceSpec) -> Waveform {
             width: *pw,
             period: if *per > 0.0 { *per } else { f64::INFINITY },
         },
+        SourceSpec::Exp {
+            v1,
+            v2,
+            td1,
+            tau1,
+            td2,
+            tau2,
+        } => Waveform::Exp {
+            v1: *v1,
+            v2: *v2,
+            rise_delay: *td1,
+            rise_tau: *tau1,
+            fall_delay: *td2,
+            fall_tau: *tau2,
+        },
         SourceSpec::Pwl { points, td, r } => Waveform::Pwl {
             points: points.clone(),
             delay: *td,

@@ -32,7 +32,7 @@ impl fmt::Display for Pos {
 #[non_exhaustive]
 pub enum ErrorKind {
     /// A card, element type, source function, model type or parameter outside the supported subset
-    /// (for example `M`, `Q`, `E`, `.ac`, `.include`, `EXP(...)`). The message says "not supported".
+    /// (for example `M`, `Q`, `E`, `.ac`, `.include`, `SFFM(...)`). The message says "not supported".
     Unsupported,
     /// Malformed input: a missing node or value, an unbalanced parenthesis, a stray `.ends`, an
     /// expression that does not parse, ...
@@ -119,7 +119,7 @@ impl NetlistError {
         )
     }
 
-    /// A feature `what` (e.g. "source function `EXP`") inside `card` that is not supported.
+    /// A feature `what` (e.g. "source function `SFFM`") inside `card` that is not supported.
     pub(crate) fn unsupported_in(pos: Pos, text: &str, what: &str, card: &str) -> Self {
         Self::new(
             ErrorKind::Unsupported,

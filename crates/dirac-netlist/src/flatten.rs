@@ -263,6 +263,20 @@ fn source(
                 per: at(6),
             }
         }
+        SourceFn::Exp(args) => {
+            let v = eval_all(args)?;
+            non_negative(args, &v, 3, &["EXP rise time constant"])?;
+            non_negative(args, &v, 5, &["EXP fall time constant"])?;
+            let at = |i: usize| v.get(i).copied().unwrap_or(0.0);
+            SourceSpec::Exp {
+                v1: at(0),
+                v2: at(1),
+                td1: at(2),
+                tau1: at(3),
+                td2: at(4),
+                tau2: at(5),
+            }
+        }
         SourceFn::Pwl(args, repeat, delay) => {
             let v = eval_all(args)?;
             let points: Vec<(f64, f64)> = v.chunks_exact(2).map(|c| (c[0], c[1])).collect();

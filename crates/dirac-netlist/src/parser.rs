@@ -42,6 +42,7 @@ pub(crate) enum SourceFn {
     Dc(ExprTok),
     Sin(Vec<ExprTok>),
     Pulse(Vec<ExprTok>),
+    Exp(Vec<ExprTok>),
     /// The points, then the `r=` and `td=` options.
     Pwl(Vec<ExprTok>, Option<ExprTok>, Option<ExprTok>),
 }
@@ -419,7 +420,10 @@ impl<'a> CardParser<'a> {
                     let mut n = 0;
                     while n < 2 && !self.cur.at_end() {
                         let w = self.cur.peek_word();
-                        if matches!(w.as_deref(), Some("dc" | "sin" | "sine" | "pulse" | "pwl")) {
+                        if matches!(
+                            w.as_deref(),
+                            Some("dc" | "sin" | "sine" | "pulse" | "pwl" | "exp")
+                        ) {
                             break;
                         }
                         self.value("AC value")?;
@@ -431,7 +435,7 @@ impl<'a> CardParser<'a> {
                         format!("AC specification ignored in card `{}`", self.text),
                     ));
                 }
-                Some(f @ ("sin" | "sine" | "pulse" | "pwl")) => {
+                Some(f @ ("sin" | "sine" | "pulse" | "pwl" | "exp")) => {
                     let f = f.to_owned();
                     let kw = self.cur.word().map(|w| w.text).unwrap_or_default();
                     if tran.is_some() {
@@ -476,6 +480,7 @@ impl<'a> CardParser<'a> {
                     }
                     tran = Some(match f.as_str() {
                         "pulse" => SourceFn::Pulse(args),
+                        "exp" => SourceFn::Exp(args),
                         "pwl" => {
                             let (repeat, delay) = self.pwl_options()?;
                             SourceFn::Pwl(args, repeat, delay)
@@ -484,7 +489,7 @@ impl<'a> CardParser<'a> {
                     });
                 }
                 Some(
-                    f @ ("exp" | "sffm" | "am" | "trnoise" | "trrandom" | "external" | "distof1"
+                    f @ ("sffm" | "am" | "trnoise" | "trrandom" | "external" | "distof1"
                     | "distof2" | "portnum" | "z0" | "pat"),
                 ) => {
                     let f = f.to_uppercase();

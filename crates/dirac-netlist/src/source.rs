@@ -8,6 +8,9 @@
 //! - `PULSE(V1 V2 TD TR TF PW PER)`: with `τ = t − TD`, if `τ > PER` then `τ −= PER·⌊τ/PER⌋`;
 //!   `V1` for `τ ≤ 0` or `τ ≥ TR+PW+TF`, `V2` for `TR ≤ τ ≤ TR+PW`, linear ramps in between.
 //!   `TR`, `TF` absent or 0 mean `TSTEP`; `PW`, `PER` absent or 0 mean `TSTOP`.
+//! - `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`: `V1` up to `TD1`, then `V1 + (V2−V1)(1 − e^{−(t−TD1)/TAU1})`,
+//!   after `TD2` plus `(V1−V2)(1 − e^{−(t−TD2)/TAU2})`. `TD1`, `TAU1`, `TAU2` absent or 0 mean
+//!   `TSTEP`, `TD2` absent or 0 means `TD1 + TSTEP` (ngspice's code; its manual gives 0 for `TD1`).
 //! - `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`: with `τ = t − TD`, `v1` before `t1`, linear
 //!   interpolation in between (at a time point, the segment ending there is used), and after the
 //!   last time the last value, or with `r=R` the stretch from the time point `R` to the last one
@@ -55,6 +58,21 @@ pub enum SourceSpec {
         /// Period (0 = default `TSTOP`, until resolved; an unresolved 0 means no repetition).
         per: f64,
     },
+    /// `EXP(V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]])`.
+    Exp {
+        /// Initial value.
+        v1: f64,
+        /// The value the rise tends to.
+        v2: f64,
+        /// Rise delay (0 = default `TSTEP`, until resolved).
+        td1: f64,
+        /// Rise time constant (0 = default `TSTEP`, until resolved).
+        tau1: f64,
+        /// Fall delay (0 = default `TD1 + TSTEP`, until resolved).
+        td2: f64,
+        /// Fall time constant (0 = default `TSTEP`, until resolved).
+        tau2: f64,
+    },
     /// `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`.
     Pwl {
         /// Time–value points with non-decreasing times.
@@ -93,7 +111,8 @@ impl SourceSpec {
 
     /// The waveform with ngspice's transient defaults filled in from `.tran TSTEP TSTOP`: a zero
     /// `SIN` frequency becomes `1/tstop`; zero `PULSE` rise and fall times become `tstep`; zero
-    /// pulse width and period become `tstop`. Other waveforms are returned unchanged.
+    /// pulse width and period become `tstop`; zero `EXP` delays and time constants become `tstep`
+    /// (the fall delay `TD1 + tstep`). Other waveforms are returned unchanged.
     pub fn resolved(&self, tstep: f64, tstop: f64) -> SourceSpec {
         let or = |x: f64, default: f64| if x == 0.0 { default } else { x };
         match self {
@@ -129,6 +148,24 @@ impl SourceSpec {
                 pw: or(*pw, tstop),
                 per: or(*per, tstop),
             },
+            SourceSpec::Exp {
+                v1,
+                v2,
+                td1,
+                tau1,
+                td2,
+                tau2,
+            } => {
+                let td1 = or(*td1, tstep);
+                SourceSpec::Exp {
+                    v1: *v1,
+                    v2: *v2,
+                    td1,
+                    tau1: or(*tau1, tstep),
+                    td2: or(*td2, td1 + tstep),
+                    tau2: or(*tau2, tstep),
+                }
+            }
             other => other.clone(),
         }
     }

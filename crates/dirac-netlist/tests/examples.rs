@@ -24,7 +24,7 @@ fn all_example_netlists_parse() {
         .collect();
     names.sort();
     assert!(names.len() >= 7, "{names:?}");
-    let (mut dc, mut sin, mut pulse, mut pwl) = (false, false, false, false);
+    let (mut dc, mut sin, mut pulse, mut exp, mut pwl) = (false, false, false, false, false);
     for name in &names {
         let net = load(name);
         // Every bundled netlist has a transient or an operating point; the ones written for the
@@ -55,6 +55,7 @@ fn all_example_netlists_parse() {
                     SourceSpec::Dc(_) => dc = true,
                     SourceSpec::Sin { .. } => sin = true,
                     SourceSpec::Pulse { .. } => pulse = true,
+                    SourceSpec::Exp { .. } => exp = true,
                     SourceSpec::Pwl { .. } => pwl = true,
                 }
             }
@@ -66,7 +67,10 @@ fn all_example_netlists_parse() {
             );
         }
     }
-    assert!(dc && sin && pulse && pwl, "every source kind is exercised");
+    assert!(
+        dc && sin && pulse && exp && pwl,
+        "every source kind is exercised"
+    );
 }
 
 #[test]

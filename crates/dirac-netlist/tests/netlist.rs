@@ -657,6 +657,59 @@ fn unsupported_cards() {
     }
 }
 
+/// `EXP(V1 V2 TD1 TAU1 TD2 TAU2)` with ngspice's defaults from `vsrcload.c`: `TD1`, `TAU1`, `TAU2`
+/// absent or 0 are TSTEP and `TD2` is `TD1 + TSTEP` (the manual's 0 for `TD1` is not what the code
+/// does); a negative time constant is refused.
+#[test]
+fn exp_source_and_its_defaults() {
+    let net = parse(
+        "t\nV1 a 0 EXP(0 2 0.2m 0.3m 1.5m 0.5m)\nV2 b 0 EXP(1 -1)\nV3 c 0 EXP(0 1 0 0 2m)\n\
+         R1 a 0 1\nR2 b 0 1\nR3 c 0 1\n.tran 10u 4m\n",
+    );
+    assert_eq!(
+        source_of(&net, "v1"),
+        &SourceSpec::Exp {
+            v1: 0.0,
+            v2: 2.0,
+            td1: 0.2e-3,
+            tau1: 0.3e-3,
+            td2: 1.5e-3,
+            tau2: 0.5e-3
+        }
+    );
+    assert_eq!(
+        source_of(&net, "v2"),
+        &SourceSpec::Exp {
+            v1: 1.0,
+            v2: -1.0,
+            td1: 1e-5,
+            tau1: 1e-5,
+            td2: 2e-5,
+            tau2: 1e-5
+        }
+    );
+    assert_eq!(
+        source_of(&net, "v3"),
+        &SourceSpec::Exp {
+            v1: 0.0,
+            v2: 1.0,
+            td1: 1e-5,
+            tau1: 1e-5,
+            td2: 2e-3,
+            tau2: 1e-5
+        }
+    );
+    // 0.1 ms into the rise: 2(1 − e^{−1/3}).
+    let v = source_of(&net, "v1").value(0.3e-3);
+    assert!(
+        (v - 2.0 * (1.0 - (-1.0f64 / 3.0).exp())).abs() < 1e-14,
+        "{v}"
+    );
+    let e = assert_err("t\nV1 a 0 EXP(0 1 0 -1m)\n", ErrorKind::BadValue, 2, 18);
+    assert!(e.message.contains("EXP rise time constant"), "{e}");
+    assert_err("t\nV1 a 0 EXP(0 1 0 1 2 3 4)\n", ErrorKind::Syntax, 2, 8);
+}
+
 /// ngspice's `r=` and `td=` after `PWL(…)`, in either order and any case; `r` must be one of the
 /// time points before the last (ngspice's `vsrcpar.c` refuses the others).
 #[test]
@@ -702,9 +755,14 @@ fn pwl_repeat_and_delay_options() {
 
 #[test]
 fn unsupported_features_inside_cards() {
-    let e = assert_err("t\nV1 a 0 EXP(0 1 1n)\n", ErrorKind::Unsupported, 2, 8);
+    let e = assert_err(
+        "t\nV1 a 0 SFFM(0 1 1k 5 100)\n",
+        ErrorKind::Unsupported,
+        2,
+        8,
+    );
     assert!(e.message.contains("not supported"), "{e}");
-    assert!(e.message.contains("EXP"), "{e}");
+    assert!(e.message.contains("SFFM"), "{e}");
     let e = assert_err("t\nR1 a 0 1k tc1=0.01\n", ErrorKind::Unsupported, 2, 11);
     assert!(e.message.contains("parameter `tc1`") && e.message.contains("not supported"));
     assert_err("t\n.model q1 NPN(BF=100)\n", ErrorKind::Unsupported, 2, 11);

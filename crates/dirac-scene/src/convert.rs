@@ -128,6 +128,22 @@ fn waveform(spec: &SourceSpec) -> String {
                 number(*pw)
             )
         }
+        SourceSpec::Exp {
+            v1,
+            v2,
+            td1,
+            tau1,
+            td2,
+            tau2,
+        } => format!(
+            "{{ shape = \"exp\", v1 = {}, v2 = {}, rise_delay = {}, rise_tau = {}, fall_delay = {}, fall_tau = {} }}",
+            number(*v1),
+            number(*v2),
+            number(*td1),
+            number(*tau1),
+            number(*td2),
+            number(*tau2)
+        ),
         SourceSpec::Pwl { points, td, r } => {
             let list: Vec<String> = points
                 .iter()

@@ -482,6 +482,21 @@ fn waveform(w: &WaveformSpec) -> Waveform {
             width: *width,
             period: period.unwrap_or(f64::INFINITY),
         },
+        WaveformSpec::Exp {
+            v1,
+            v2,
+            rise_delay,
+            rise_tau,
+            fall_delay,
+            fall_tau,
+        } => Waveform::Exp {
+            v1: *v1,
+            v2: *v2,
+            rise_delay: *rise_delay,
+            rise_tau: *rise_tau,
+            fall_delay: *fall_delay,
+            fall_tau: *fall_tau,
+        },
         WaveformSpec::Pwl {
             points,
             delay,

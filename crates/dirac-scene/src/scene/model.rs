@@ -309,6 +309,22 @@ pub enum WaveformSpec {
         /// Period (`None`: a single pulse).
         period: Option<f64>,
     },
+    /// `{ shape = "exp", v1 = 0, v2 = 5, rise_delay = 1e-3, rise_tau = 1e-4, fall_delay = 2e-3,
+    /// fall_tau = 1e-4 }` (SPICE's `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`): every key needed.
+    Exp {
+        /// Initial value.
+        v1: f64,
+        /// The value the rise tends to.
+        v2: f64,
+        /// Start of the rise.
+        rise_delay: f64,
+        /// Time constant of the rise.
+        rise_tau: f64,
+        /// Start of the fall.
+        fall_delay: f64,
+        /// Time constant of the fall.
+        fall_tau: f64,
+    },
     /// `{ shape = "pwl", points = [[0, 0], [1e-3, 5]], delay = 0, repeat = 0 }`: `(time, value)`
     /// points, times non-decreasing; the optional `delay` (SPICE's `td=`) shifts the whole
     /// sequence and `repeat` (SPICE's `r=`, one of the points' times before the last) repeats the
@@ -343,11 +359,15 @@ struct WaveformTable {
     period: Option<f64>,
     points: Option<Vec<[f64; 2]>>,
     repeat: Option<f64>,
+    rise_delay: Option<f64>,
+    rise_tau: Option<f64>,
+    fall_delay: Option<f64>,
+    fall_tau: Option<f64>,
 }
 
 impl WaveformTable {
     fn into_spec<E: de::Error>(self) -> Result<WaveformSpec, E> {
-        let given: [(&str, bool); 15] = [
+        let given: [(&str, bool); 19] = [
             ("value", self.value.is_some()),
             ("offset", self.offset.is_some()),
             ("amplitude", self.amplitude.is_some()),
@@ -363,6 +383,10 @@ impl WaveformTable {
             ("period", self.period.is_some()),
             ("points", self.points.is_some()),
             ("repeat", self.repeat.is_some()),
+            ("rise_delay", self.rise_delay.is_some()),
+            ("rise_tau", self.rise_tau.is_some()),
+            ("fall_delay", self.fall_delay.is_some()),
+            ("fall_tau", self.fall_tau.is_some()),
         ];
         let allowed: &[&str] = match self.shape.as_str() {
             "dc" => &["value"],
@@ -375,10 +399,18 @@ impl WaveformTable {
                 "phase",
             ],
             "pulse" => &["v1", "v2", "delay", "rise", "fall", "width", "period"],
+            "exp" => &[
+                "v1",
+                "v2",
+                "rise_delay",
+                "rise_tau",
+                "fall_delay",
+                "fall_tau",
+            ],
             "pwl" => &["points", "delay", "repeat"],
             other => {
                 return Err(E::custom(format!(
-                    "unknown waveform shape `{other}`, expected one of `dc`, `sin`, `pulse`, `pwl`"
+                    "unknown waveform shape `{other}`, expected one of `dc`, `sin`, `pulse`, `exp`, `pwl`"
                 )));
             }
         };
@@ -413,6 +445,14 @@ impl WaveformTable {
                 fall: self.fall.unwrap_or(0.0),
                 width: need(self.width, "width")?,
                 period: self.period,
+            },
+            "exp" => WaveformSpec::Exp {
+                v1: need(self.v1, "v1")?,
+                v2: need(self.v2, "v2")?,
+                rise_delay: need(self.rise_delay, "rise_delay")?,
+                rise_tau: need(self.rise_tau, "rise_tau")?,
+                fall_delay: need(self.fall_delay, "fall_delay")?,
+                fall_tau: need(self.fall_tau, "fall_tau")?,
             },
             _ => WaveformSpec::Pwl {
                 points: self.points.ok_or_else(|| {
@@ -467,6 +507,24 @@ impl Serialize for WaveformSpec {
                 if let Some(p) = period {
                     m.serialize_entry("period", p)?;
                 }
+                m.end()
+            }
+            Self::Exp {
+                v1,
+                v2,
+                rise_delay,
+                rise_tau,
+                fall_delay,
+                fall_tau,
+            } => {
+                let mut m = s.serialize_map(Some(7))?;
+                m.serialize_entry("shape", "exp")?;
+                m.serialize_entry("v1", v1)?;
+                m.serialize_entry("v2", v2)?;
+                m.serialize_entry("rise_delay", rise_delay)?;
+                m.serialize_entry("rise_tau", rise_tau)?;
+                m.serialize_entry("fall_delay", fall_delay)?;
+                m.serialize_entry("fall_tau", fall_tau)?;
                 m.end()
             }
             Self::Pwl {
