@@ -839,6 +839,19 @@ def run_ngspice_once(path: str):
     )
 
 
+def ngspice_best_of(path: str, reps: int):
+    """Runs the deck `reps` times (once when a run takes more than BEST_OF_ONE_S): the least
+    transient time and the first run's statistics (deterministic, the same in every run)."""
+    best, first = math.inf, None
+    for _ in range(reps):
+        res = run_ngspice_once(path)
+        first = first or res
+        best = min(best, res[0])
+        if res[0] > BEST_OF_ONE_S:
+            break
+    return best, first
+
+
 def sweep_c(sections: list[int], emit) -> None:
     note(
         "C ngspice: ngspice chooses its own time steps (method=trap, TMAX = 0.01); `steps` is its "
@@ -852,16 +865,9 @@ def sweep_c(sections: list[int], emit) -> None:
             path = os.path.join(d, f"ladder_{n}.cir")
             with open(path, "w") as fh:
                 fh.write(ladder_netlist(n))
-            best = math.inf
-            first = None
             t_start = time.perf_counter()
             try:
-                for rep in range(3):
-                    res = run_ngspice_once(path)
-                    first = first or res
-                    best = min(best, res[0])
-                    if rep == 0 and res[0] > BEST_OF_ONE_S:
-                        break
+                best, first = ngspice_best_of(path, 3)
             except subprocess.TimeoutExpired:
                 note(
                     f"C-{n} ngspice: one run took longer than {C_TIMEOUT_S:.0f} s (the ~5 minute "
@@ -987,13 +993,7 @@ def sweep_c_accuracy(sections: list[int], quick: bool, emit) -> None:
                     last = raw_last_point(raw)
                     with open(path, "w") as fh:
                         fh.write(ladder_accuracy_netlist(n, reltol, tmax, None))
-                    best, timed = math.inf, None
-                    for rep in range(1 if quick else 3):
-                        res = run_ngspice_once(path)
-                        timed = timed or res
-                        best = min(best, res[0])
-                        if res[0] > BEST_OF_ONE_S:
-                            break
+                    best, timed = ngspice_best_of(path, 1 if quick else 3)
                 except Exception as e:  # noqa: BLE001
                     note(f"Cacc-{n} ngspice reltol {reltol:g} TMAX {tmax:g} failed: {e}")
                     continue
@@ -1062,17 +1062,11 @@ def sweep_f_ngspice(quick: bool, emit) -> None:
             with open(path, "w") as fh:
                 fh.write(rc_netlist(scene.n, reltol, raw))
             try:
-                best, first = math.inf, None
-                for rep in range(1 if quick else 3):
-                    res = run_ngspice_once(path)
-                    first = first or (res, raw_last_point(raw))
-                    best = min(best, res[0])
-                    if res[0] > BEST_OF_ONE_S:
-                        break
+                best, (_, accepted, iters, _) = ngspice_best_of(path, 1 if quick else 3)
+                last = raw_last_point(raw)
             except Exception as e:  # noqa: BLE001
                 note(f"F ngspice reltol {reltol:g} failed: {e}; tighter skipped")
                 break
-            (_, accepted, iters, _), last = first
             v = np.array([last[f"v(n{k})"] for k in range(1, scene.n + 1)])
             err = float(np.max(np.abs(v - scene.reference)))
             emit(row("F", "ngspice", "trap", f"{reltol:.0e}", best, accepted, iters, err, math.nan))
