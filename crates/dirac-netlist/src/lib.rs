@@ -12,15 +12,15 @@
 //! | `Rname n1 n2 value` | resistor (a zero value is an error) |
 //! | `Lname n1 n2 value [IC=i0]` | inductor, optional initial current |
 //! | `Cname n1 n2 value [IC=v0]` | capacitor, optional initial voltage |
-//! | `Vname n+ n- [[DC] v] [SIN(..)\|PULSE(..)\|PWL(..)] [AC ..]` | voltage source |
+//! | `Vname n+ n- [[DC] v] [SIN(..)\|PULSE(..)\|EXP(..)\|PWL(..)] [AC ..]` | voltage source |
 //! | `Iname n+ n- ...` | current source, same forms as `V` |
 //! | `Kname L1 L2 k` | coupling of two inductors, `-1 ≤ k ≤ 1` |
 //! | `Dname anode cathode model` | diode; `model` names a `.model NAME D(...)` |
 //! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
 //!
 //! Source functions: `SIN(VO VA [FREQ [TD [THETA [PHASE]]]])`, `PULSE(V1 V2 [TD [TR [TF [PW
-//! [PER]]]]])`, `PWL(t1 v1 t2 v2 ...)`, with or without parentheses, values separated by blanks or
-//! commas; see [`SourceSpec`] for the exact (ngspice) definitions and defaults. When both a DC
+//! [PER]]]]])`, `EXP(V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]])`, `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`, with
+//! or without parentheses, values separated by blanks or commas; see [`SourceSpec`] for the exact (ngspice) definitions and defaults. When both a DC
 //! value and a transient function are given, the function is used (with a warning). An `AC`
 //! specification is ignored with a warning. A source without any value is `DC 0` (with a warning).
 //!
@@ -53,14 +53,15 @@
 //! Everything else is an error of kind [`ErrorKind::Unsupported`] whose message contains "not
 //! supported": other element types (`M Q J E F G H B T S W A U O Z`, ...), other dot-cards (`.ac`,
 //! `.dc`, `.include`, `.lib`, `.func`, `.nodeset`, ...), other source
-//! functions (`EXP`, `SFFM`, `AM`, `TRNOISE`, ...), `PWL` options (`r=`, `td=`), model types other
-//! than `D`, instance parameters other than `IC=` on `L`/`C`.
+//! functions (`SFFM`, `AM`, `TRNOISE`, ...), model types other than `D`, instance parameters other
+//! than `IC=` on `L`/`C`.
 //!
 //! # Lexical rules
 //!
 //! - The first line is the title (SPICE convention) and is never parsed as a card.
-//! - Lines whose first non-blank character is `*` are comments; `;` starts a comment that runs to
-//!   the end of the line (`$` comments are not recognised).
+//! - Lines whose first non-blank character is `*` are comments; `;`, `//` and a `$` that opens the
+//!   line or follows a blank start a comment that runs to the end of the line (as ngspice reads
+//!   them; a `$` inside a word is not one).
 //! - A line starting with `+` continues the previous card.
 //! - Names and keywords are case-insensitive. Node and element names are normalised to lowercase;
 //!   the ground node is `0` or `gnd`, normalised to `"0"`.
