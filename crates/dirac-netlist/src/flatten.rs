@@ -13,7 +13,7 @@ use std::rc::Rc;
 
 use super::error::{ErrorKind, NetlistError, Pos, Warning};
 use super::expr::{self, ExprTok};
-use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef};
+use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef, TranCard};
 use super::source::SourceSpec;
 use super::{DiodeModel, Element, Netlist, Origin, Tran};
 use dirac_components::{Diode, DiodeParameters};
@@ -535,6 +535,20 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                         ),
                     ));
                 }
+                if kv.abs() == 1.0 {
+                    // L₁L₂ − M² = 0: the winding currents' inductance matrix is singular, and the
+                    // step's Newton matrix with it (the run failed at its first step).
+                    return Err(NetlistError::unsupported_in(
+                        k.pos,
+                        &k.text,
+                        &format!(
+                            "perfect coupling k = {kv} of `{}` (its inductance matrix is singular; \
+                             |k| < 1 such as 0.999999 runs)",
+                            el.name.orig
+                        ),
+                        &format!("{} {} {} {}", el.name.orig, l1.orig, l2.orig, k.text),
+                    ));
+                }
                 if l1.norm == l2.norm {
                     return Err(NetlistError::bad_value(
                         l2.pos,
@@ -713,6 +727,45 @@ fn instantiate(
     expand(&inner, out)
 }
 
+/// Warnings for a `.tran` whose TSTOP or TSTART is not a whole number of TSTEPs: dirac steps
+/// on the grid `k·TSTEP`, so its last row is at `round(TSTOP/TSTEP)·TSTEP` and its first at the
+/// first grid time from TSTART, where ngspice ends at TSTOP and starts its output at TSTART.
+fn off_grid_warnings(t: &Tran, card: &TranCard, warnings: &mut Vec<Warning>) {
+    let off = |x: f64| {
+        let r = x / t.tstep;
+        (r - r.round()).abs() > 1e-9 * r.max(1.0)
+    };
+    let at = |i: usize| card.values.get(i).map(|e| (e.pos, e.text.clone()));
+    if off(t.tstop)
+        && let Some((pos, text)) = at(1)
+    {
+        let end = (t.tstop / t.tstep).round() * t.tstep;
+        warnings.push(Warning::new(
+            pos,
+            text,
+            format!(
+                "TSTOP = {} is not a whole number of TSTEP = {} steps: the fixed-step run ends at \
+                 {end:.6e} (ngspice ends at TSTOP); choose a TSTEP that divides TSTOP, or set --h",
+                t.tstop, t.tstep
+            ),
+        ));
+    }
+    if t.tstart > 0.0
+        && off(t.tstart)
+        && let Some((pos, text)) = at(2)
+    {
+        let first = (t.tstart / t.tstep).ceil() * t.tstep;
+        warnings.push(Warning::new(
+            pos,
+            text,
+            format!(
+                "TSTART = {} is not on the TSTEP = {} grid: the first row is at {first:.6e}",
+                t.tstart, t.tstep
+            ),
+        ));
+    }
+}
+
 fn tran(parsed: &Parsed, scope: &Scope<'_>) -> Result<Option<Tran>, NetlistError> {
     let Some(card) = &parsed.tran else {
         return Ok(None);
@@ -784,6 +837,9 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         global.lookup(&name.norm, name.pos)?;
     }
     let tran = tran(&parsed, &global)?;
+    if let (Some(t), Some(card)) = (&tran, &parsed.tran) {
+        off_grid_warnings(t, card, &mut out.warnings);
+    }
 
     for k in &out.krefs {
         for (full, name) in [&k.l1, &k.l2] {

@@ -710,6 +710,45 @@ fn exp_source_and_its_defaults() {
     assert_err("t\nV1 a 0 EXP(0 1 0 1 2 3 4)\n", ErrorKind::Syntax, 2, 8);
 }
 
+/// A `.tran` whose TSTOP or TSTART is off the TSTEP grid is run on the grid, with a warning at the
+/// value that says where the rows end or begin (ngspice ends at TSTOP); on the grid, none.
+#[test]
+fn off_grid_tran_times_are_warned_about() {
+    let net = parse("t\nR1 a 0 1\nV1 a 0 1\n.tran 3u 100u 10u\n");
+    let w: Vec<String> = net.warnings.iter().map(ToString::to_string).collect();
+    assert_eq!(w.len(), 2, "{w:?}");
+    assert!(
+        w[0].contains("4:10") && w[0].contains("ends at 9.900000e-5"),
+        "{w:?}"
+    );
+    assert!(
+        w[1].contains("4:15") && w[1].contains("first row is at 1.200000e-5"),
+        "{w:?}"
+    );
+    let on_grid = parse("t\nR1 a 0 1\nV1 a 0 1\n.tran 1e-5 1e-3 3e-5\n");
+    assert!(on_grid.warnings.is_empty(), "{:?}", on_grid.warnings);
+}
+
+/// `K … 1` (perfect coupling) has a singular inductance matrix; the run failed at its first step
+/// with a hint about saturating parts. It is refused where it is written.
+#[test]
+fn perfect_coupling_is_refused_at_its_card() {
+    let e = assert_err(
+        "t\nL1 a 0 1m\nL2 b 0 4m\nK1 L1 L2 1\nR1 a 0 1\nR2 b 0 1\n",
+        ErrorKind::Unsupported,
+        4,
+        10,
+    );
+    assert!(e.message.contains("0.999999"), "{e}");
+    assert_err(
+        "t\nL1 a 0 1m\nL2 b 0 4m\nK1 L1 L2 -1\nR1 a 0 1\nR2 b 0 1\n",
+        ErrorKind::Unsupported,
+        4,
+        10,
+    );
+    parse("t\nL1 a 0 1m\nL2 b 0 4m\nK1 L1 L2 0.999999\nR1 a 0 1\nR2 b 0 1\n");
+}
+
 /// ngspice's `r=` and `td=` after `PWL(…)`, in either order and any case; `r` must be one of the
 /// time points before the last (ngspice's `vsrcpar.c` refuses the others).
 #[test]
