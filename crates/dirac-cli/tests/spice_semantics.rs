@@ -673,3 +673,72 @@ fn a_fast_mode_excited_at_a_source_corner_does_not_ring() {
     let (ringing, _) = run(&["--no-start-ramp"]);
     assert!(ringing > 0.1, "the control must ring: {ringing:e}");
 }
+
+/// A fast mode that gauss2 does not ring but leaves lingering is ramped after every source
+/// corner as well (found by a sweep of foreign netlists, docs/audit.md item 36). A PULSE current
+/// source drives 10 kΩ in parallel with 1 mH + 50 Ω: the inductor's current obeys
+/// `di/dt = −i/τ + (R₂/L)·I(t)` with `τ = L/(R₁ + R₂) = 99.5 ns`, ten times below h = 1 µs, and
+/// `v(a) = R₂(I − i)`. gauss2 damps that mode by R(−10) = +0.30 per step where the exact factor
+/// is 4.5e-5: without ramps `v(a)` read 0.148 V at 101 µs where it is 0.208 V, and the error
+/// decayed by 0.3 per row (the ramp threshold `SLOW_METHOD_DAMPING` was 0.5, which catches
+/// midpoint's ringing factor −0.67 but not that). Checked against the exact solution, piece by
+/// piece of the piecewise-linear source: `i = K(a + b s) − Kbτ + C e^{−s/τ}`, `K = R₂/(R₁ + R₂)`.
+#[test]
+fn a_fast_mode_gauss2_leaves_lingering_after_a_corner_is_ramped() {
+    let path = deck(
+        "lingering.cir",
+        "pulsed current into an inductor and a resistor\n\
+         I1 0 a PULSE(0 2m 0.1m 10u 10u 0.3m 1m)\nL1 a b 1m\nR1 b 0 50\nR2 a 0 10k\n\
+         .tran 1u 1m\n.end\n",
+    );
+    let (r1, r2, l) = (50.0, 1e4, 1e-3);
+    let (tau, k) = (l / (r1 + r2), r2 / (r1 + r2));
+    // The source's pieces (start, value at start, slope) up to 1 ms.
+    let pieces = [
+        (0.0, 0.0, 0.0),
+        (0.1e-3, 0.0, 2e-3 / 10e-6),
+        (0.11e-3, 2e-3, 0.0),
+        (0.41e-3, 2e-3, -2e-3 / 10e-6),
+        (0.42e-3, 0.0, 0.0),
+    ];
+    let exact = |t: f64| {
+        // i is continuous across pieces: carry it from each piece's start.
+        let mut i = 0.0;
+        let mut at = (0.0, 0.0, 0.0);
+        for &(t0, a, b) in &pieces {
+            if t0 > t {
+                break;
+            }
+            if t0 > 0.0 {
+                let (s0, a0, b0) = at;
+                let s = t0 - s0;
+                let c = i - (k * a0 - k * b0 * tau);
+                i = k * (a0 + b0 * s) - k * b0 * tau + c * (-s / tau).exp();
+            }
+            at = (t0, a, b);
+        }
+        let (t0, a, b) = at;
+        let s = t - t0;
+        let c = i - (k * a - k * b * tau);
+        let i = k * (a + b * s) - k * b * tau + c * (-s / tau).exp();
+        r2 * (a + b * s - i)
+    };
+    let out = dirac(&[
+        "run",
+        path.to_str().unwrap(),
+        "--method",
+        "gauss2",
+        "--json-summary",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{stderr}");
+    let (header, table) = rows(&String::from_utf8(out.stdout).unwrap());
+    let (t, va) = (index_of(&header, "t"), index_of(&header, "v(a)"));
+    let worst = table
+        .iter()
+        .map(|row| (row[va] - exact(row[t])).abs())
+        .fold(0.0, f64::max);
+    println!("gauss2: max |v(a) − exact| over the rows: {worst:.3e} V (peak 0.3 V); {stderr}");
+    assert!(worst <= 1e-4, "{worst:e} V");
+    assert!(stderr.contains("\"ramp_substeps\""), "{stderr}");
+}
