@@ -912,13 +912,10 @@ C_ACCURACY_MAX = 10_000
 C_ACCURACY_SETTINGS = [(1e-3, 0.01), (1e-3, 0.05), (1e-5, 0.2), (1e-7, 0.2)]
 
 
-def ladder_reference(n: int, t_end: float = 10.0) -> np.ndarray:
-    """Capacitor voltages of scene C's ladder at `t_end`, exactly up to round-off: the ladder is
-    linear and time-invariant, so x(t) = exp(tA)·x(0) for the state (i₁…i_N, v₁…v_N, 1), whose last
-    component carries the 1 V source (SciPy's `expm_multiply`, a truncated Taylor series with
-    scaling chosen for double precision; Al-Mohy and Higham 2011)."""
+def ladder_matrix(n: int):
+    """Scene C's ladder as x' = A·x for the state (i₁…i_N, v₁…v_N, 1), whose last component
+    carries the 1 V source (sparse CSR)."""
     from scipy.sparse import csr_matrix
-    from scipy.sparse.linalg import expm_multiply
 
     rows, cols, vals = [], [], []
     src = 2 * n
@@ -931,10 +928,19 @@ def ladder_reference(n: int, t_end: float = 10.0) -> np.ndarray:
             rows.append(n + k)
             cols.append(k + 1)
             vals.append(-1.0)
-    a = csr_matrix((vals, (rows, cols)), shape=(2 * n + 1, 2 * n + 1))
+    return csr_matrix((vals, (rows, cols)), shape=(2 * n + 1, 2 * n + 1))
+
+
+def ladder_reference(n: int, t_end: float = 10.0) -> np.ndarray:
+    """Capacitor voltages of scene C's ladder at `t_end`, exactly up to round-off: the ladder is
+    linear and time-invariant, so x(t) = exp(tA)·x(0) with x(0) = (0, …, 0, 1) (SciPy's
+    `expm_multiply`, a truncated Taylor series with scaling chosen for double precision; Al-Mohy
+    and Higham 2011)."""
+    from scipy.sparse.linalg import expm_multiply
+
     x0 = np.zeros(2 * n + 1)
-    x0[src] = 1.0
-    return expm_multiply(a * t_end, x0)[n : 2 * n]
+    x0[2 * n] = 1.0
+    return expm_multiply(ladder_matrix(n) * t_end, x0)[n : 2 * n]
 
 
 def ladder_reference_check(n: int = 50) -> float:
@@ -942,15 +948,7 @@ def ladder_reference_check(n: int = 50) -> float:
     the same system: noted with every run so that the reference's accuracy is on record."""
     from scipy.linalg import expm
 
-    a = np.zeros((2 * n + 1, 2 * n + 1))
-    for k in range(n):
-        a[k, 2 * n if k == 0 else n + k - 1] += 1.0
-        a[k, n + k] -= 1.0
-        a[k, k] -= 0.1
-        a[n + k, k] += 1.0
-        if k + 1 < n:
-            a[n + k, k + 1] -= 1.0
-    dense = expm(10.0 * a)[n : 2 * n, 2 * n]
+    dense = expm(10.0 * ladder_matrix(n).toarray())[n : 2 * n, 2 * n]
     return float(np.max(np.abs(dense - ladder_reference(n))))
 
 

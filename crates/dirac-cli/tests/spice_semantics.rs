@@ -701,27 +701,20 @@ fn a_fast_mode_gauss2_leaves_lingering_after_a_corner_is_ramped() {
         (0.41e-3, 2e-3, -2e-3 / 10e-6),
         (0.42e-3, 0.0, 0.0),
     ];
+    // The current `s` after the start of the piece `(a, b)` from its value `i0` there.
+    let evolve = |i0: f64, a: f64, b: f64, s: f64| {
+        let particular = |s: f64| k * (a + b * s) - k * b * tau;
+        particular(s) + (i0 - particular(0.0)) * (-s / tau).exp()
+    };
     let exact = |t: f64| {
-        // i is continuous across pieces: carry it from each piece's start.
-        let mut i = 0.0;
-        let mut at = (0.0, 0.0, 0.0);
-        for &(t0, a, b) in &pieces {
-            if t0 > t {
-                break;
-            }
-            if t0 > 0.0 {
-                let (s0, a0, b0) = at;
-                let s = t0 - s0;
-                let c = i - (k * a0 - k * b0 * tau);
-                i = k * (a0 + b0 * s) - k * b0 * tau + c * (-s / tau).exp();
-            }
-            at = (t0, a, b);
+        // i is continuous across pieces: carry it from each piece's start to the next.
+        let (mut i, mut at) = (0.0, pieces[0]);
+        for &next in pieces[1..].iter().take_while(|p| p.0 <= t) {
+            i = evolve(i, at.1, at.2, next.0 - at.0);
+            at = next;
         }
         let (t0, a, b) = at;
-        let s = t - t0;
-        let c = i - (k * a - k * b * tau);
-        let i = k * (a + b * s) - k * b * tau + c * (-s / tau).exp();
-        r2 * (a + b * s - i)
+        r2 * (a + b * (t - t0) - evolve(i, a, b, t - t0))
     };
     let out = dirac(&[
         "run",

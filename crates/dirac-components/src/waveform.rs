@@ -176,16 +176,29 @@ impl Waveform {
         let Self::Pwl { points, .. } = Self::pwl(points) else {
             unreachable!("Waveform::pwl makes a PWL")
         };
-        if let (Some(r), Some(&(last, _))) = (repeat, points.last()) {
-            assert!(
-                r < last && points.iter().any(|p| p.0 == r),
-                "the PWL repeat time must be one of the times before the last"
-            );
+        if let Some(r) = repeat
+            && let Some(why) = Self::pwl_repeat_fault(&points, r)
+        {
+            panic!("the PWL repeat time {r} {why}");
         }
         Self::Pwl {
             points,
             delay,
             repeat,
+        }
+    }
+
+    /// Why `repeat` cannot be the repeat time (SPICE's `r=`) of a PWL through `points`, or `None`
+    /// when it can: it must be one of the points' times and come before the last, as ngspice's
+    /// `vsrcpar.c` requires (a repeat from the last time would have a zero period).
+    #[must_use]
+    pub fn pwl_repeat_fault(points: &[(f64, f64)], repeat: f64) -> Option<&'static str> {
+        if !points.iter().any(|p| p.0 == repeat) {
+            Some("must be one of the points' times")
+        } else if points.last().is_some_and(|&(last, _)| repeat >= last) {
+            Some("must come before the last time")
+        } else {
+            None
         }
     }
 
@@ -269,13 +282,10 @@ impl Waveform {
                     }
                 }
                 c.finite(&k("delay"), *delay)?;
-                if let (Some(r), Some(&(last, _))) = (repeat, points.last()) {
-                    if !points.iter().any(|p| p.0 == *r) {
-                        return Err(c.fail(&k("repeat"), *r, "must be one of the points' times"));
-                    }
-                    if *r >= last {
-                        return Err(c.fail(&k("repeat"), *r, "must come before the last time"));
-                    }
+                if let Some(r) = repeat
+                    && let Some(why) = Self::pwl_repeat_fault(points, *r)
+                {
+                    return Err(c.fail(&k("repeat"), *r, why));
                 }
             }
         }

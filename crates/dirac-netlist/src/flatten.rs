@@ -16,7 +16,7 @@ use super::expr::{self, ExprTok};
 use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef, TranCard};
 use super::source::SourceSpec;
 use super::{DiodeModel, Element, Netlist, Origin, Tran};
-use dirac_components::{Diode, DiodeParameters};
+use dirac_components::{Diode, DiodeParameters, Waveform};
 
 enum Slot {
     Value(f64),
@@ -315,9 +315,8 @@ fn source(
                 None => None,
                 Some(a) => {
                     let r = scope.eval(a)?;
-                    // ngspice's `vsrcpar.c` refuses both, and a zero period would have no value.
-                    let last = points.last().map_or(f64::NAN, |p| p.0);
-                    if !points.iter().any(|p| p.0 == r) || r >= last {
+                    if Waveform::pwl_repeat_fault(&points, r).is_some() {
+                        let last = points.last().map_or(f64::NAN, |p| p.0);
                         return Err(NetlistError::bad_value(
                             a.pos,
                             a.text.clone(),
