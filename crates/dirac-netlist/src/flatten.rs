@@ -707,10 +707,25 @@ fn instantiate(
     for (name, e) in &def.body.params {
         scope.define(&name.norm, Slot::Pending(e.clone()));
     }
+    for (p, n) in def.ports.iter().zip(&el.nodes) {
+        let actual = ctx.node(n);
+        if p.norm == "0" && actual != "0" {
+            out.warnings.push(Warning::new(
+                n.pos,
+                n.orig.clone(),
+                format!(
+                    "port `{}` of subcircuit `{}` is the ground node, as in ngspice: node `{}` \
+                     that `{}` connects to it is not connected to the subcircuit",
+                    p.orig, def.name.orig, n.orig, el.name.orig
+                ),
+            ));
+        }
+    }
     let ports = def
         .ports
         .iter()
         .zip(&el.nodes)
+        .filter(|(p, _)| p.norm != "0")
         .map(|(p, n)| (p.norm.clone(), ctx.node(n)))
         .collect();
     let inner = Ctx {

@@ -721,13 +721,6 @@ impl<'a> CardParser<'a> {
         let mut ports: Vec<Name> = Vec::new();
         let (_, defaults) = self.words_then_assignments("port or parameter", |w, card| {
             let port = Name::node(w);
-            if port.norm == "0" {
-                return Err(NetlistError::bad_value(
-                    port.pos,
-                    port.orig.clone(),
-                    format!("the ground node cannot be a port in card `{card}`"),
-                ));
-            }
             if ports.iter().any(|p| p.norm == port.norm) {
                 return Err(NetlistError::syntax(
                     port.pos,
