@@ -28,8 +28,8 @@ pub(crate) struct AnimateArgs {
     /// Projection plane.
     #[arg(long, value_enum, default_value = "xz")]
     view: ViewArg,
-    /// End time (default: the scene's t_end).
-    #[arg(long)]
+    /// End time (default: the scene's t_end); SPICE suffixes read.
+    #[arg(long, value_parser = crate::spice_number)]
     t_end: Option<f64>,
     /// Frame size in pixels.
     #[arg(long, default_value_t = 480)]

@@ -142,11 +142,11 @@ struct ModelArgs {
     /// Discretisation (default: the scene's, or the midpoint rule for netlists).
     #[arg(long, value_enum)]
     method: Option<MethodArg>,
-    /// Step size (overrides .tran TSTEP or the scene's h).
-    #[arg(long)]
+    /// Step size (overrides .tran TSTEP or the scene's h); SPICE suffixes read, e.g. `10u`.
+    #[arg(long, value_parser = spice_number)]
     h: Option<f64>,
-    /// End time (overrides .tran TSTOP or the scene's t_end).
-    #[arg(long = "t-end")]
+    /// End time (overrides .tran TSTOP or the scene's t_end); SPICE suffixes read, e.g. `0.3m`.
+    #[arg(long = "t-end", value_parser = spice_number)]
     t_end: Option<f64>,
     /// Most steps to take: a run of more steps (t_end / h) is refused before it starts.
     #[arg(long = "max-steps", default_value_t = guard::DEFAULT_MAX_STEPS)]
@@ -298,8 +298,8 @@ struct CompareArgs {
 struct CheckArgs {
     /// Netlist or scene.
     file: PathBuf,
-    /// Step size to judge (default: .tran TSTEP or the scene's h).
-    #[arg(long)]
+    /// Step size to judge (default: .tran TSTEP or the scene's h); SPICE suffixes read.
+    #[arg(long, value_parser = spice_number)]
     h: Option<f64>,
     /// Discretisation to judge (default: the scene's, or the midpoint rule for netlists).
     #[arg(long, value_enum)]
@@ -370,6 +370,44 @@ impl From<RunError> for Failure {
             Self::Input(e.to_string())
         }
     }
+}
+
+/// Reads a number flag as a plain float or with a SPICE scale suffix and an optional `s`
+/// (`0.3m`, `10us`, `1meg`), so that a time copied from a netlist's `.tran` card means what it
+/// meant there. Unlike a netlist, a flag refuses other trailing letters: `0.3x` is a typo here,
+/// not 0.3.
+pub(crate) fn spice_number(text: &str) -> Result<f64, String> {
+    const SCALES: [(&str, f64); 10] = [
+        ("meg", 1e6),
+        ("mil", 25.4e-6),
+        ("t", 1e12),
+        ("g", 1e9),
+        ("k", 1e3),
+        ("m", 1e-3),
+        ("u", 1e-6),
+        ("n", 1e-9),
+        ("p", 1e-12),
+        ("f", 1e-15),
+    ];
+    let trimmed = text.trim();
+    let lower = trimmed.to_ascii_lowercase();
+    let unitless = lower.strip_suffix('s').unwrap_or(&lower);
+    let scaled = || {
+        SCALES.iter().find_map(|(suffix, factor)| {
+            let head = unitless.strip_suffix(suffix)?;
+            head.parse::<f64>().ok().map(|v| v * factor)
+        })
+    };
+    trimmed
+        .parse::<f64>()
+        .ok()
+        .or_else(|| unitless.parse::<f64>().ok())
+        .or_else(scaled)
+        .ok_or_else(|| {
+            format!(
+                "`{text}` is not a number (a float such as 3e-4, or with a SPICE suffix such as 0.3m or 10us)"
+            )
+        })
 }
 
 fn main() -> ExitCode {

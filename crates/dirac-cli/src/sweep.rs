@@ -52,11 +52,11 @@ pub struct SweepArgs {
     /// Representation: monolithic, constraint, force, staggered (default: the file's).
     #[arg(long)]
     representation: Option<String>,
-    /// Step size (default: the file's).
-    #[arg(long)]
+    /// Step size (default: the file's); SPICE suffixes read, e.g. `10u`.
+    #[arg(long, value_parser = crate::spice_number)]
     h: Option<f64>,
-    /// End time (default: the file's).
-    #[arg(long = "t-end")]
+    /// End time (default: the file's); SPICE suffixes read, e.g. `0.3m`.
+    #[arg(long = "t-end", value_parser = crate::spice_number)]
     t_end: Option<f64>,
     /// Run shard I of N only (0-based), e.g. 3/10.
     #[arg(long, value_name = "I/N")]

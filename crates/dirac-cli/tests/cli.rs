@@ -60,6 +60,47 @@ fn signals_option_selects_columns() {
     assert!(lines[1].starts_with("0,3,"), "{}", lines[1]);
 }
 
+/// Time flags read SPICE numbers as the `.tran` card does (`0.3m`, `300us`), and refuse other
+/// trailing letters (exit 2, no output) where a netlist would silently ignore them.
+#[test]
+fn time_flags_take_spice_suffixes() {
+    let last_row = |t_end: &str| {
+        let output = dirac()
+            .args([
+                "run",
+                repo("examples/netlists/rc_dc.cir").to_str().unwrap(),
+                "--signals",
+                "v(out)",
+                "--h",
+                "10u",
+                "--t-end",
+                t_end,
+            ])
+            .output()
+            .expect("runs");
+        assert!(output.status.success(), "{t_end}: {output:?}");
+        let text = String::from_utf8(output.stdout).unwrap();
+        text.lines().last().unwrap_or_default().to_owned()
+    };
+    let plain = last_row("3e-4");
+    assert!(plain.starts_with("0.0003,"), "{plain}");
+    assert_eq!(last_row("0.3m"), plain);
+    assert_eq!(last_row("300us"), plain);
+    let typo = dirac()
+        .args([
+            "run",
+            repo("examples/netlists/rc_dc.cir").to_str().unwrap(),
+            "--t-end",
+            "0.3x",
+        ])
+        .output()
+        .expect("runs");
+    assert_eq!(typo.status.code(), Some(2));
+    assert!(typo.stdout.is_empty());
+    let err = String::from_utf8_lossy(&typo.stderr);
+    assert!(err.contains("`0.3x` is not a number"), "{err}");
+}
+
 #[test]
 fn unsupported_card_is_exit_2_with_position_and_no_output() {
     let netlist = scratch("bad.cir");
