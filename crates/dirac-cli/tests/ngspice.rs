@@ -139,6 +139,29 @@ const CASES: &[Case] = &[
         mutated_card: "C1",
     },
     Case {
+        file: "opamp_filter.cir",
+        // G and E sources in an op-amp macro model (subcircuit X1). C2 inv out 5n (no IC: the
+        // operating point at t = 0, which is all zeros); Cp x1.p 0 1.59n inside X1.
+        caps: &[
+            ("q(c2)", "inv", "out", 5e-9),
+            ("q(x1.cp)", "x1.p", "0", 1.59e-9),
+        ],
+        same_scheme: true,
+        diodes: false,
+        ngspice_misses_corners: false,
+        mutated_card: "C2",
+    },
+    Case {
+        file: "ccsources.cir",
+        // F and H sources, controlled by the 0 V ammeter VS and by the driving source V1.
+        // Cl out 0 47n; Cz z 0 0.2u
+        caps: &[("q(cl)", "out", "0", 47e-9), ("q(cz)", "z", "0", 0.2e-6)],
+        same_scheme: true,
+        diodes: false,
+        ngspice_misses_corners: false,
+        mutated_card: "Cl",
+    },
+    Case {
         file: "rlc_sin.cir",
         // C1 b 0 {cval} IC=0, cval = 10u
         caps: &[("q(c1)", "b", "0", 10e-6)],

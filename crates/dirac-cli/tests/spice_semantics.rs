@@ -85,6 +85,43 @@ fn operating_point_of_a_current_divider() {
     );
 }
 
+/// The operating point through all four controlled sources, against values worked by hand (and
+/// printed identically by ngspice-39's `.op`): 3 V over 1k + 2k puts `v(b)` = `v(c)` = 2 V and
+/// 1 mA through the ammeter `VS`; `E1` makes 2.5·(3 − 2) = 2.5 V, `G1` drives 1 mS·2.5 V into 3k
+/// (7.5 V), `F1` pushes −4·1 mA from ground through itself into `f` (2 V over 500 Ω) and `H1` makes
+/// 2k·1 mA = 2 V.
+#[test]
+fn operating_point_through_controlled_sources() {
+    let file = deck(
+        "controlled_op.cir",
+        "controlled sources at the operating point\nv1 a 0 3\nr1 a b 1k\nvs b c 0\nr2 c 0 2k\n\
+         e1 d 0 a c 2.5\nrd d 0 1k\ng1 0 e d 0 1m\nre e 0 3k\nf1 f 0 vs -4\nrf f 0 500\n\
+         h1 g 0 vs 2k\nrg g 0 1k\n.op\n.end\n",
+    );
+    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
+    assert!(
+        json.status.success(),
+        "{}",
+        String::from_utf8_lossy(&json.stderr)
+    );
+    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
+    for (signal, exact) in [
+        ("v(b)", 2.0),
+        ("v(c)", 2.0),
+        ("v(d)", 2.5),
+        ("v(e)", 7.5),
+        ("v(f)", 2.0),
+        ("v(g)", 2.0),
+        ("i(vs)", 1e-3),
+    ] {
+        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
+        assert!(
+            (value - exact).abs() <= 1e-14 * exact.abs().max(1.0),
+            "{signal}: {value} (exact {exact}); {parsed}"
+        );
+    }
+}
+
 /// A `.tran` without UIC starts from the operating point: the ladder with a 1 mA load sits at its
 /// DC solution from row 0 (5, 4, 3, 2, 1 V down the four 1k sections) and stays there.
 #[test]

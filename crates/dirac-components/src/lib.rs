@@ -83,6 +83,7 @@
 
 mod checked;
 mod circuit;
+mod controlled;
 mod diode;
 mod electrical;
 mod electromechanical;
@@ -98,6 +99,7 @@ mod user_part;
 mod waveform;
 
 pub use circuit::CircuitBuilder;
+pub use controlled::{Cccs, Ccvs, Vccs, Vcvs};
 pub use diode::{Diode, DiodeBuild, DiodeError, DiodeParameters};
 pub use dirac_graph::PartError;
 pub use electrical::{

@@ -3,8 +3,8 @@
 use std::collections::HashMap;
 
 use dirac_components::{
-    Capacitor, CircuitBuilder, CoupledInductors, CurrentSource, Diode, DiodeParameters, Inductor,
-    PartError, Resistor, VoltageSource, Waveform,
+    Capacitor, Cccs, Ccvs, CircuitBuilder, CoupledInductors, CurrentSource, Diode, DiodeParameters,
+    Inductor, PartError, Resistor, Vccs, Vcvs, VoltageSource, Waveform,
 };
 use dirac_graph::{ConnectionId, GraphError, Interconnection, PortRef, Subsystem, SubsystemId};
 use dirac_sim::{
@@ -13,7 +13,7 @@ use dirac_sim::{
 };
 use thiserror::Error;
 
-use crate::{Element, Netlist, OptionCard, SourceSpec, Tran};
+use crate::{ControlledSource, Element, Netlist, OptionCard, SourceSpec, Tran};
 
 /// A netlist that cannot be turned into a circuit model.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -66,6 +66,23 @@ pub enum CircuitError {
         element: String,
         /// What the part's constructor refused.
         source: Box<PartError>,
+    },
+    /// A controlled source senses a node that no element's current reaches: the sensing branch
+    /// draws no current, so nothing fixes that node's voltage (ngspice: "singular matrix").
+    #[error(
+        "{file}:{line}:{column}: `{element}` senses node `{node}`, which no element connects to the circuit, so its voltage is not defined"
+    )]
+    SensedOnly {
+        /// File name.
+        file: String,
+        /// Line of the controlled source's card.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// The controlled source as written.
+        element: String,
+        /// The node.
+        node: String,
     },
     /// A diode's model parameters cannot be used.
     #[error("diode `{element}`: {source}")]
@@ -545,10 +562,48 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         )?;
         k_subsystem.insert(e, (s, name.clone()));
     }
+    let connected: std::collections::HashSet<&str> = netlist
+        .elements
+        .iter()
+        .filter_map(Element::terminals)
+        .flat_map(|(a, b)| [a, b])
+        .collect();
+    for (e, element) in netlist.elements.iter().enumerate() {
+        let Element::Controlled { source, .. } = element else {
+            continue;
+        };
+        let sensed = source.control_nodes().into_iter().flat_map(|(a, b)| [a, b]);
+        for node in sensed {
+            if !CircuitBuilder::is_ground(node) && !connected.contains(node) {
+                let origin = &netlist.origins[e];
+                return Err(CircuitError::SensedOnly {
+                    file: file.to_string(),
+                    line: origin.line,
+                    column: origin.column,
+                    element: origin.name.clone(),
+                    node: node.to_string(),
+                });
+            }
+        }
+    }
+    // Voltage sources whose current controls an F or H source: each of those gets a sensing
+    // branch (a short) in series, wired once every part exists.
+    let mut sensors: HashMap<&str, Vec<&str>> = HashMap::new();
+    for element in &netlist.elements {
+        if let Element::Controlled { name, source, .. } = element
+            && let Some(control) = source.control_source()
+        {
+            sensors.entry(control).or_default().push(name);
+        }
+    }
     // Every other element is a part of its own between its two nodes, in card order; a coupled
     // inductor is a winding of its K part. The builder sets the port signs from terminal order.
     // Resistors, inductors and capacitors of equal value share one model object.
     let mut shared = SharedParts::default();
+    // Connections that wait for a part added later (a sensing short), and the nodes between a
+    // controlling source and its shorts (no netlist node: no signal, no `v(…)`).
+    let mut pending: Vec<(String, &str, String, String)> = Vec::new();
+    let mut internal: Vec<String> = Vec::new();
     for (e, element) in netlist.elements.iter().enumerate() {
         let check = |part: Result<Subsystem, PartError>| part.map_err(|err| located(e, err));
         let mut device = None;
@@ -647,6 +702,42 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 device = Some(diode);
                 (name, diode.subsystem(name.clone()), none(2), none(2))
             }
+            Element::Controlled {
+                name,
+                source,
+                n_plus,
+                n_minus,
+            } => {
+                let (part, dim) = match *source {
+                    ControlledSource::Vcvs { gain, .. } => {
+                        (Vcvs::new(gain).map(|p| p.subsystem(name.clone())), 3)
+                    }
+                    ControlledSource::Vccs { gm, .. } => {
+                        (Vccs::new(gm).map(|p| p.subsystem(name.clone())), 4)
+                    }
+                    ControlledSource::Cccs { gain, .. } => {
+                        (Cccs::new(gain).map(|p| p.subsystem(name.clone())), 3)
+                    }
+                    ControlledSource::Ccvs { r, .. } => {
+                        (Ccvs::new(r).map(|p| p.subsystem(name.clone())), 2)
+                    }
+                };
+                let s = add(&mut circuit, check(part)?, none(dim), none(dim))?;
+                circuit.connect(name, "i", n_plus, n_minus)?;
+                if let Some((a, b)) = source.control_nodes() {
+                    circuit.connect(name, "ic", a, b)?;
+                }
+                branches.insert(
+                    name.clone(),
+                    Branch {
+                        subsystem: s,
+                        port: "i",
+                        coordinate: 0,
+                        capacitor: false,
+                    },
+                );
+                continue;
+            }
             Element::K { .. } => continue,
         };
         let s = add(&mut circuit, part, q, v)?;
@@ -654,7 +745,29 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             diodes.push((name.clone(), SubsystemId(s), diode));
         }
         if let Some((a, b)) = element.terminals() {
-            circuit.connect(name, "i", a, b)?;
+            match sensors.get(name.as_str()) {
+                // n+ → the source → its sensing shorts, one per controlled source → n−.
+                Some(controlled) => {
+                    let mut from = a.to_owned();
+                    for (k, (part, port)) in std::iter::once((name.as_str(), "i"))
+                        .chain(controlled.iter().map(|c| (*c, "ic")))
+                        .enumerate()
+                    {
+                        let to = if k == controlled.len() {
+                            b.to_owned()
+                        } else {
+                            let node = format!("{name} sense {}", k + 1);
+                            internal.push(node.clone());
+                            node
+                        };
+                        pending.push((part.to_owned(), port, from, to.clone()));
+                        from = to;
+                    }
+                }
+                None => {
+                    circuit.connect(name, "i", a, b)?;
+                }
+            }
         }
         branches.insert(
             name.clone(),
@@ -665,6 +778,9 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 capacitor: matches!(element, Element::C { .. }),
             },
         );
+    }
+    for (part, port, from, to) in &pending {
+        circuit.connect(part, port, from, to)?;
     }
     // A node on a single element (ngspice warns and solves it): KCL says that element carries no
     // current. A 0 A source from the node to ground keeps that row and gives the node its
@@ -704,6 +820,9 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     for (i, node) in graph.connections().iter().enumerate() {
         let connection = ConnectionId(i);
         let node = node.name().to_string();
+        if internal.contains(&node) {
+            continue;
+        }
         signals.push(Signal::new(format!("v({node})"), Probe::Effort(connection)));
         nodes.insert(node, connection);
     }

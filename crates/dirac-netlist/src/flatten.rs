@@ -15,7 +15,7 @@ use super::error::{ErrorKind, NetlistError, Pos, Warning};
 use super::expr::{self, ExprTok};
 use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef, TranCard};
 use super::source::SourceSpec;
-use super::{DiodeModel, Element, Netlist, Origin, Tran};
+use super::{ControlledSource, DiodeModel, Element, Netlist, Origin, Tran};
 use dirac_components::{Diode, DiodeParameters, Waveform};
 
 enum Slot {
@@ -175,6 +175,8 @@ struct Out {
     /// Hierarchical name → element index (`None` for subcircuit instances).
     names: HashMap<String, Option<usize>>,
     krefs: Vec<KRef>,
+    /// `F`/`H` sources' controlling voltage sources: (element index, hierarchical name, as written).
+    vrefs: Vec<(usize, String, Name)>,
     ics: Vec<(String, f64, Name)>,
     warnings: Vec<Warning>,
     /// Elements and instances created inside subcircuits so far.
@@ -597,6 +599,50 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     model: diode_model(m, mscope, out)?,
                 }
             }
+            ElemKind::E(v) | ElemKind::G(v) => {
+                let value = scope.eval(v)?;
+                let (c_plus, c_minus) = (n(2), n(3));
+                Element::Controlled {
+                    name: full,
+                    n_plus: n(0),
+                    n_minus: n(1),
+                    source: if matches!(el.kind, ElemKind::E(_)) {
+                        ControlledSource::Vcvs {
+                            c_plus,
+                            c_minus,
+                            gain: value,
+                        }
+                    } else {
+                        ControlledSource::Vccs {
+                            c_plus,
+                            c_minus,
+                            gm: value,
+                        }
+                    },
+                }
+            }
+            ElemKind::F(control, v) | ElemKind::H(control, v) => {
+                let value = scope.eval(v)?;
+                let control_full = Ctx::join(&ctx.prefix, &control.norm);
+                out.vrefs
+                    .push((index, control_full.clone(), control.clone()));
+                Element::Controlled {
+                    name: full,
+                    n_plus: n(0),
+                    n_minus: n(1),
+                    source: if matches!(el.kind, ElemKind::F(..)) {
+                        ControlledSource::Cccs {
+                            control: control_full,
+                            gain: value,
+                        }
+                    } else {
+                        ControlledSource::Ccvs {
+                            control: control_full,
+                            r: value,
+                        }
+                    },
+                }
+            }
             ElemKind::X(..) => continue,
         };
         out.elements.push(element);
@@ -877,6 +923,29 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
                     ),
                 ));
             }
+        }
+    }
+
+    for (index, full, name) in &out.vrefs {
+        let is_source = matches!(
+            out.names.get(full),
+            Some(Some(i)) if matches!(out.elements.get(*i), Some(Element::V { .. }))
+        );
+        if !is_source {
+            let element = out
+                .origins
+                .get(*index)
+                .map(|o| o.name.clone())
+                .unwrap_or_default();
+            return Err(NetlistError::new(
+                ErrorKind::UnknownElement,
+                name.pos,
+                name.orig.clone(),
+                format!(
+                    "`{element}` is controlled by the current of `{}`, which is not a voltage source",
+                    name.orig
+                ),
+            ));
         }
     }
 

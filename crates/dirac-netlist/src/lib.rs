@@ -14,7 +14,11 @@
 //! | `Cname n1 n2 value [IC=v0]` | capacitor, optional initial voltage |
 //! | `Vname n+ n- [[DC] v] [SIN(..)\|PULSE(..)\|EXP(..)\|PWL(..)] [AC ..]` | voltage source |
 //! | `Iname n+ n- ...` | current source, same forms as `V` |
-//! | `Kname L1 L2 k` | coupling of two inductors, `-1 ≤ k ≤ 1` |
+//! | `Kname L1 L2 k` | coupling of two inductors, `-1 < k < 1` |
+//! | `Ename n+ n- nc+ nc- gain` | voltage-controlled voltage source (linear form) |
+//! | `Gname n+ n- nc+ nc- gm` | voltage-controlled current source (linear form) |
+//! | `Fname n+ n- vname gain` | current-controlled current source; `vname` is a `V` element |
+//! | `Hname n+ n- vname r` | current-controlled voltage source; `vname` is a `V` element |
 //! | `Dname anode cathode model` | diode; `model` names a `.model NAME D(...)` |
 //! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
 //!
@@ -38,7 +42,9 @@
 //! - `.global n1 ...` (nodes that keep their name inside subcircuits; `gnd` is ground anyway);
 //! - `.temp T` and `.options temp=T tnom=T gmin=G` (circuit temperature, the default `TNOM` and
 //!   the junction conductance, see [`DeviceConditions`]);
-//! - `.subckt NAME n1 n2 ... [params:] [a=1 ...]` ... `.ends [NAME]`, nestable;
+//! - `.subckt NAME n1 n2 ... [params:] [a=1 ...]` ... `.ends [NAME]`, nestable (a port named
+//!   `gnd` or `0` is ground, as ngspice reads it, with a warning at an instance that connects
+//!   another node to it);
 //! - `.end` (anything after it is ignored).
 //!
 //! - `.op` (the DC operating point, [`Netlist::op`]);
@@ -51,7 +57,8 @@
 //! ... `.endc` blocks.
 //!
 //! Everything else is an error of kind [`ErrorKind::Unsupported`] whose message contains "not
-//! supported": other element types (`M Q J E F G H B T S W A U O Z`, ...), other dot-cards (`.ac`,
+//! supported": other element types (`M Q J B T S W A U O Z`, ...), the nonlinear forms of `E F G
+//! H` (`POLY`, `VALUE=`, `TABLE`, ...), other dot-cards (`.ac`,
 //! `.dc`, `.include`, `.lib`, `.func`, `.nodeset`, ...), other source
 //! functions (`SFFM`, `AM`, `TRNOISE`, ...), model types other than `D`, instance parameters other
 //! than `IC=` on `L`/`C`.
@@ -227,6 +234,82 @@ pub enum Element {
         /// The model's parameters.
         model: DiodeModel,
     },
+    /// A linear controlled source (`E`, `G`, `F`, `H`) with output from `n_plus` to `n_minus`.
+    Controlled {
+        /// Element name.
+        name: String,
+        /// Positive output node.
+        n_plus: String,
+        /// Negative output node.
+        n_minus: String,
+        /// What controls it and how.
+        source: ControlledSource,
+    },
+}
+
+/// A linear controlled source's control and coefficient (ngspice's linear forms).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ControlledSource {
+    /// `E n+ n− nc+ nc− gain`: `V(n+) − V(n−) = gain·(V(nc+) − V(nc−))`.
+    Vcvs {
+        /// Positive controlling node.
+        c_plus: String,
+        /// Negative controlling node.
+        c_minus: String,
+        /// Voltage gain.
+        gain: f64,
+    },
+    /// `G n+ n− nc+ nc− gm`: the current `gm·(V(nc+) − V(nc−))` flows from `n+` through the
+    /// source to `n−`.
+    Vccs {
+        /// Positive controlling node.
+        c_plus: String,
+        /// Negative controlling node.
+        c_minus: String,
+        /// Transconductance in S.
+        gm: f64,
+    },
+    /// `F n+ n− vname gain`: the current `gain·I(vname)` flows from `n+` through the source to
+    /// `n−`, with `I(vname)` the current of voltage source `vname` from its `+` node through it to
+    /// its `−` node (SPICE's sign).
+    Cccs {
+        /// Hierarchical name of the controlling voltage source (an [`Element::V`]).
+        control: String,
+        /// Current gain.
+        gain: f64,
+    },
+    /// `H n+ n− vname r`: `V(n+) − V(n−) = r·I(vname)`.
+    Ccvs {
+        /// Hierarchical name of the controlling voltage source (an [`Element::V`]).
+        control: String,
+        /// Transresistance in Ω.
+        r: f64,
+    },
+}
+
+impl ControlledSource {
+    /// The controlling node pair of a voltage-controlled source.
+    #[must_use]
+    pub fn control_nodes(&self) -> Option<(&str, &str)> {
+        match self {
+            Self::Vcvs {
+                c_plus, c_minus, ..
+            }
+            | Self::Vccs {
+                c_plus, c_minus, ..
+            } => Some((c_plus, c_minus)),
+            Self::Cccs { .. } | Self::Ccvs { .. } => None,
+        }
+    }
+
+    /// The controlling voltage source of a current-controlled source.
+    #[must_use]
+    pub fn control_source(&self) -> Option<&str> {
+        match self {
+            Self::Cccs { control, .. } | Self::Ccvs { control, .. } => Some(control),
+            Self::Vcvs { .. } | Self::Vccs { .. } => None,
+        }
+    }
 }
 
 impl Element {
@@ -239,7 +322,8 @@ impl Element {
             | Element::V { name, .. }
             | Element::I { name, .. }
             | Element::K { name, .. }
-            | Element::D { name, .. } => name,
+            | Element::D { name, .. }
+            | Element::Controlled { name, .. } => name,
         }
     }
 
@@ -254,6 +338,9 @@ impl Element {
                 n_plus, n_minus, ..
             }
             | Element::I {
+                n_plus, n_minus, ..
+            }
+            | Element::Controlled {
                 n_plus, n_minus, ..
             } => Some((n_plus, n_minus)),
             Element::D { anode, cathode, .. } => Some((anode, cathode)),
@@ -275,6 +362,18 @@ impl Element {
             } => vec![n_plus, n_minus],
             Element::K { .. } => Vec::new(),
             Element::D { anode, cathode, .. } => vec![anode, cathode],
+            Element::Controlled {
+                n_plus,
+                n_minus,
+                source,
+                ..
+            } => {
+                let mut nodes = vec![n_plus.as_str(), n_minus.as_str()];
+                if let Some((a, b)) = source.control_nodes() {
+                    nodes.extend([a, b]);
+                }
+                nodes
+            }
         }
     }
 }

@@ -58,6 +58,13 @@ pub(crate) enum ElemKind {
     K(Name, Name, ExprTok),
     D(Name),
     X(Name, Vec<(Name, ExprTok)>),
+    /// `E` (voltage gain) and `G` (transconductance): the card's nodes are the output pair,
+    /// then the controlling pair.
+    E(ExprTok),
+    G(ExprTok),
+    /// `F` (current gain) and `H` (transresistance): the controlling voltage source, the value.
+    F(Name, ExprTok),
+    H(Name, ExprTok),
 }
 
 /// An element card.
@@ -335,6 +342,39 @@ impl<'a> CardParser<'a> {
         }
     }
 
+    /// Refuses the nonlinear forms of a controlled source (`POLY(n)`, `VALUE=`, `VOL=`, `CUR=`,
+    /// `TABLE`, `LAPLACE`, …) where the linear form's next node or name would stand.
+    fn refuse_nonlinear_form(&mut self) -> Result<(), NetlistError> {
+        const FORMS: [&str; 9] = [
+            "poly",
+            "value",
+            "vol",
+            "cur",
+            "table",
+            "laplace",
+            "freq",
+            "tablefile",
+            "smoothbsp",
+        ];
+        if !self
+            .cur
+            .peek_word()
+            .is_some_and(|w| FORMS.contains(&w.as_str()))
+        {
+            return Ok(());
+        }
+        let w = self.word("node")?;
+        Err(NetlistError::unsupported_in(
+            w.start(),
+            &w.text,
+            &format!(
+                "the nonlinear form `{}` (of E, F, G and H sources only the linear form is read)",
+                w.text
+            ),
+            &self.text,
+        ))
+    }
+
     /// ngspice's options after `PWL(…)`, `r=R` (repeat from time `R`) and `td=TD` (delay), in
     /// either order, each at most once.
     fn pwl_options(&mut self) -> Result<(Option<ExprTok>, Option<ExprTok>), NetlistError> {
@@ -603,6 +643,40 @@ impl<'a> CardParser<'a> {
                     ));
                 }
                 (nodes, ElemKind::D(model))
+            }
+            'e' | 'g' => {
+                let mut nodes = two_nodes(self)?;
+                self.refuse_nonlinear_form()?;
+                nodes.extend(two_nodes(self)?);
+                let value = self.value(if letter == 'e' {
+                    "voltage gain"
+                } else {
+                    "transconductance"
+                })?;
+                self.finish()?;
+                let kind = if letter == 'e' {
+                    ElemKind::E(value)
+                } else {
+                    ElemKind::G(value)
+                };
+                (nodes, kind)
+            }
+            'f' | 'h' => {
+                let nodes = two_nodes(self)?;
+                self.refuse_nonlinear_form()?;
+                let control = Name::plain(&self.word("controlling voltage source")?);
+                let value = self.value(if letter == 'f' {
+                    "current gain"
+                } else {
+                    "transresistance"
+                })?;
+                self.finish()?;
+                let kind = if letter == 'f' {
+                    ElemKind::F(control, value)
+                } else {
+                    ElemKind::H(control, value)
+                };
+                (nodes, kind)
             }
             'x' => {
                 let (mut words, params) =

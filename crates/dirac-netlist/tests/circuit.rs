@@ -96,3 +96,19 @@ fn equal_elements_share_their_model() {
     eprintln!("divider: max |v(a) - 1.2 V| = {worst:e}");
     assert!(worst <= DIVIDER_TOL, "max |v(a) - 1.2 V| = {worst:e}");
 }
+
+/// A controlled source that senses a node nothing else reaches has no defined input (ngspice:
+/// "singular matrix: check node z"); the circuit is refused at the source's card.
+#[test]
+fn a_sensed_node_that_nothing_connects_is_refused_at_its_source() {
+    let net = parse_netlist(
+        "t\nv1 a 0 1\nr1 a 0 1k\ne1 o 0 z 0 2\nro o 0 1k\n.tran 1u 10u\n",
+        "t.cir",
+    )
+    .expect("parses");
+    let e = build_circuit(&net, "t.cir").expect_err("refused");
+    assert_eq!(
+        e.to_string(),
+        "t.cir:4:1: `e1` senses node `z`, which no element connects to the circuit, so its voltage is not defined"
+    );
+}

@@ -1,7 +1,9 @@
 //! Netlist front end: every supported feature, and every error kind with its exact position.
 
 use dirac_components::DiodeParameters;
-use dirac_netlist::{DiodeModel, Element, ErrorKind, Netlist, SourceSpec, Tran, parse_netlist};
+use dirac_netlist::{
+    ControlledSource, DiodeModel, Element, ErrorKind, Netlist, SourceSpec, Tran, parse_netlist,
+};
 
 fn parse(src: &str) -> Netlist {
     parse_netlist(src, "t.cir").unwrap_or_else(|e| panic!("{e}"))
@@ -630,10 +632,6 @@ fn unsupported_cards() {
     assert_eq!(e.text, "M1 d g s 0 nmos");
     for card in [
         "Q1 c b e npn",
-        "E1 a 0 b 0 2",
-        "F1 a 0 V1 2",
-        "G1 a 0 b 0 1m",
-        "H1 a 0 V1 1k",
         "B1 a 0 V=1",
         "T1 a 0 b 0 Z0=50 TD=1n",
         "J1 d g s jmod",
@@ -727,6 +725,94 @@ fn off_grid_tran_times_are_warned_about() {
     );
     let on_grid = parse("t\nR1 a 0 1\nV1 a 0 1\n.tran 1e-5 1e-3 3e-5\n");
     assert!(on_grid.warnings.is_empty(), "{:?}", on_grid.warnings);
+}
+
+/// The linear forms of the controlled sources, inside a subcircuit too: `E`/`G` read the output
+/// pair, the controlling pair and the value; `F`/`H` the output pair, the controlling voltage
+/// source (resolved in the subcircuit's scope) and the value, which may be an expression.
+#[test]
+fn controlled_sources_are_read() {
+    let net = parse(
+        "t\n.param a=4\n.subckt amp i o\nvs i m 0\nrm m 0 1k\nf1 0 o vs {a/2}\nro o 0 1k\n.ends\n\
+         v1 in 0 1\ne1 x 0 in 0 -10\ng1 y 0 x 0 2m\nry y 0 1k\nrx x 0 1k\nh1 z 0 v1 50\nrz z 0 1\n\
+         x1 in out amp\n",
+    );
+    let controlled = |name: &str| match net.element(name) {
+        Some(Element::Controlled {
+            n_plus,
+            n_minus,
+            source,
+            ..
+        }) => (n_plus.clone(), n_minus.clone(), source.clone()),
+        other => panic!("{name}: {other:?}"),
+    };
+    assert_eq!(
+        controlled("e1"),
+        (
+            "x".into(),
+            "0".into(),
+            ControlledSource::Vcvs {
+                c_plus: "in".into(),
+                c_minus: "0".into(),
+                gain: -10.0
+            }
+        )
+    );
+    assert_eq!(
+        controlled("g1").2,
+        ControlledSource::Vccs {
+            c_plus: "x".into(),
+            c_minus: "0".into(),
+            gm: 2e-3
+        }
+    );
+    assert_eq!(
+        controlled("h1").2,
+        ControlledSource::Ccvs {
+            control: "v1".into(),
+            r: 50.0
+        }
+    );
+    assert_eq!(
+        controlled("x1.f1"),
+        (
+            "0".into(),
+            "out".into(),
+            ControlledSource::Cccs {
+                control: "x1.vs".into(),
+                gain: 2.0
+            }
+        )
+    );
+    assert_eq!(
+        net.element("e1").unwrap().nodes(),
+        vec!["x", "0", "in", "0"]
+    );
+}
+
+/// What the linear forms do not cover is refused where it is written: the nonlinear forms, a
+/// controlling element that is not a voltage source, a missing value.
+#[test]
+fn controlled_source_errors_name_the_place() {
+    let e = assert_err("t\nE1 o 0 POLY(1) a 0 0 1\n", ErrorKind::Unsupported, 2, 8);
+    assert!(e.message.contains("nonlinear form `POLY`"), "{e}");
+    assert_err("t\nG1 o 0 value={v(a)*2}\n", ErrorKind::Unsupported, 2, 8);
+    assert_err("t\nB1 o 0 v={v(a)}\n", ErrorKind::Unsupported, 2, 1);
+    let e = assert_err(
+        "t\nR1 a 0 1\nF1 o 0 R1 2\nRo o 0 1\n",
+        ErrorKind::UnknownElement,
+        3,
+        8,
+    );
+    assert!(e.message.contains("not a voltage source"), "{e}");
+    assert_err(
+        "t\nH1 o 0 vx 2\nRo o 0 1\n",
+        ErrorKind::UnknownElement,
+        2,
+        8,
+    );
+    assert_err("t\nE1 o 0 a 0\n", ErrorKind::Syntax, 2, 11);
+    assert_err("t\nV1 a 0 1\nF1 o 0 V1 2 3\n", ErrorKind::Syntax, 3, 13);
 }
 
 /// A subcircuit port named `gnd` (or `0`) is the ground node, as ngspice reads it (its input

@@ -17,6 +17,20 @@ pub enum ConvertError {
     /// The netlist has no `.tran` card, so the scene would have no step size.
     #[error("{0}: no .tran card; a scene needs h and t_end")]
     NoTran(String),
+    /// An element that scenes have no part for (a controlled source): the netlist runs as it is.
+    #[error(
+        "{file}:{line}:{column}: `{element}`: scenes have no part for a controlled source (E, F, G, H); run the netlist itself"
+    )]
+    NoScenePart {
+        /// File name.
+        file: String,
+        /// Line of the element's card.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// The element as written.
+        element: String,
+    },
     /// The generated scene did not parse back (a bug in the converter).
     #[error("generated scene is invalid: {0}")]
     Invalid(#[from] SceneError),
@@ -229,7 +243,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
         }
     }
     let mut port_of: HashMap<&str, String> = HashMap::new();
-    for element in &netlist.elements {
+    for (e, element) in netlist.elements.iter().enumerate() {
         let name = element.name();
         let part = ident(name);
         let body = match element {
@@ -264,6 +278,15 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
             }
             Element::D { model, .. } => diode(model, conditions),
             Element::K { .. } => continue,
+            Element::Controlled { .. } => {
+                let origin = &netlist.origins[e];
+                return Err(ConvertError::NoScenePart {
+                    file: file.to_string(),
+                    line: origin.line,
+                    column: origin.column,
+                    element: origin.name.clone(),
+                });
+            }
         };
         let _ = writeln!(out, "\n[[part]]\nname = \"{part}\"\n{body}");
         port_of.insert(name, format!("{part}.i"));

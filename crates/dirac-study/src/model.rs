@@ -3,7 +3,9 @@
 use std::path::Path;
 
 use dirac_graph::Interconnection;
-use dirac_netlist::{Circuit, Element, Netlist, SourceSpec, build_circuit, parse_netlist};
+use dirac_netlist::{
+    Circuit, ControlledSource, Element, Netlist, SourceSpec, build_circuit, parse_netlist,
+};
 use dirac_scene::{BuiltScene, Scene, SceneError};
 use dirac_sim::{Execution, Signal, Start};
 
@@ -497,6 +499,11 @@ fn element_keys(element: &Element) -> Vec<&'static str> {
         Element::C { .. } => vec!["c", "ic"],
         Element::K { .. } => vec!["k"],
         Element::D { .. } => vec!["is", "n", "rs"],
+        Element::Controlled { source, .. } => vec![match source {
+            ControlledSource::Vcvs { .. } | ControlledSource::Cccs { .. } => "gain",
+            ControlledSource::Vccs { .. } => "gm",
+            ControlledSource::Ccvs { .. } => "r",
+        }],
         Element::V { source, .. } | Element::I { source, .. } => match source {
             SourceSpec::Dc(_) => vec!["waveform"],
             SourceSpec::Sin { .. } => vec![
@@ -585,6 +592,15 @@ fn netlist_slot<'a>(netlist: &'a mut Netlist, name: &str) -> Result<NetlistSlot<
             (Element::D { model, .. }, "is") => (&mut model.card.is, Some(Positive)),
             (Element::D { model, .. }, "n") => (&mut model.card.n, Some(Positive)),
             (Element::D { model, .. }, "rs") => (&mut model.card.rs, Some(NonNegative)),
+            (Element::Controlled { source, .. }, key) => match (source, key) {
+                (
+                    ControlledSource::Vcvs { gain, .. } | ControlledSource::Cccs { gain, .. },
+                    "gain",
+                ) => (gain, None),
+                (ControlledSource::Vccs { gm, .. }, "gm") => (gm, None),
+                (ControlledSource::Ccvs { r, .. }, "r") => (r, None),
+                _ => return Err(missing(&keys)),
+            },
             (Element::V { source, .. } | Element::I { source, .. }, key) => match (source, key) {
                 (SourceSpec::Dc(v), "waveform") => (v, None),
                 (SourceSpec::Sin { vo, .. }, "waveform.offset") => (vo, None),
