@@ -447,15 +447,19 @@ impl Netlist {
 
     /// Initial voltage `V(n1) − V(n2)` of a capacitor between `n1` and `n2` with `IC=` value `ic`:
     /// the `IC=` value if given, else from the `.ic` node voltages (ground is 0), else `None`.
+    /// With `UIC`, a node `.ic` does not name counts as 0 V once the other one is named, as
+    /// ngspice computes a capacitor's initial condition from its node vector, zero where `.ic`
+    /// sets nothing (`.ic v(w)=1m` across `C1 s w` starts C1 at −1 mV).
     pub fn capacitor_voltage(&self, n1: &str, n2: &str, ic: Option<f64>) -> Option<f64> {
-        let node = |n: &str| {
-            if n == "0" {
-                Some(0.0)
-            } else {
-                self.ic.iter().find(|(m, _)| m == n).map(|(_, v)| *v)
-            }
-        };
-        ic.or_else(|| Some(node(n1)? - node(n2)?))
+        let named = |n: &str| self.ic.iter().find(|(m, _)| m == n).map(|(_, v)| *v);
+        let node = |n: &str| if n == "0" { Some(0.0) } else { named(n) };
+        let uic = self.tran.is_some_and(|t| t.uic);
+        ic.or_else(|| match (node(n1), node(n2)) {
+            (Some(a), Some(b)) => Some(a - b),
+            (Some(a), None) if uic && n1 != "0" => Some(a),
+            (None, Some(b)) if uic && n2 != "0" => Some(-b),
+            _ => None,
+        })
     }
 }
 
