@@ -89,14 +89,15 @@ fn operating_point_of_a_current_divider() {
 /// printed identically by ngspice-39's `.op`): 3 V over 1k + 2k puts `v(b)` = `v(c)` = 2 V and
 /// 1 mA through the ammeter `VS`; `E1` makes 2.5·(3 − 2) = 2.5 V, `G1` drives 1 mS·2.5 V into 3k
 /// (7.5 V), `F1` pushes −4·1 mA from ground through itself into `f` (2 V over 500 Ω) and `H1` makes
-/// 2k·1 mA = 2 V.
+/// 2k·1 mA = 2 V. `E1`'s own current (−2.5 mA: it delivers 2.5 V into 1k) controls `F2` and `H2`,
+/// as ngspice allows for an `E` or `H` output: −2.5 V each on 1k.
 #[test]
 fn operating_point_through_controlled_sources() {
     let file = deck(
         "controlled_op.cir",
         "controlled sources at the operating point\nv1 a 0 3\nr1 a b 1k\nvs b c 0\nr2 c 0 2k\n\
          e1 d 0 a c 2.5\nrd d 0 1k\ng1 0 e d 0 1m\nre e 0 3k\nf1 f 0 vs -4\nrf f 0 500\n\
-         h1 g 0 vs 2k\nrg g 0 1k\n.op\n.end\n",
+         h1 g 0 vs 2k\nrg g 0 1k\nf2 0 u e1 1\nru u 0 1k\nh2 w 0 e1 1k\nrw w 0 1k\n.op\n.end\n",
     );
     let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
     assert!(
@@ -112,6 +113,8 @@ fn operating_point_through_controlled_sources() {
         ("v(e)", 7.5),
         ("v(f)", 2.0),
         ("v(g)", 2.0),
+        ("v(u)", -2.5),
+        ("v(w)", -2.5),
         ("i(vs)", 1e-3),
     ] {
         let value = parsed[signal].as_f64().unwrap_or(f64::NAN);

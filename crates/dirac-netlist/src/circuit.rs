@@ -483,6 +483,36 @@ impl SharedParts {
     }
 }
 
+/// The connections of a source whose current controls the sensing shorts `shorts` (of `F` and `H`
+/// sources), from `a` to `b`: `a` → the source's port `i` → each short's port `ic` → `b`, through
+/// nodes named after the source that no netlist can name (they get no signal); they are listed in
+/// `internal`.
+fn sensed_chain(
+    source: &str,
+    a: &str,
+    b: &str,
+    shorts: &[&str],
+    internal: &mut Vec<String>,
+) -> Vec<(String, &'static str, String, String)> {
+    let mut from = a.to_owned();
+    let ports = std::iter::once((source.to_owned(), "i"))
+        .chain(shorts.iter().map(|c| ((*c).to_owned(), "ic")));
+    ports
+        .enumerate()
+        .map(|(k, (part, port))| {
+            let to = if k == shorts.len() {
+                b.to_owned()
+            } else {
+                let node = format!("{source} sense {}", k + 1);
+                internal.push(node.clone());
+                node
+            };
+            let from = std::mem::replace(&mut from, to.clone());
+            (part, port, from, to)
+        })
+        .collect()
+}
+
 /// Builds the circuit of `netlist` (read from `file`).
 ///
 /// # Errors
@@ -602,7 +632,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let mut shared = SharedParts::default();
     // Connections that wait for a part added later (a sensing short), and the nodes between a
     // controlling source and its shorts (no netlist node: no signal, no `v(…)`).
-    let mut pending: Vec<(String, &str, String, String)> = Vec::new();
+    let mut pending: Vec<(String, &'static str, String, String)> = Vec::new();
     let mut internal: Vec<String> = Vec::new();
     for (e, element) in netlist.elements.iter().enumerate() {
         let check = |part: Result<Subsystem, PartError>| part.map_err(|err| located(e, err));
@@ -723,7 +753,14 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                     }
                 };
                 let s = add(&mut circuit, check(part)?, none(dim), none(dim))?;
-                circuit.connect(name, "i", n_plus, n_minus)?;
+                match sensors.get(name.as_str()) {
+                    Some(shorts) => {
+                        pending.extend(sensed_chain(name, n_plus, n_minus, shorts, &mut internal))
+                    }
+                    None => {
+                        circuit.connect(name, "i", n_plus, n_minus)?;
+                    }
+                }
                 if let Some((a, b)) = source.control_nodes() {
                     circuit.connect(name, "ic", a, b)?;
                 }
@@ -746,24 +783,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         }
         if let Some((a, b)) = element.terminals() {
             match sensors.get(name.as_str()) {
-                // n+ → the source → its sensing shorts, one per controlled source → n−.
-                Some(controlled) => {
-                    let mut from = a.to_owned();
-                    for (k, (part, port)) in std::iter::once((name.as_str(), "i"))
-                        .chain(controlled.iter().map(|c| (*c, "ic")))
-                        .enumerate()
-                    {
-                        let to = if k == controlled.len() {
-                            b.to_owned()
-                        } else {
-                            let node = format!("{name} sense {}", k + 1);
-                            internal.push(node.clone());
-                            node
-                        };
-                        pending.push((part.to_owned(), port, from, to.clone()));
-                        from = to;
-                    }
-                }
+                Some(shorts) => pending.extend(sensed_chain(name, a, b, shorts, &mut internal)),
                 None => {
                     circuit.connect(name, "i", a, b)?;
                 }
@@ -785,9 +805,15 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     // A node on a single element (ngspice warns and solves it): KCL says that element carries no
     // current. A 0 A source from the node to ground keeps that row and gives the node its
     // potential (the source's voltage, a multiplier of the row).
+    // A controlled source's sensing branch counts: it draws no current but closes the node's
+    // equations (a node between a source and the input it drives is not open).
     let mut terminals: HashMap<&str, Vec<usize>> = HashMap::new();
     for (e, element) in netlist.elements.iter().enumerate() {
-        if let Some((a, b)) = element.terminals() {
+        let sensed = match element {
+            Element::Controlled { source, .. } => source.control_nodes(),
+            _ => None,
+        };
+        for (a, b) in element.terminals().into_iter().chain(sensed) {
             terminals.entry(a).or_default().push(e);
             terminals.entry(b).or_default().push(e);
         }

@@ -927,26 +927,44 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
     }
 
     for (index, full, name) in &out.vrefs {
-        let is_source = matches!(
-            out.names.get(full),
-            Some(Some(i)) if matches!(out.elements.get(*i), Some(Element::V { .. }))
-        );
-        if !is_source {
-            let element = out
-                .origins
-                .get(*index)
-                .map(|o| o.name.clone())
-                .unwrap_or_default();
-            return Err(NetlistError::new(
-                ErrorKind::UnknownElement,
-                name.pos,
-                name.orig.clone(),
-                format!(
-                    "`{element}` is controlled by the current of `{}`, which is not a voltage source",
-                    name.orig
-                ),
-            ));
+        // A voltage source: independent, or the output of an E or H source (ngspice reads those
+        // branch currents too; an inductor's it refuses).
+        let found = out.names.get(full);
+        if matches!(found, Some(Some(i)) if matches!(
+            out.elements.get(*i),
+            Some(
+                Element::V { .. }
+                    | Element::Controlled {
+                        source: ControlledSource::Vcvs { .. } | ControlledSource::Ccvs { .. },
+                        ..
+                    }
+            )
+        )) {
+            continue;
         }
+        let element = out
+            .origins
+            .get(*index)
+            .map(|o| o.name.clone())
+            .unwrap_or_default();
+        let why = match found {
+            Some(_) => "which is not a voltage source (V, E or H)".to_owned(),
+            None if full.contains('.') && out.names.contains_key(&name.norm) => format!(
+                "which its subcircuit does not have (names in F and H cards are local to the \
+                 subcircuit, as in ngspice; the top-level `{}` is not seen there)",
+                name.orig
+            ),
+            None => "but no element has that name".to_owned(),
+        };
+        return Err(NetlistError::new(
+            ErrorKind::UnknownElement,
+            name.pos,
+            name.orig.clone(),
+            format!(
+                "`{element}` is controlled by the current of `{}`, {why}",
+                name.orig
+            ),
+        ));
     }
 
     let mut nodes: HashSet<&str> = HashSet::new();

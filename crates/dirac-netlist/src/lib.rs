@@ -17,8 +17,8 @@
 //! | `Kname L1 L2 k` | coupling of two inductors, `-1 < k < 1` |
 //! | `Ename n+ n- nc+ nc- gain` | voltage-controlled voltage source (linear form) |
 //! | `Gname n+ n- nc+ nc- gm` | voltage-controlled current source (linear form) |
-//! | `Fname n+ n- vname gain` | current-controlled current source; `vname` is a `V` element |
-//! | `Hname n+ n- vname r` | current-controlled voltage source; `vname` is a `V` element |
+//! | `Fname n+ n- vname gain` | current-controlled current source; `vname` is a `V`, `E` or `H` |
+//! | `Hname n+ n- vname r` | current-controlled voltage source; `vname` is a `V`, `E` or `H` |
 //! | `Dname anode cathode model` | diode; `model` names a `.model NAME D(...)` |
 //! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
 //!
@@ -273,14 +273,14 @@ pub enum ControlledSource {
     /// `n−`, with `I(vname)` the current of voltage source `vname` from its `+` node through it to
     /// its `−` node (SPICE's sign).
     Cccs {
-        /// Hierarchical name of the controlling voltage source (an [`Element::V`]).
+        /// Hierarchical name of the controlling voltage source (a `V`, or an `E` or `H` output).
         control: String,
         /// Current gain.
         gain: f64,
     },
     /// `H n+ n− vname r`: `V(n+) − V(n−) = r·I(vname)`.
     Ccvs {
-        /// Hierarchical name of the controlling voltage source (an [`Element::V`]).
+        /// Hierarchical name of the controlling voltage source (a `V`, or an `E` or `H` output).
         control: String,
         /// Transresistance in Ω.
         r: f64,

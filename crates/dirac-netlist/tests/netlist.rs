@@ -829,12 +829,23 @@ fn controlled_source_errors_name_the_place() {
         8,
     );
     assert!(e.message.contains("not a voltage source"), "{e}");
-    assert_err(
+    let e = assert_err(
         "t\nH1 o 0 vx 2\nRo o 0 1\n",
         ErrorKind::UnknownElement,
         2,
         8,
     );
+    assert!(e.message.contains("no element has that name"), "{e}");
+    // Inside a subcircuit the name is the subcircuit's, as in ngspice.
+    let e = assert_err(
+        "t\nVtop a 0 1\nRa a 0 1\n.subckt s o\nF1 o 0 Vtop 2\nRo o 0 1\n.ends\nX1 n s\n",
+        ErrorKind::UnknownElement,
+        5,
+        8,
+    );
+    assert!(e.message.contains("local to the subcircuit"), "{e}");
+    // An E or H output is a voltage source whose current may control (ngspice reads it too).
+    parse("t\nV1 a 0 1\nE1 x 0 a 0 2\nRx x 0 1k\nF1 0 y E1 1\nRy y 0 1k\n");
     assert_err("t\nE1 o 0 a 0\n", ErrorKind::Syntax, 2, 11);
     assert_err("t\nV1 a 0 1\nF1 o 0 V1 2 3\n", ErrorKind::Syntax, 3, 13);
 }
