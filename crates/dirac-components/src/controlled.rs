@@ -20,6 +20,7 @@
 
 use dirac_core::{ForceJacobian, LagrangianHessian, Model};
 use dirac_graph::{Check, PartError, Subsystem};
+use serde::{Deserialize, Serialize};
 
 /// The Lagrangian part shared by every controlled source: none (all coordinates degenerate).
 macro_rules! no_lagrangian {
@@ -62,7 +63,8 @@ fn coefficient(part: &'static str, name: &str, value: f64) -> Result<f64, PartEr
 /// Ports: `i` (coordinate 0, the output current from `+` through the source to `−`), `ic`
 /// (coordinate 1, the sensing branch, which carries no current). Forces `f_q = −gain·φ̇_c`,
 /// `f_{q_c} = −φ̇_c`, `f_{φ_c} = −q̇_c`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Vcvs {
     /// Voltage gain.
@@ -108,7 +110,8 @@ impl Model for Vcvs {
 /// Coordinates `[q, φ, q_c, φ_c]`. Ports: `i` (coordinate 0), `ic` (coordinate 2, the sensing
 /// branch). Forces `f_q = −φ̇`, `f_φ = gm·φ̇_c − q̇`, `f_{q_c} = −φ̇_c`, `f_{φ_c} = −q̇_c`; `φ̇` is the
 /// voltage across the output.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Vccs {
     /// Transconductance in siemens.
@@ -157,7 +160,8 @@ impl Model for Vccs {
 /// Coordinates `[q, φ, q_c]`. Ports: `i` (coordinate 0), `ic` (coordinate 2, the sensing branch:
 /// a short, placed in series with the controlling element). Forces `f_q = −φ̇`,
 /// `f_φ = gain·q̇_c − q̇`, `f_{q_c} = 0`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Cccs {
     /// Current gain.
@@ -202,7 +206,8 @@ impl Model for Cccs {
 ///
 /// Coordinates `[q, q_c]`. Ports: `i` (coordinate 0), `ic` (coordinate 1, the sensing branch: a
 /// short in series with the controlling element). Forces `f_q = −r·q̇_c`, `f_{q_c} = 0`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 #[non_exhaustive]
 pub struct Ccvs {
     /// Transresistance in ohms.

@@ -4,7 +4,9 @@ use std::collections::HashMap;
 use std::fmt::Write;
 
 use dirac_components::{Diode, DiodeParameters};
-use dirac_netlist::{CircuitError, DeviceConditions, DiodeModel, Element, Netlist, SourceSpec};
+use dirac_netlist::{
+    CircuitError, ControlledSource, DeviceConditions, DiodeModel, Element, Netlist, SourceSpec,
+};
 
 use crate::{Scene, SceneError};
 
@@ -17,20 +19,6 @@ pub enum ConvertError {
     /// The netlist has no `.tran` card, so the scene would have no step size.
     #[error("{0}: no .tran card; a scene needs h and t_end")]
     NoTran(String),
-    /// An element that scenes have no part for (a controlled source): the netlist runs as it is.
-    #[error(
-        "{file}:{line}:{column}: `{element}`: scenes have no part for a controlled source (E, F, G, H); run the netlist itself"
-    )]
-    NoScenePart {
-        /// File name.
-        file: String,
-        /// Line of the element's card.
-        line: usize,
-        /// Column.
-        column: usize,
-        /// The element as written.
-        element: String,
-    },
     /// The generated scene did not parse back (a bug in the converter).
     #[error("generated scene is invalid: {0}")]
     Invalid(#[from] SceneError),
@@ -243,7 +231,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
         }
     }
     let mut port_of: HashMap<&str, String> = HashMap::new();
-    for (e, element) in netlist.elements.iter().enumerate() {
+    for element in &netlist.elements {
         let name = element.name();
         let part = ident(name);
         let body = match element {
@@ -278,30 +266,80 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
             }
             Element::D { model, .. } => diode(model, conditions),
             Element::K { .. } => continue,
-            Element::Controlled { .. } => {
-                let origin = &netlist.origins[e];
-                return Err(ConvertError::NoScenePart {
-                    file: file.to_string(),
-                    line: origin.line,
-                    column: origin.column,
-                    element: origin.name.clone(),
-                });
-            }
+            Element::Controlled { source, .. } => match source {
+                ControlledSource::Vcvs { gain, .. } => {
+                    format!("type = \"vcvs\"\ngain = {}", number(*gain))
+                }
+                ControlledSource::Vccs { gm, .. } => {
+                    format!("type = \"vccs\"\ngm = {}", number(*gm))
+                }
+                ControlledSource::Cccs { gain, .. } => {
+                    format!("type = \"cccs\"\ngain = {}", number(*gain))
+                }
+                ControlledSource::Ccvs { r, .. } => format!("type = \"ccvs\"\nr = {}", number(*r)),
+            },
         };
         let _ = writeln!(out, "\n[[part]]\nname = \"{part}\"\n{body}");
         port_of.insert(name, format!("{part}.i"));
     }
-    // KCL: a branch's flow leaves its first node (−1) and enters its second (+1).
-    let mut terminals: HashMap<&str, Vec<(String, f64)>> = HashMap::new();
+    // KCL: a branch's flow leaves its first node (−1) and enters its second (+1). A source whose
+    // current controls F or H sources runs through their sensing shorts (`ic`) in series, joined
+    // by nodes of its own (`{source}_sense_{k}`, as `dirac run` builds them); an E or G senses its
+    // controlling nodes with its `ic` branch.
+    let mut shorts: HashMap<&str, Vec<&str>> = HashMap::new();
     for element in &netlist.elements {
-        let ends = element.terminals();
-        let (Some((a, b)), Some(port)) = (ends, port_of.get(element.name())) else {
+        if let Element::Controlled { name, source, .. } = element
+            && let Some(control) = source.control_source()
+        {
+            shorts.entry(control).or_default().push(name);
+        }
+    }
+    let taken: std::collections::HashSet<String> =
+        netlist.nodes().iter().map(|n| ident(n)).collect();
+    let mut terminals: HashMap<String, Vec<(String, f64)>> = HashMap::new();
+    let mut internal: Vec<String> = Vec::new();
+    let mut join = |from: &str, to: &str, port: String| {
+        terminals
+            .entry(from.to_owned())
+            .or_default()
+            .push((port.clone(), -1.0));
+        terminals
+            .entry(to.to_owned())
+            .or_default()
+            .push((port, 1.0));
+    };
+    for element in &netlist.elements {
+        let name = element.name();
+        if let Element::Controlled { source, .. } = element
+            && let Some((a, b)) = source.control_nodes()
+        {
+            join(a, b, format!("{}.ic", ident(name)));
+        }
+        let (Some((a, b)), Some(port)) = (element.terminals(), port_of.get(name)) else {
             continue;
         };
-        terminals.entry(a).or_default().push((port.clone(), -1.0));
-        terminals.entry(b).or_default().push((port.clone(), 1.0));
+        let chain = shorts.get(name).map_or(&[][..], Vec::as_slice);
+        let mut from = a.to_owned();
+        let ports =
+            std::iter::once(port.clone()).chain(chain.iter().map(|c| format!("{}.ic", ident(c))));
+        for (k, port) in ports.enumerate() {
+            let to = if k == chain.len() {
+                b.to_owned()
+            } else {
+                // A name no netlist node takes (one more `_` while one does).
+                let mut node = format!("{}_sense_{}", ident(name), k + 1);
+                while taken.contains(&node) {
+                    node.push('_');
+                }
+                internal.push(node.clone());
+                node
+            };
+            join(&from, &to, port);
+            from = to;
+        }
     }
-    for node in netlist.nodes() {
+    let named = netlist.nodes().into_iter().map(|n| (ident(&n), n));
+    for (label, node) in named.chain(internal.into_iter().map(|n| (n.clone(), n))) {
         let ports = terminals.remove(node.as_str()).unwrap_or_default();
         let list: Vec<String> = ports
             .iter()
@@ -309,8 +347,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
             .collect();
         let _ = writeln!(
             out,
-            "\n[[connection]]\ntype = \"node\"\nname = \"{}\"\nports = [{}]",
-            ident(&node),
+            "\n[[connection]]\ntype = \"node\"\nname = \"{label}\"\nports = [{}]",
             list.join(", ")
         );
     }

@@ -113,6 +113,10 @@
 //! | `dc_motor` | `k`, `r`, `l`, `j` ≥ 0, `b` (0) | `q`, `theta` | `i`, `theta` |
 //! | `ideal_transformer` | `n` ≠ 0 | `q1`, `q2` | `i1`, `i2` |
 //! | `ideal_gear` | `ratio` ≠ 0 | `theta1`, `theta2` | `theta1`, `theta2` |
+//! | `vcvs` (SPICE `E`) | `gain` | `q`, `q_c`, `phi_c` | `i` (output), `ic` (across the controlling nodes; draws no current) |
+//! | `vccs` (SPICE `G`) | `gm` | `q`, `phi`, `q_c`, `phi_c` | `i`, `ic` (as `vcvs`) |
+//! | `cccs` (SPICE `F`) | `gain` | `q`, `phi`, `q_c` | `i`, `ic` (a short, in series with the controlling branch) |
+//! | `ccvs` (SPICE `H`) | `r` | `q`, `q_c` | `i`, `ic` (as `cccs`) |
 //! | `rolling_disk` | `m`, `i`, `j`, `radius` > 0 (rolls without slipping; use `scheme = "symmetric"`) | `x`, `y`, `theta`, `phi` | same |
 //!
 //! A `waveform` is a number (DC) or a table with a `shape`, with ngspice's semantics

@@ -4,9 +4,10 @@
 use std::collections::{HashMap, HashSet};
 
 use dirac_components::{
-    Capacitor, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource, Ground,
-    IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError, Pendulum, PlanarLinkage,
-    Resistor, RollingDisk, SaturatingInductor, Spring, VoltageSource, Waveform,
+    Capacitor, Cccs, Ccvs, CoupledInductors, CurrentSource, Damper, DcMotor, Diode, ForceSource,
+    Ground, IdealGear, IdealTransformer, Inductor, Inertia, Mass, PartError, Pendulum,
+    PlanarLinkage, Resistor, RollingDisk, SaturatingInductor, Spring, Vccs, Vcvs, VoltageSource,
+    Waveform,
 };
 use dirac_core::Discretisation;
 use dirac_graph::{
@@ -666,6 +667,10 @@ fn part_subsystem(part: &Part) -> Result<(Subsystem, Vec<f64>), SceneError> {
             IdealGear::new(p.ratio).map_err(at)?.subsystem(name),
             zeros(2),
         ),
+        PartKind::Vcvs(p) => (Vcvs::new(p.gain).map_err(at)?.subsystem(name), zeros(3)),
+        PartKind::Vccs(p) => (Vccs::new(p.gm).map_err(at)?.subsystem(name), zeros(4)),
+        PartKind::Cccs(p) => (Cccs::new(p.gain).map_err(at)?.subsystem(name), zeros(3)),
+        PartKind::Ccvs(p) => (Ccvs::new(p.r).map_err(at)?.subsystem(name), zeros(2)),
         PartKind::RollingDisk(p) => (
             RollingDisk::new(p.m, p.i, p.j, p.radius)
                 .map_err(at)?

@@ -618,13 +618,23 @@ pub enum PartKind {
     /// `type = "rolling_disk"`: coordinates and ports `x`, `y`, `theta`, `phi`; rolls without
     /// slipping (q-dependent one-forms: use `scheme = "symmetric"` for bounded energy).
     RollingDisk(dirac_components::RollingDisk),
+    /// `type = "vcvs"` (SPICE `E`): coordinates `q`, `q_c`, `phi_c`, ports `i` (output), `ic`
+    /// (sensing branch across the controlling nodes).
+    Vcvs(dirac_components::Vcvs),
+    /// `type = "vccs"` (SPICE `G`): coordinates `q`, `phi`, `q_c`, `phi_c`, ports `i`, `ic`.
+    Vccs(dirac_components::Vccs),
+    /// `type = "cccs"` (SPICE `F`): coordinates `q`, `phi`, `q_c`, ports `i`, `ic` (a short in
+    /// series with the controlling branch).
+    Cccs(dirac_components::Cccs),
+    /// `type = "ccvs"` (SPICE `H`): coordinates `q`, `q_c`, ports `i`, `ic`.
+    Ccvs(dirac_components::Ccvs),
     /// `type = "rigid_body"`: a body in space, coordinates and ports `x`, `y`, `z` (centre of
     /// mass) and `r11` … `r33` (rotation), plus `{point}.x|y|z` per named point.
     RigidBody(Box<RigidBodyParams>),
 }
 
 /// The `type` names of [`PartKind`], in declaration order.
-pub const PART_TYPES: [&str; 21] = [
+pub const PART_TYPES: [&str; 25] = [
     "resistor",
     "inductor",
     "capacitor",
@@ -646,6 +656,10 @@ pub const PART_TYPES: [&str; 21] = [
     "ideal_gear",
     "rolling_disk",
     "rigid_body",
+    "vcvs",
+    "vccs",
+    "cccs",
+    "ccvs",
 ];
 
 impl PartKind {
@@ -674,6 +688,10 @@ impl PartKind {
             Self::IdealGear(_) => 18,
             Self::RollingDisk(_) => 19,
             Self::RigidBody(_) => 20,
+            Self::Vcvs(_) => 21,
+            Self::Vccs(_) => 22,
+            Self::Cccs(_) => 23,
+            Self::Ccvs(_) => 24,
         };
         PART_TYPES[i]
     }

@@ -340,6 +340,10 @@ fn parse_part(
         "ideal_gear" => PartKind::IdealGear(params(src, &span, t, common)?),
         "rolling_disk" => PartKind::RollingDisk(params(src, &span, t, common)?),
         "rigid_body" => PartKind::RigidBody(params(src, &span, t, common)?),
+        "vcvs" => PartKind::Vcvs(params(src, &span, t, common)?),
+        "vccs" => PartKind::Vccs(params(src, &span, t, common)?),
+        "cccs" => PartKind::Cccs(params(src, &span, t, common)?),
+        "ccvs" => PartKind::Ccvs(params(src, &span, t, common)?),
         other => {
             return Err(SceneError::UnknownPartType {
                 at: Some(src.location(&type_span)),
