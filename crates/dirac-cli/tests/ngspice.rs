@@ -110,6 +110,15 @@ const CASES: &[Case] = &[
         mutated_card: "C2",
     },
     Case {
+        file: "rc_pulse_count.cir",
+        // PULSE(0 5 0.5m 0.1m 0.1m 1m 2.5m 3): three pulses, then 0 V. C1 out 0 1u IC=0
+        caps: &[("q(c1)", "out", "0", 1e-6)],
+        same_scheme: true,
+        diodes: false,
+        ngspice_misses_corners: false,
+        mutated_card: "C1",
+    },
+    Case {
         file: "rl_pwl.cir",
         // C1 top 0 2u IC=0
         caps: &[("q(c1)", "top", "0", 2e-6)],
@@ -542,15 +551,16 @@ impl Deck {
                 continue;
             }
             if let Some(a) = source_args(card, "pulse") {
-                // PULSE(V1 V2 TD TR TF PW PER): corners at TD + n·PER + {0, TR, TR+PW, TR+PW+TF}.
-                assert_eq!(
-                    a.len(),
-                    7,
-                    "the harness needs all seven PULSE arguments: `{card}`"
+                // PULSE(V1 V2 TD TR TF PW PER [NP]): corners at TD + n·PER + {0, TR, TR+PW,
+                // TR+PW+TF}, for n < NP (an integer here: the train ends on V1).
+                assert!(
+                    a.len() == 7 || a.len() == 8 && a[7].fract() == 0.0,
+                    "the harness needs all seven PULSE arguments and a whole NP: `{card}`"
                 );
                 let (td, tr, tf, pw, per) = (a[2], a[3], a[4], a[5], a[6]);
+                let end = a.get(7).map_or(tstop, |np| tstop.min(td + np * per));
                 let mut start = td;
-                while start < tstop {
+                while start < end {
                     breaks.extend([start, start + tr, start + tr + pw, start + tr + pw + tf]);
                     start += per;
                 }

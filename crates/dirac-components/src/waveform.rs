@@ -15,10 +15,11 @@ use dirac_graph::{Check, PartError};
 ///   `VO + VA·sin(2π·PHASE/360)` for `τ ≤ 0`, else `VO + VA·sin(2π·FREQ·τ + 2π·PHASE/360)·e^{−THETA·τ}`
 ///   (continuous at `TD`, as ngspice computes it; the manual's `VO` before `TD` is the `PHASE = 0`
 ///   case).
-/// - [`Waveform::Pulse`] `PULSE(V1 V2 TD TR TF PW PER)`: with `τ = t − TD` reduced modulo `PER` when
-///   `τ > PER`: `V1` for `τ ≤ 0` or `τ ≥ TR + PW + TF`, a linear rise over `(0, TR)`, `V2` on
+/// - [`Waveform::Pulse`] `PULSE(V1 V2 TD TR TF PW PER NP)`: with `τ = t − TD` reduced modulo `PER`
+///   when `τ > PER`: `V1` for `τ ≤ 0` or `τ ≥ TR + PW + TF`, a linear rise over `(0, TR)`, `V2` on
 ///   `[TR, TR + PW]`, a linear fall over `(TR + PW, TR + PW + TF)`. `TR = 0` or `TF = 0` are ideal
-///   edges; `PER = ∞` is a single pulse. (ngspice's optional eighth parameter is not supported.)
+///   edges; `PER = ∞` is a single pulse. After `NP` periods (`t − TD > NP·PER`, ngspice's eighth
+///   parameter, any positive number) the value is `V1`; `NP = ∞` repeats forever.
 /// - [`Waveform::Exp`] `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`: `V1` for `t ≤ TD1`, then
 ///   `V1 + (V2 − V1)(1 − e^{−(t−TD1)/TAU1})`, and for `t > TD2` plus `(V1 − V2)(1 − e^{−(t−TD2)/TAU2})`.
 ///   A zero time constant is an ideal edge.
@@ -54,7 +55,7 @@ pub enum Waveform {
         /// `PHASE` in degrees.
         phase_deg: f64,
     },
-    /// Trapezoidal pulse train `PULSE(V1 V2 TD TR TF PW PER)`.
+    /// Trapezoidal pulse train `PULSE(V1 V2 TD TR TF PW PER NP)`.
     Pulse {
         /// `V1`: initial value.
         v1: f64,
@@ -70,6 +71,8 @@ pub enum Waveform {
         width: f64,
         /// `PER`: period (`f64::INFINITY`: one pulse).
         period: f64,
+        /// `NP`: number of periods after which the value stays `V1` (`f64::INFINITY`: no end).
+        pulses: f64,
     },
     /// Exponential rise and fall `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`.
     Exp {
@@ -113,7 +116,7 @@ impl Waveform {
         }
     }
 
-    /// `PULSE(V1 V2 TD TR TF PW PER)`.
+    /// `PULSE(V1 V2 TD TR TF PW PER)`, repeating without end.
     #[must_use]
     pub fn pulse(
         v1: f64,
@@ -132,6 +135,7 @@ impl Waveform {
             fall,
             width,
             period,
+            pulses: f64::INFINITY,
         }
     }
 
@@ -239,9 +243,13 @@ impl Waveform {
                 fall,
                 width,
                 period,
+                pulses,
             } => {
                 if period.is_nan() || *period <= 0.0 {
                     return Err(c.fail(&k("period"), *period, "must be positive"));
+                }
+                if pulses.is_nan() || *pulses <= 0.0 {
+                    return Err(c.fail(&k("pulses"), *pulses, "must be positive"));
                 }
                 c.finite(&k("v1"), *v1)?;
                 c.finite(&k("v2"), *v2)?;
@@ -329,6 +337,7 @@ impl Waveform {
                 fall,
                 width,
                 period,
+                pulses,
                 ..
             } => {
                 let corners = [0.0, *rise, rise + width, rise + width + fall];
@@ -336,11 +345,21 @@ impl Waveform {
                 if t < *delay {
                     return Some(*delay);
                 }
-                if !period.is_finite() || *period <= 0.0 {
-                    return first(*delay);
+                let next = if !period.is_finite() || *period <= 0.0 {
+                    first(*delay)
+                } else {
+                    let k = ((t - delay) / period).floor();
+                    first(delay + k * period).or_else(|| first(delay + (k + 1.0) * period))
+                };
+                // The train ends after `NP` periods: no corner after it, and a cut inside a
+                // pulse (a fractional `NP`) is a corner of its own.
+                let span = pulses * period;
+                let end = delay + span;
+                let cut = span - period * (span / period).floor();
+                match next {
+                    Some(c) if c < end => Some(c),
+                    _ => (end > t && cut > 0.0 && cut < rise + width + fall).then_some(end),
                 }
-                let k = ((t - delay) / period).floor();
-                first(delay + k * period).or_else(|| first(delay + (k + 1.0) * period))
             }
             Self::Exp {
                 v1,
@@ -414,9 +433,13 @@ impl Waveform {
                 fall,
                 width,
                 period,
+                pulses,
             } => {
                 let (v1, v2, rise, fall, width, period) = (*v1, *v2, *rise, *fall, *width, *period);
                 let mut tau = t - delay;
+                if tau > pulses * period {
+                    return (v1, 0.0);
+                }
                 if period > 0.0 && tau > period {
                     tau -= period * (tau / period).floor();
                 }
@@ -540,6 +563,46 @@ mod tests {
         assert_eq!(s.next_breakpoint(0.0), Some(0.02));
         assert_eq!(s.next_breakpoint(0.02), None);
         assert_eq!(Waveform::Dc(1.0).next_breakpoint(0.0), None);
+    }
+
+    /// `PULSE(0 5 1 0.5 0.25 2 10 NP)`, values worked by hand from ngspice's `vsrcload.c`
+    /// (`time − TD > NP·PER` gives `V1`, strictly, before the period is reduced): with `NP = 2`
+    /// the second pulse is whole and the third never comes, and the corners stop with it; with
+    /// `NP = 1.2` the second pulse is cut on its plateau at `TD + 12 = 13`, a corner of its own.
+    /// ngspice-39 on a deck of two such sources (`NP` = 2 and 1.5) agrees with dirac's rows to
+    /// 1e-7 under gauss2 away from the cut.
+    #[test]
+    fn a_pulse_train_ends_after_np_periods() {
+        let train = |pulses| Waveform::Pulse {
+            v1: 0.0,
+            v2: 5.0,
+            delay: 1.0,
+            rise: 0.5,
+            fall: 0.25,
+            width: 2.0,
+            period: 10.0,
+            pulses,
+        };
+        let two = train(2.0);
+        assert_eq!(two.value(12.0), 5.0); // second pulse, plateau
+        assert_eq!(two.value(11.25), 2.5); // second pulse, half-way up
+        assert_eq!(two.value(21.0), 0.0); // τ = 20 = NP·PER: not past the end, but V1 anyway
+        assert_eq!(two.value(22.0), 0.0); // where a third pulse would be on its plateau
+        assert_eq!(train(f64::INFINITY).value(22.0), 5.0);
+        let mut t = -1.0;
+        let mut seen = Vec::new();
+        while let Some(b) = two.next_breakpoint(t) {
+            seen.push(b);
+            t = b;
+        }
+        assert_eq!(seen, [1.0, 1.5, 3.5, 3.75, 11.0, 11.5, 13.5, 13.75]);
+        let cut = train(1.2);
+        assert_eq!(cut.value(13.0), 5.0); // τ = 12 = NP·PER exactly: still on the plateau
+        assert_eq!(cut.value(13.0 + 1e-9), 0.0);
+        assert_eq!(cut.next_breakpoint(11.5), Some(13.0));
+        assert_eq!(cut.next_breakpoint(13.0), None);
+        assert!(train(0.0).check("source", "waveform").is_err());
+        assert!(train(f64::NAN).check("source", "waveform").is_err());
     }
 
     /// Hand-evaluated values of each ngspice function at breakpoints and inside segments.

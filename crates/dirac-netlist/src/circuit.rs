@@ -239,6 +239,7 @@ pub fn waveform(spec: &SourceSpec) -> Waveform {
             tf,
             pw,
             per,
+            np,
         } => Waveform::Pulse {
             v1: *v1,
             v2: *v2,
@@ -247,6 +248,7 @@ pub fn waveform(spec: &SourceSpec) -> Waveform {
             fall: *tf,
             width: *pw,
             period: if *per > 0.0 { *per } else { f64::INFINITY },
+            pulses: if *np > 0.0 { *np } else { f64::INFINITY },
         },
         SourceSpec::Exp {
             v1,

@@ -263,6 +263,7 @@ fn source(
                 tf: at(4),
                 pw: at(5),
                 per: at(6),
+                np: at(7),
             }
         }
         SourceFn::Exp(args) => {

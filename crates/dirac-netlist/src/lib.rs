@@ -23,7 +23,7 @@
 //! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
 //!
 //! Source functions: `SIN(VO VA [FREQ [TD [THETA [PHASE]]]])`, `PULSE(V1 V2 [TD [TR [TF [PW
-//! [PER]]]]])`, `EXP(V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]])`, `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`, with
+//! [PER [NP]]]]]])`, `EXP(V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]])`, `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`, with
 //! or without parentheses, values separated by blanks or commas; see [`SourceSpec`] for the exact (ngspice) definitions and defaults. When both a DC
 //! value and a transient function are given, the function is used (with a warning). An `AC`
 //! specification is ignored with a warning. A source without any value is `DC 0` (with a warning).

@@ -487,7 +487,7 @@ impl<'a> CardParser<'a> {
                     }
                     let args = self.function_args()?;
                     let range = match f.as_str() {
-                        "pulse" => (2, 7),
+                        "pulse" => (2, 8),
                         "pwl" => (2, usize::MAX),
                         _ => (2, 6),
                     };

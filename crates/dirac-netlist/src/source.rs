@@ -41,7 +41,7 @@ pub enum SourceSpec {
         /// Phase in degrees.
         phase: f64,
     },
-    /// `PULSE(V1 V2 [TD [TR [TF [PW [PER]]]]])`.
+    /// `PULSE(V1 V2 [TD [TR [TF [PW [PER [NP]]]]]])`.
     Pulse {
         /// Initial value.
         v1: f64,
@@ -57,6 +57,8 @@ pub enum SourceSpec {
         pw: f64,
         /// Period (0 = default `TSTOP`, until resolved; an unresolved 0 means no repetition).
         per: f64,
+        /// Number of pulses, ngspice's eighth parameter (0 or less, or absent: no end).
+        np: f64,
     },
     /// `EXP(V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]])`.
     Exp {
@@ -139,6 +141,7 @@ impl SourceSpec {
                 tf,
                 pw,
                 per,
+                np,
             } => SourceSpec::Pulse {
                 v1: *v1,
                 v2: *v2,
@@ -147,6 +150,7 @@ impl SourceSpec {
                 tf: or(*tf, tstep),
                 pw: or(*pw, tstop),
                 per: or(*per, tstop),
+                np: *np,
             },
             SourceSpec::Exp {
                 v1,

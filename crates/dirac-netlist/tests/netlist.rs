@@ -125,7 +125,7 @@ V2 b 0 DC 2.5
 I1 0 c dc 1m
 V3 d 0 SIN(0.5 2 1k 1m 10 45)
 V4 e 0 sin 0 1 50
-V5 f 0 PULSE(0, 5, 1u, 2u, 3u, 10u, 20u)
+V5 f 0 PULSE(0, 5, 1u, 2u, 3u, 10u, 20u, 3)
 V6 g 0 pulse (1 -1)
 I2 h 0 PWL(0 0 1m 1 2m 1)
 V7 i 0 DC 1 SIN(0 1 1k) AC 1 0
@@ -168,7 +168,8 @@ R1 a b 1
             tr: 2e-6,
             tf: 3e-6,
             pw: 1e-5,
-            per: 2e-5
+            per: 2e-5,
+            np: 3.0
         }
     );
     // No .tran: unresolved defaults stay 0.
@@ -181,7 +182,8 @@ R1 a b 1
             tr: 0.0,
             tf: 0.0,
             pw: 0.0,
-            per: 0.0
+            per: 0.0,
+            np: 0.0
         }
     );
     assert_eq!(
@@ -243,7 +245,8 @@ fn tran_resolves_source_defaults() {
             tr: 1e-4,
             tf: 1e-4,
             pw: 5e-3,
-            per: 5e-3
+            per: 5e-3,
+            np: 0.0
         }
     );
     assert!(matches!(
@@ -986,7 +989,7 @@ fn syntax_errors() {
     assert_err("t\nV1 a 0 SIN(0 1 1k\n", ErrorKind::Syntax, 2, 11);
     assert_err("t\nV1 a 0 SIN(0)\n", ErrorKind::Syntax, 2, 8);
     assert_err(
-        "t\nV1 a 0 PULSE(0 1 2 3 4 5 6 7)\n",
+        "t\nV1 a 0 PULSE(0 1 2 3 4 5 6 7 8)\n",
         ErrorKind::Syntax,
         2,
         8,

@@ -100,6 +100,7 @@ fn pulse_rise_fall_and_period() {
         tf: 0.25,
         pw: 2.0,
         per: 4.0,
+        np: 0.0,
     };
     check(
         &p,
@@ -135,6 +136,7 @@ fn pulse_defaults_from_tran() {
         tf: 0.0,
         pw: 0.0,
         per: 0.0,
+        np: 0.0,
     };
     let r = p.resolved(0.1, 10.0);
     assert_eq!(
@@ -146,7 +148,8 @@ fn pulse_defaults_from_tran() {
             tr: 0.1,
             tf: 0.1,
             pw: 10.0,
-            per: 10.0
+            per: 10.0,
+            np: 0.0
         }
     );
     assert!(close(p.value_with_defaults(0.05, 0.1, 10.0), 0.5));

@@ -114,14 +114,20 @@ fn waveform(spec: &SourceSpec) -> String {
             tf,
             pw,
             per,
+            np,
         } => {
             let period = if *per > 0.0 {
                 format!(", period = {}", number(*per))
             } else {
                 String::new()
             };
+            let pulses = if *np > 0.0 {
+                format!(", pulses = {}", number(*np))
+            } else {
+                String::new()
+            };
             format!(
-                "{{ shape = \"pulse\", v1 = {}, v2 = {}, delay = {}, rise = {}, fall = {}, width = {}{period} }}",
+                "{{ shape = \"pulse\", v1 = {}, v2 = {}, delay = {}, rise = {}, fall = {}, width = {}{period}{pulses} }}",
                 number(*v1),
                 number(*v2),
                 number(*td),

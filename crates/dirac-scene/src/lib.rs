@@ -122,8 +122,9 @@
 //! A `waveform` is a number (DC) or a table with a `shape`, with ngspice's semantics
 //! ([`dirac_components::Waveform`]): `{ shape = "dc", value }`,
 //! `{ shape = "sin", amplitude, frequency, offset = 0, delay = 0, damping = 0, phase = 0 }`
-//! (phase in degrees), `{ shape = "pulse", v1, v2, width, delay = 0, rise = 0, fall = 0, period }`
-//! (no `period`: one pulse), `{ shape = "pwl", points = [[t, v], …] }`.
+//! (phase in degrees), `{ shape = "pulse", v1, v2, width, delay = 0, rise = 0, fall = 0, period,
+//! pulses }` (no `period`: one pulse; no `pulses`, SPICE's `NP`: no end),
+//! `{ shape = "pwl", points = [[t, v], …] }`.
 //!
 //! ```
 //! use dirac_scene::Scene;

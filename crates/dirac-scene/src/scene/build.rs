@@ -474,6 +474,7 @@ fn waveform(w: &WaveformSpec) -> Waveform {
             fall,
             width,
             period,
+            pulses,
         } => Waveform::Pulse {
             v1: *v1,
             v2: *v2,
@@ -482,6 +483,7 @@ fn waveform(w: &WaveformSpec) -> Waveform {
             fall: *fall,
             width: *width,
             period: period.unwrap_or(f64::INFINITY),
+            pulses: pulses.unwrap_or(f64::INFINITY),
         },
         WaveformSpec::Exp {
             v1,

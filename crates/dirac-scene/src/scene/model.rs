@@ -291,8 +291,9 @@ pub enum WaveformSpec {
         /// Phase in degrees.
         phase: f64,
     },
-    /// `{ shape = "pulse", v1 = 0, v2 = 5, delay = 0, rise = 0, fall = 0, width = 1, period = 2 }`:
-    /// `delay`, `rise` and `fall` default to 0; without `period`, a single pulse.
+    /// `{ shape = "pulse", v1 = 0, v2 = 5, delay = 0, rise = 0, fall = 0, width = 1, period = 2,
+    /// pulses = 3 }`: `delay`, `rise` and `fall` default to 0; without `period`, a single pulse;
+    /// without `pulses` (SPICE's `NP`), the train has no end.
     Pulse {
         /// Initial value.
         v1: f64,
@@ -308,6 +309,8 @@ pub enum WaveformSpec {
         width: f64,
         /// Period (`None`: a single pulse).
         period: Option<f64>,
+        /// Number of periods after which the value stays `v1` (`None`: no end).
+        pulses: Option<f64>,
     },
     /// `{ shape = "exp", v1 = 0, v2 = 5, rise_delay = 1e-3, rise_tau = 1e-4, fall_delay = 2e-3,
     /// fall_tau = 1e-4 }` (SPICE's `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`): every key needed.
@@ -357,6 +360,7 @@ struct WaveformTable {
     fall: Option<f64>,
     width: Option<f64>,
     period: Option<f64>,
+    pulses: Option<f64>,
     points: Option<Vec<[f64; 2]>>,
     repeat: Option<f64>,
     rise_delay: Option<f64>,
@@ -367,7 +371,7 @@ struct WaveformTable {
 
 impl WaveformTable {
     fn into_spec<E: de::Error>(self) -> Result<WaveformSpec, E> {
-        let given: [(&str, bool); 19] = [
+        let given: [(&str, bool); 20] = [
             ("value", self.value.is_some()),
             ("offset", self.offset.is_some()),
             ("amplitude", self.amplitude.is_some()),
@@ -381,6 +385,7 @@ impl WaveformTable {
             ("fall", self.fall.is_some()),
             ("width", self.width.is_some()),
             ("period", self.period.is_some()),
+            ("pulses", self.pulses.is_some()),
             ("points", self.points.is_some()),
             ("repeat", self.repeat.is_some()),
             ("rise_delay", self.rise_delay.is_some()),
@@ -398,7 +403,9 @@ impl WaveformTable {
                 "damping",
                 "phase",
             ],
-            "pulse" => &["v1", "v2", "delay", "rise", "fall", "width", "period"],
+            "pulse" => &[
+                "v1", "v2", "delay", "rise", "fall", "width", "period", "pulses",
+            ],
             "exp" => &[
                 "v1",
                 "v2",
@@ -445,6 +452,7 @@ impl WaveformTable {
                 fall: self.fall.unwrap_or(0.0),
                 width: need(self.width, "width")?,
                 period: self.period,
+                pulses: self.pulses,
             },
             "exp" => WaveformSpec::Exp {
                 v1: need(self.v1, "v1")?,
@@ -495,6 +503,7 @@ impl Serialize for WaveformSpec {
                 fall,
                 width,
                 period,
+                pulses,
             } => {
                 let mut m = s.serialize_map(None)?;
                 m.serialize_entry("shape", "pulse")?;
@@ -506,6 +515,9 @@ impl Serialize for WaveformSpec {
                 m.serialize_entry("width", width)?;
                 if let Some(p) = period {
                     m.serialize_entry("period", p)?;
+                }
+                if let Some(n) = pulses {
+                    m.serialize_entry("pulses", n)?;
                 }
                 m.end()
             }
