@@ -734,12 +734,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 device = Some(diode);
                 (name, diode.subsystem(name.clone()), none(2), none(2))
             }
-            Element::Controlled {
-                name,
-                source,
-                n_plus,
-                n_minus,
-            } => {
+            Element::Controlled { name, source, .. } => {
                 let (part, dim) = match *source {
                     ControlledSource::Vcvs { gain, .. } => {
                         (Vcvs::new(gain).map(|p| p.subsystem(name.clone())), 3)
@@ -754,28 +749,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                         (Ccvs::new(r).map(|p| p.subsystem(name.clone())), 2)
                     }
                 };
-                let s = add(&mut circuit, check(part)?, none(dim), none(dim))?;
-                match sensors.get(name.as_str()) {
-                    Some(shorts) => {
-                        pending.extend(sensed_chain(name, n_plus, n_minus, shorts, &mut internal))
-                    }
-                    None => {
-                        circuit.connect(name, "i", n_plus, n_minus)?;
-                    }
-                }
-                if let Some((a, b)) = source.control_nodes() {
-                    circuit.connect(name, "ic", a, b)?;
-                }
-                branches.insert(
-                    name.clone(),
-                    Branch {
-                        subsystem: s,
-                        port: "i",
-                        coordinate: 0,
-                        capacitor: false,
-                    },
-                );
-                continue;
+                (name, check(part)?, none(dim), none(dim))
             }
             Element::K { .. } => continue,
         };
@@ -790,6 +764,11 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                     circuit.connect(name, "i", a, b)?;
                 }
             }
+        }
+        if let Element::Controlled { source, .. } = element
+            && let Some((a, b)) = source.control_nodes()
+        {
+            circuit.connect(name, "ic", a, b)?;
         }
         branches.insert(
             name.clone(),
