@@ -185,7 +185,7 @@ pub struct Circuit {
     pub given_v: Vec<Vec<bool>>,
     /// The signals to record: those of `.print`/`.probe`/`.save` if any, else the contract's
     /// default: `v(<node>)` for every non-ground node, `i(<name>)` for every inductor and voltage
-    /// source, `q(<name>)` for every capacitor.
+    /// source (`V`, and the controlled `E` and `H`), `q(<name>)` for every capacitor.
     pub signals: Vec<Signal>,
     /// The `.tran` card, if any.
     pub tran: Option<Tran>,
@@ -858,8 +858,17 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         branches,
         capacitors,
     };
+    // Voltage sources include the controlled ones (E, H), whose branch currents ngspice's `.op`
+    // prints as well.
     for element in &netlist.elements {
-        if let Element::L { name, .. } | Element::V { name, .. } = element {
+        if let Element::L { name, .. }
+        | Element::V { name, .. }
+        | Element::Controlled {
+            name,
+            source: ControlledSource::Vcvs { .. } | ControlledSource::Ccvs { .. },
+            ..
+        } = element
+        {
             signals.push(circuit.signal(&format!("i({name})"))?);
         }
     }
