@@ -53,13 +53,13 @@
 //! - `.print`, `.plot`, `.probe`, `.save` (the signals they name are kept in
 //!   [`Netlist::outputs`] and become the recorded signals).
 //!
-//! Accepted and **ignored with a recorded [`Warning`]**: `.meas`/`.measure`, and whole `.control`
-//! ... `.endc` blocks.
+//! Accepted and **ignored with a recorded [`Warning`]**: `.meas`/`.measure`, `.nodeset`, `.width`,
+//! whole `.control` ... `.endc` blocks, and other analyses (`.ac`, `.dc`, `.noise`, `.tf`, `.four`,
+//! ...) in a netlist that also has `.tran` or `.op` (alone, they are refused).
 //!
 //! Everything else is an error of kind [`ErrorKind::Unsupported`] whose message contains "not
 //! supported": other element types (`M Q J B T S W A U O Z`, ...), the nonlinear forms of `E F G
-//! H` (`POLY`, `VALUE=`, `TABLE`, ...), other dot-cards (`.ac`,
-//! `.dc`, `.include`, `.lib`, `.func`, `.nodeset`, ...), other source
+//! H` (`POLY`, `VALUE=`, `TABLE`, ...), other dot-cards (`.include`, `.lib`, `.func`, ...), other source
 //! functions (`SFFM`, `AM`, `TRNOISE`, ...), model types other than `D`, instance parameters other
 //! than `IC=` on `L`/`C`.
 //!

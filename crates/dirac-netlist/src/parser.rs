@@ -235,7 +235,13 @@ fn param_name(s: &Spanned, card: &str) -> Result<Name, NetlistError> {
 }
 
 /// Dot-cards accepted and ignored with a warning (measurements).
-const IGNORED_DOT_CARDS: &[&str] = &[".meas", ".measure"];
+const IGNORED_DOT_CARDS: &[&str] = &[".meas", ".measure", ".nodeset", ".width"];
+
+/// Analyses other than `.tran` and `.op`: a deck that also asks for one of those runs them, with a
+/// warning that these are not run; a deck that asks only for these is refused at the first.
+const OTHER_ANALYSES: &[&str] = &[
+    ".ac", ".dc", ".noise", ".tf", ".sens", ".disto", ".pz", ".four", ".fourier", ".sp",
+];
 
 /// Dot-cards that name the signals to record.
 const OUTPUT_DOT_CARDS: &[&str] = &[".print", ".plot", ".probe", ".save"];
@@ -899,6 +905,7 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
     let mut globals = Vec::new();
     let mut options = Vec::new();
     let mut outputs = Vec::new();
+    let mut other_analyses: Vec<(Pos, String, String)> = Vec::new();
 
     for card in &lexed.cards {
         let mut p = CardParser::new(card);
@@ -1035,6 +1042,9 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
                 k if OUTPUT_DOT_CARDS.contains(&k) => {
                     outputs.extend(output_requests(card, &p.text))
                 }
+                k if OTHER_ANALYSES.contains(&k) => {
+                    other_analyses.push((start, p.text.clone(), k.to_owned()));
+                }
                 k if IGNORED_DOT_CARDS.contains(&k) => {
                     warnings.push(Warning::new(
                         start,
@@ -1058,6 +1068,16 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
             open.start,
             open.text,
             format!("`.subckt {}` without `.ends`", open.def.name.orig),
+        ));
+    }
+    for (pos, text, kind) in other_analyses {
+        if tran.is_none() && !op {
+            return Err(NetlistError::unsupported_card(pos, &text));
+        }
+        warnings.push(Warning::new(
+            pos,
+            text.clone(),
+            format!("`{kind}` analysis not run (dirac runs `.tran` and `.op`): `{text}`"),
         ));
     }
     Ok(Parsed {

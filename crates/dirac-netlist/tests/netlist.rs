@@ -667,7 +667,6 @@ fn unsupported_cards() {
         ".include models.lib",
         ".lib models.lib tt",
         ".func f(x) {x*2}",
-        ".nodeset V(a)=1",
     ] {
         let e = assert_err(
             &format!("t\nR1 a 0 1\n{card}\n"),
@@ -851,6 +850,39 @@ fn controlled_source_errors_name_the_place() {
     parse("t\nV1 a 0 1\nE1 x 0 a 0 2\nRx x 0 1k\nF1 0 y E1 1\nRy y 0 1k\n");
     assert_err("t\nE1 o 0 a 0\n", ErrorKind::Syntax, 2, 11);
     assert_err("t\nV1 a 0 1\nF1 o 0 V1 2 3\n", ErrorKind::Syntax, 3, 13);
+}
+
+/// Analyses dirac does not run (`.ac`, `.dc`, `.noise`, …) in a deck that also asks for `.tran` or
+/// `.op`: that one runs and the others are warned about at their place, as ngspice would run them
+/// all; a deck with only those is refused at the first (test `unsupported_cards`). `.nodeset` (an
+/// operating-point starting guess) is ignored with a warning.
+#[test]
+fn other_analyses_beside_a_transient_are_warned_about() {
+    let net = parse(
+        "t\nV1 a 0 1\nR1 a 0 1k\n.ac dec 10 1 1meg\n.tran 1u 10u\n.nodeset v(a)=1\n.dc V1 0 1 0.1\n",
+    );
+    assert!(net.tran.is_some());
+    let w: Vec<String> = net.warnings.iter().map(ToString::to_string).collect();
+    assert_eq!(w.len(), 3, "{w:?}");
+    assert!(
+        w[0].contains("4:1") && w[0].contains("`.ac` analysis not run"),
+        "{w:?}"
+    );
+    assert!(
+        w[1].contains("6:1") && w[1].contains("`.nodeset` card ignored"),
+        "{w:?}"
+    );
+    assert!(
+        w[2].contains("7:1") && w[2].contains("`.dc` analysis not run"),
+        "{w:?}"
+    );
+    let e = assert_err(
+        "t\nR1 a 0 1\n.noise v(a) V1 dec 10 1 1k\n",
+        ErrorKind::Unsupported,
+        3,
+        1,
+    );
+    assert!(e.message.contains("not supported"), "{e}");
 }
 
 /// A subcircuit port named `gnd` (or `0`) is the ground node, as ngspice reads it (its input
