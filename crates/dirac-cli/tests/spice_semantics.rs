@@ -125,6 +125,29 @@ fn operating_point_through_controlled_sources() {
     }
 }
 
+/// Instance parameters as ngspice reads them, at the operating point: `R2 … 1k m=2` is 500 Ω (so
+/// `v(b)` = 1·1k/1.5k = 2/3 V), and `D1 … dm area=2 m=3` a junction six times the model's (ngspice-39
+/// prints `d = 4.133852e-01` and `v1#branch = -3.08005e-03` on this deck).
+#[test]
+fn operating_point_with_multiplicities_and_an_area_factor() {
+    let file = deck(
+        "instance_op.cir",
+        "t\nV1 a 0 1\nR1 a 0 r=1k\nR2 a b 1k m=2\nR3 b 0 1k\nC1 b 0 c=1u\nL1 a c l=1m m=2\nR4 c 0 1k\n\
+         D1 a d dm area=2 m=3\nR5 d 0 1k\n.model dm d(is=1e-14 rs=10)\n.op\n.end\n",
+    );
+    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
+    assert!(
+        json.status.success(),
+        "{}",
+        String::from_utf8_lossy(&json.stderr)
+    );
+    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
+    let value = |s: &str| parsed[s].as_f64().unwrap_or(f64::NAN);
+    assert!((value("v(b)") - 2.0 / 3.0).abs() < 1e-14, "{parsed}");
+    assert!((value("v(d)") - 0.4133852).abs() < 1e-7, "{parsed}");
+    assert!((value("i(v1)") + 3.08005e-3).abs() < 1e-8, "{parsed}");
+}
+
 /// A `.tran` without UIC starts from the operating point: the ladder with a 1 mA load sits at its
 /// DC solution from row 0 (5, 4, 3, 2, 1 V down the four 1k sections) and stays there.
 #[test]

@@ -483,7 +483,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
         let index = out.elements.len();
         out.claim(&full, &el.name, &orig, Some(index))?;
         let element = match &el.kind {
-            ElemKind::R(v) => {
+            ElemKind::R(v, m) => {
                 let value = scope.eval(v)?;
                 if value == 0.0 {
                     return Err(NetlistError::bad_value(
@@ -496,21 +496,21 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     name: full,
                     n1: n(0),
                     n2: n(1),
-                    value,
+                    value: value / multiplicity(m.as_ref(), scope, &el.name)?,
                 }
             }
-            ElemKind::L(v, ic) => Element::L {
+            ElemKind::L(v, ic, m) => Element::L {
                 name: full,
                 n1: n(0),
                 n2: n(1),
-                value: scope.eval(v)?,
+                value: scope.eval(v)? / multiplicity(m.as_ref(), scope, &el.name)?,
                 ic: ic.as_ref().map(|e| scope.eval(e)).transpose()?,
             },
-            ElemKind::C(v, ic) => Element::C {
+            ElemKind::C(v, ic, m) => Element::C {
                 name: full,
                 n1: n(0),
                 n2: n(1),
-                value: scope.eval(v)?,
+                value: scope.eval(v)? * multiplicity(m.as_ref(), scope, &el.name)?,
                 ic: ic.as_ref().map(|e| scope.eval(e)).transpose()?,
             },
             ElemKind::V(f) => Element::V {
@@ -572,17 +572,17 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     k: kv,
                 }
             }
-            ElemKind::D(model) => {
+            ElemKind::D(model, area, m) => {
                 let mut found = None;
                 let mut c = Some(ctx);
                 while let Some(cx) = c {
-                    if let Some(m) = cx.block.models.iter().find(|m| m.name.norm == model.norm) {
-                        found = Some((m, cx.scope));
+                    if let Some(def) = cx.block.models.iter().find(|d| d.name.norm == model.norm) {
+                        found = Some((def, cx.scope));
                         break;
                     }
                     c = cx.parent;
                 }
-                let Some((m, mscope)) = found else {
+                let Some((found_model, mscope)) = found else {
                     return Err(NetlistError::new(
                         ErrorKind::MissingModel,
                         model.pos,
@@ -593,11 +593,27 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                         ),
                     ));
                 };
+                let mut model = diode_model(found_model, mscope, out)?;
+                let factor = match area {
+                    Some(e) => {
+                        let a = scope.eval(e)?;
+                        if !(a > 0.0 && a.is_finite()) {
+                            return Err(NetlistError::bad_value(
+                                e.pos,
+                                e.text.clone(),
+                                format!("area of `{}` must be positive, got {a}", el.name.orig),
+                            ));
+                        }
+                        a
+                    }
+                    None => 1.0,
+                };
+                model.card.area *= factor * multiplicity(m.as_ref(), scope, &el.name)?;
                 Element::D {
                     name: full,
                     anode: n(0),
                     cathode: n(1),
-                    model: diode_model(m, mscope, out)?,
+                    model,
                 }
             }
             ElemKind::E(v) | ElemKind::G(v) => {
@@ -786,6 +802,31 @@ fn instantiate(
         globals: ctx.globals,
     };
     expand(&inner, out)
+}
+
+/// An R, L or C card's `m=` (that many equal elements in parallel, as ngspice reads it: R and L
+/// divided by it, C multiplied), 1 when absent; it must be positive.
+fn multiplicity(
+    m: Option<&ExprTok>,
+    scope: &Scope<'_>,
+    element: &Name,
+) -> Result<f64, NetlistError> {
+    let Some(e) = m else {
+        return Ok(1.0);
+    };
+    let value = scope.eval(e)?;
+    if value > 0.0 && value.is_finite() {
+        Ok(value)
+    } else {
+        Err(NetlistError::bad_value(
+            e.pos,
+            e.text.clone(),
+            format!(
+                "multiplicity m of `{}` must be positive, got {value}",
+                element.orig
+            ),
+        ))
+    }
 }
 
 /// Warnings for a `.tran` whose TSTOP or TSTART is not a whole number of TSTEPs: dirac steps

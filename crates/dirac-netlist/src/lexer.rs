@@ -262,6 +262,16 @@ impl<'a> Cursor<'a> {
         w
     }
 
+    /// Consumes `keyword=` (a word equal to `keyword`, lowercased, then `=`), or nothing.
+    pub fn eat_assignment_of(&mut self, keyword: &str) -> bool {
+        let save = self.i;
+        if self.eat_keyword(keyword) && self.eat('=') {
+            return true;
+        }
+        self.i = save;
+        false
+    }
+
     /// Consumes a word if its lowercased text equals `keyword`.
     pub fn eat_keyword(&mut self, keyword: &str) -> bool {
         let save = self.i;

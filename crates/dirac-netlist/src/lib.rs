@@ -9,9 +9,9 @@
 //!
 //! | card | meaning |
 //! | --- | --- |
-//! | `Rname n1 n2 value` | resistor (a zero value is an error) |
-//! | `Lname n1 n2 value [IC=i0]` | inductor, optional initial current |
-//! | `Cname n1 n2 value [IC=v0]` | capacitor, optional initial voltage |
+//! | `Rname n1 n2 [r=]value [m=M]` | resistor (a zero value is an error; `m` in parallel) |
+//! | `Lname n1 n2 [l=]value [IC=i0] [m=M]` | inductor, optional initial current |
+//! | `Cname n1 n2 [c=]value [IC=v0] [m=M]` | capacitor, optional initial voltage |
 //! | `Vname n+ n- [[DC] v] [SIN(..)\|PULSE(..)\|EXP(..)\|PWL(..)] [AC ..]` | voltage source |
 //! | `Iname n+ n- ...` | current source, same forms as `V` |
 //! | `Kname L1 L2 k` | coupling of two inductors, `-1 < k < 1` |
@@ -19,7 +19,7 @@
 //! | `Gname n+ n- nc+ nc- gm` | voltage-controlled current source (linear form) |
 //! | `Fname n+ n- vname gain` | current-controlled current source; `vname` is a `V`, `E` or `H` |
 //! | `Hname n+ n- vname r` | current-controlled voltage source; `vname` is a `V`, `E` or `H` |
-//! | `Dname anode cathode model` | diode; `model` names a `.model NAME D(...)` |
+//! | `Dname anode cathode model [area] [area=A] [m=M] [off]` | diode; `model` names a `.model NAME D(...)`; the junction scaled by area·m; `off` ignored |
 //! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
 //!
 //! Source functions: `SIN(VO VA [FREQ [TD [THETA [PHASE]]]])`, `PULSE(V1 V2 [TD [TR [TF [PW
@@ -53,7 +53,7 @@
 //! - `.print`, `.plot`, `.probe`, `.save` (the signals they name are kept in
 //!   [`Netlist::outputs`] and become the recorded signals).
 //!
-//! Accepted and **ignored with a recorded [`Warning`]**: `.meas`/`.measure`, `.nodeset`, `.width`,
+//! Accepted and **ignored with a recorded [`Warning`]**: `.meas`/`.measure`, `.nodeset`, `.width`, `.title`,
 //! whole `.control` ... `.endc` blocks, and other analyses (`.ac`, `.dc`, `.noise`, `.tf`, `.four`,
 //! ...) in a netlist that also has `.tran` or `.op` (alone, they are refused).
 //!

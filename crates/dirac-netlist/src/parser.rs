@@ -50,13 +50,16 @@ pub(crate) enum SourceFn {
 /// What kind of element a card is, with its element-specific fields.
 #[derive(Debug, Clone)]
 pub(crate) enum ElemKind {
-    R(ExprTok),
-    L(ExprTok, Option<ExprTok>),
-    C(ExprTok, Option<ExprTok>),
+    /// Value, `m=`.
+    R(ExprTok, Option<ExprTok>),
+    /// Value, `IC=`, `m=`.
+    L(ExprTok, Option<ExprTok>, Option<ExprTok>),
+    C(ExprTok, Option<ExprTok>, Option<ExprTok>),
     V(SourceFn),
     I(SourceFn),
     K(Name, Name, ExprTok),
-    D(Name),
+    /// Model, area factor, `m=`.
+    D(Name, Option<ExprTok>, Option<ExprTok>),
     X(Name, Vec<(Name, ExprTok)>),
     /// `E` (voltage gain) and `G` (transconductance): the card's nodes are the output pair,
     /// then the controlling pair.
@@ -235,7 +238,7 @@ fn param_name(s: &Spanned, card: &str) -> Result<Name, NetlistError> {
 }
 
 /// Dot-cards accepted and ignored with a warning (measurements).
-const IGNORED_DOT_CARDS: &[&str] = &[".meas", ".measure", ".nodeset", ".width"];
+const IGNORED_DOT_CARDS: &[&str] = &[".meas", ".measure", ".nodeset", ".width", ".title"];
 
 /// Analyses other than `.tran` and `.op`: a deck that also asks for one of those runs them, with a
 /// warning that these are not run; a deck that asks only for these is refused at the first.
@@ -338,6 +341,25 @@ impl<'a> CardParser<'a> {
             out.push((name, value));
         }
         Ok(out)
+    }
+
+    /// The trailing `m=` (multiplicity: that many elements in parallel) and one other allowed
+    /// parameter (`ic=`) of an R, L or C card.
+    fn multiplicity(
+        &mut self,
+        other: &[&str],
+    ) -> Result<(Option<ExprTok>, Option<ExprTok>), NetlistError> {
+        let mut allowed = vec!["m"];
+        allowed.extend_from_slice(other);
+        let (mut m, mut value) = (None, None);
+        for (name, v) in self.trailing_params(&allowed)? {
+            if name.norm == "m" {
+                m = Some(v);
+            } else {
+                value = Some(v);
+            }
+        }
+        Ok((m, value))
     }
 
     fn finish(&mut self) -> Result<(), NetlistError> {
@@ -598,25 +620,26 @@ impl<'a> CardParser<'a> {
         let (nodes, kind) = match letter {
             'r' => {
                 let nodes = two_nodes(self)?;
+                // ngspice also reads the value as `r=…` and a multiplicity `m` (m in parallel).
+                self.cur.eat_assignment_of("r");
                 let value = self.value("resistance")?;
-                self.trailing_params(&[])?;
-                (nodes, ElemKind::R(value))
+                let m = self.multiplicity(&[])?.0;
+                (nodes, ElemKind::R(value, m))
             }
             'l' | 'c' => {
                 let nodes = two_nodes(self)?;
+                self.cur
+                    .eat_assignment_of(if letter == 'l' { "l" } else { "c" });
                 let value = self.value(if letter == 'l' {
                     "inductance"
                 } else {
                     "capacitance"
                 })?;
-                let mut ic = None;
-                for (_, v) in self.trailing_params(&["ic"])? {
-                    ic = Some(v);
-                }
+                let (m, ic) = self.multiplicity(&["ic"])?;
                 if letter == 'l' {
-                    (nodes, ElemKind::L(value, ic))
+                    (nodes, ElemKind::L(value, ic, m))
                 } else {
-                    (nodes, ElemKind::C(value, ic))
+                    (nodes, ElemKind::C(value, ic, m))
                 }
             }
             'v' | 'i' => {
@@ -638,17 +661,41 @@ impl<'a> CardParser<'a> {
             'd' => {
                 let nodes = two_nodes(self)?;
                 let model = Name::plain(&self.word("model name")?);
-                if !self.cur.at_end() {
-                    let pos = self.cur.pos();
-                    let rest = self.cur.rest().text;
-                    return Err(NetlistError::unsupported_in(
-                        pos,
-                        &rest,
-                        &format!("diode instance parameters `{rest}`"),
-                        &self.text,
-                    ));
+                // ngspice's instance parameters: an area factor (positional or `area=`), a
+                // multiplicity `m=` (both scale the junction), and `off` (a hint for the
+                // operating point's Newton start, which dirac's does not take).
+                let (mut area, mut m) = (None, None);
+                while !self.cur.at_end() {
+                    if self.cur.eat_keyword("off") {
+                        warnings.push(Warning::new(
+                            self.card.start(),
+                            self.text.clone(),
+                            format!("`off` ignored in card `{}`", self.text),
+                        ));
+                    } else if self.cur.eat_assignment_of("area") {
+                        area = Some(self.value("area factor")?);
+                    } else if self.cur.eat_assignment_of("m") {
+                        m = Some(self.value("multiplicity")?);
+                    } else if area.is_none()
+                        && self.cur.peek_word().is_none_or(|w| {
+                            w.starts_with(|c: char| {
+                                c.is_ascii_digit() || matches!(c, '.' | '-' | '+')
+                            })
+                        })
+                    {
+                        area = Some(self.value("area factor")?);
+                    } else {
+                        let pos = self.cur.pos();
+                        let rest = self.cur.rest().text;
+                        return Err(NetlistError::unsupported_in(
+                            pos,
+                            &rest,
+                            &format!("diode instance parameters `{rest}`"),
+                            &self.text,
+                        ));
+                    }
                 }
-                (nodes, ElemKind::D(model))
+                (nodes, ElemKind::D(model, area, m))
             }
             'e' | 'g' => {
                 let mut nodes = two_nodes(self)?;

@@ -852,6 +852,35 @@ fn controlled_source_errors_name_the_place() {
     assert_err("t\nV1 a 0 1\nF1 o 0 V1 2 3\n", ErrorKind::Syntax, 3, 13);
 }
 
+/// ngspice's other spellings of R, L, C and D cards: the value as `r=`/`l=`/`c=`, a multiplicity
+/// `m=` (that many in parallel: R and L divided, C multiplied), a diode's area factor (positional
+/// or `area=`) times its `m=`, and `off` (ignored with a warning).
+#[test]
+fn instance_parameters_as_ngspice_reads_them() {
+    let net = parse(
+        "t\nR1 a 0 r=1k\nR2 a b 1k m=2\nC1 b 0 c=1u m=3\nL1 a c l=1m M=2\nD1 a d dm 2 m=3\nD2 a e dm area=1.5 off\n\
+         .model dm d(is=1e-14)\n",
+    );
+    let value = |name: &str| match net.element(name) {
+        Some(Element::R { value, .. } | Element::L { value, .. } | Element::C { value, .. }) => {
+            *value
+        }
+        Some(Element::D { model, .. }) => model.card.area,
+        other => panic!("{name}: {other:?}"),
+    };
+    assert_eq!(value("r1"), 1e3);
+    assert_eq!(value("r2"), 500.0);
+    assert_eq!(value("c1"), 3e-6);
+    assert_eq!(value("l1"), 5e-4);
+    assert_eq!(value("d1"), 6.0);
+    assert_eq!(value("d2"), 1.5);
+    assert_eq!(net.warnings.len(), 1, "{:?}", net.warnings);
+    assert!(net.warnings[0].message.contains("`off` ignored"));
+    assert_err("t\nR1 a 0 1k m=0\n", ErrorKind::BadValue, 2, 13);
+    assert_err("t\nD1 a 0 dm -1\n.model dm d\n", ErrorKind::BadValue, 2, 11);
+    assert_err("t\nR1 a 0 1k tc1=1m\n", ErrorKind::Unsupported, 2, 11);
+}
+
 /// Analyses dirac does not run (`.ac`, `.dc`, `.noise`, …) in a deck that also asks for `.tran` or
 /// `.op`: that one runs and the others are warned about at their place, as ngspice would run them
 /// all; a deck with only those is refused at the first (test `unsupported_cards`). `.nodeset` (an
@@ -985,7 +1014,7 @@ fn unsupported_features_inside_cards() {
     assert!(e.message.contains("parameter `tc1`") && e.message.contains("not supported"));
     assert_err("t\n.model q1 NPN(BF=100)\n", ErrorKind::Unsupported, 2, 11);
     assert_err(
-        "t\nD1 a 0 dm 2\n.model dm D\n",
+        "t\nD1 a 0 dm pj=2\n.model dm D\n",
         ErrorKind::Unsupported,
         2,
         11,
