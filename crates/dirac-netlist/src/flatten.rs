@@ -175,6 +175,8 @@ struct Out {
     /// Hierarchical name → element index (`None` for subcircuit instances).
     names: HashMap<String, Option<usize>>,
     krefs: Vec<KRef>,
+    /// Inductors written with `m=` (hierarchical names): a K card may not couple them.
+    multiplied_inductors: HashSet<String>,
     /// `F`/`H` sources' controlling voltage sources: (element index, hierarchical name, as written).
     vrefs: Vec<(usize, String, Name)>,
     ics: Vec<(String, f64, Name)>,
@@ -395,6 +397,8 @@ fn diode_model(
             "ttt2" => c.ttt[1] = v,
             "tm1" => c.tm[0] = v,
             "tm2" => c.tm[1] = v,
+            // ngspice takes a model's AREA as the default of its instances' area.
+            "area" => c.area = v,
             "level" if v == 1.0 => {}
             other => {
                 out.warnings.push(Warning::new(
@@ -439,7 +443,6 @@ fn unsupported_diode_parameter(name: &str) -> &'static str {
             "sidewall (perimeter) current and capacitance: would add to IS and CJO"
         }
         "ibvl" | "nbvl" => "low-level breakdown current: would soften the breakdown knee",
-        "area" => "AREA is an instance parameter in ngspice, not a model parameter",
         "tlev" | "tlevc" | "cta" | "ctp" | "tpb" | "tphp" | "xti_n" | "tbv1" | "tbv2" => {
             "an alternative temperature model (TLEV/TLEVC > 0): only the default (TLEV = 0) \
              temperature adjustment is modelled, so results away from TNOM may differ"
@@ -499,13 +502,18 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     value: value / multiplicity(m.as_ref(), scope, &el.name)?,
                 }
             }
-            ElemKind::L(v, ic, m) => Element::L {
-                name: full,
-                n1: n(0),
-                n2: n(1),
-                value: scope.eval(v)? / multiplicity(m.as_ref(), scope, &el.name)?,
-                ic: ic.as_ref().map(|e| scope.eval(e)).transpose()?,
-            },
+            ElemKind::L(v, ic, m) => {
+                if m.is_some() {
+                    out.multiplied_inductors.insert(full.clone());
+                }
+                Element::L {
+                    name: full,
+                    n1: n(0),
+                    n2: n(1),
+                    value: scope.eval(v)? / multiplicity(m.as_ref(), scope, &el.name)?,
+                    ic: ic.as_ref().map(|e| scope.eval(e)).transpose()?,
+                }
+            }
             ElemKind::C(v, ic, m) => Element::C {
                 name: full,
                 n1: n(0),
@@ -594,7 +602,8 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     ));
                 };
                 let mut model = diode_model(found_model, mscope, out)?;
-                let factor = match area {
+                // The instance's area replaces the model's AREA; `m` multiplies either.
+                let area = match area {
                     Some(e) => {
                         let a = scope.eval(e)?;
                         if !(a > 0.0 && a.is_finite()) {
@@ -606,9 +615,9 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                         }
                         a
                     }
-                    None => 1.0,
+                    None => model.card.area,
                 };
-                model.card.area *= factor * multiplicity(m.as_ref(), scope, &el.name)?;
+                model.card.area = area * multiplicity(m.as_ref(), scope, &el.name)?;
                 Element::D {
                     name: full,
                     anode: n(0),
@@ -944,17 +953,17 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
     }
 
     for k in &out.krefs {
+        let kname = out
+            .origins
+            .get(k.index)
+            .map(|o| o.name.clone())
+            .unwrap_or_default();
         for (full, name) in [&k.l1, &k.l2] {
             let is_inductor = matches!(
                 out.names.get(full),
                 Some(Some(i)) if matches!(out.elements.get(*i), Some(Element::L { .. }))
             );
             if !is_inductor {
-                let kname = out
-                    .origins
-                    .get(k.index)
-                    .map(|o| o.name.clone())
-                    .unwrap_or_default();
                 return Err(NetlistError::new(
                     ErrorKind::UnknownElement,
                     name.pos,
@@ -963,6 +972,16 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
                         "`{kname}` couples `{}`, which is not an inductor",
                         name.orig
                     ),
+                ));
+            }
+            if out.multiplied_inductors.contains(full) {
+                // ngspice divides the self-inductance by `m` but not the `L` in M = k√(L₁L₂):
+                // a mutual inductance no physical winding has. Refused rather than guessed.
+                return Err(NetlistError::unsupported_in(
+                    name.pos,
+                    &name.orig,
+                    &format!("a coupled inductor written with `m=` (`{}`)", name.orig),
+                    &format!("{kname} {} {}", k.l1.1.orig, k.l2.1.orig),
                 ));
             }
         }

@@ -272,6 +272,16 @@ impl<'a> Cursor<'a> {
         false
     }
 
+    /// The next word (lowercased) and the next non-blank character after it, without consuming
+    /// either.
+    pub fn peek_word_and_next(&mut self) -> Option<(String, Option<char>)> {
+        let save = self.i;
+        let word = self.word().map(|w| w.lower());
+        let next = self.peek();
+        self.i = save;
+        word.map(|w| (w, next))
+    }
+
     /// Consumes a word if its lowercased text equals `keyword`.
     pub fn eat_keyword(&mut self, keyword: &str) -> bool {
         let save = self.i;

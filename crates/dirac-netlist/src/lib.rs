@@ -19,7 +19,7 @@
 //! | `Gname n+ n- nc+ nc- gm` | voltage-controlled current source (linear form) |
 //! | `Fname n+ n- vname gain` | current-controlled current source; `vname` is a `V`, `E` or `H` |
 //! | `Hname n+ n- vname r` | current-controlled voltage source; `vname` is a `V`, `E` or `H` |
-//! | `Dname anode cathode model [area] [area=A] [m=M] [off]` | diode; `model` names a `.model NAME D(...)`; the junction scaled by area·m; `off` ignored |
+//! | `Dname anode cathode model [area] [area=A] [m=M] [off]` | diode; `model` names a `.model NAME D(...)`; the junction scaled by area·m (area defaults to the model's `AREA`); `off` ignored |
 //! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
 //!
 //! Source functions: `SIN(VO VA [FREQ [TD [THETA [PHASE]]]])`, `PULSE(V1 V2 [TD [TR [TF [PW
@@ -59,7 +59,7 @@
 //!
 //! Everything else is an error of kind [`ErrorKind::Unsupported`] whose message contains "not
 //! supported": other element types (`M Q J B T S W A U O Z`, ...), the nonlinear forms of `E F G
-//! H` (`POLY`, `VALUE=`, `TABLE`, ...), other dot-cards (`.include`, `.lib`, `.func`, ...), other source
+//! H` (`POLY(…)`, `VALUE=`, `TABLE {…}`, ...; the same words as node names are read), other dot-cards (`.include`, `.lib`, `.func`, ...), other source
 //! functions (`SFFM`, `AM`, `TRNOISE`, ...), model types other than `D`, instance parameters other
 //! than `IC=` on `L`/`C`.
 //!

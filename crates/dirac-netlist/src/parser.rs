@@ -384,11 +384,11 @@ impl<'a> CardParser<'a> {
             "tablefile",
             "smoothbsp",
         ];
-        if !self
-            .cur
-            .peek_word()
-            .is_some_and(|w| FORMS.contains(&w.as_str()))
-        {
+        // A form's keyword opens its arguments (`POLY(2)`, `VALUE={…}`, `TABLE {…}`); the same
+        // word followed by anything else is a node or source name, as ngspice reads it.
+        if !self.cur.peek_word_and_next().is_some_and(|(w, next)| {
+            FORMS.contains(&w.as_str()) && matches!(next, Some('(' | '=' | '{' | '\''))
+        }) {
             return Ok(());
         }
         let w = self.word("node")?;

@@ -846,6 +846,11 @@ fn controlled_source_errors_name_the_place() {
         8,
     );
     assert!(e.message.contains("local to the subcircuit"), "{e}");
+    // A form's keyword names a node or source when no `(`, `=` or `{` follows (ngspice: v(f4) = 2,
+    // v(e) = 6 on this deck).
+    parse(
+        "t\nVol a 0 1\nRa a 0 500\nF4 f4 0 Vol 1\nRF4 f4 0 1k\nV1 freq 0 2\nE1 e 0 freq 0 3\nRe e 0 1k\n",
+    );
     // An E or H output is a voltage source whose current may control (ngspice reads it too).
     parse("t\nV1 a 0 1\nE1 x 0 a 0 2\nRx x 0 1k\nF1 0 y E1 1\nRy y 0 1k\n");
     assert_err("t\nE1 o 0 a 0\n", ErrorKind::Syntax, 2, 11);
@@ -879,6 +884,27 @@ fn instance_parameters_as_ngspice_reads_them() {
     assert_err("t\nR1 a 0 1k m=0\n", ErrorKind::BadValue, 2, 13);
     assert_err("t\nD1 a 0 dm -1\n.model dm d\n", ErrorKind::BadValue, 2, 11);
     assert_err("t\nR1 a 0 1k tc1=1m\n", ErrorKind::Unsupported, 2, 11);
+    // A model's AREA is the default of its instances' area, which an instance area replaces
+    // (ngspice-39: v(b) = 0.67507 for D2 and v(c) = 0.66464 for D1 fed from 5 V through 1k).
+    let areas = parse("t\nD2 b 0 dm\nD1 c 0 dm 3 m=2\n.model dm D(IS=1e-14 AREA=2)\n");
+    let area = |name: &str| match areas.element(name) {
+        Some(Element::D { model, .. }) => model.card.area,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!((area("d2"), area("d1")), (2.0, 6.0));
+    assert!(areas.warnings.is_empty(), "{:?}", areas.warnings);
+    // ngspice divides a coupled winding's self-inductance by `m` but not its L in M = k√(L₁L₂);
+    // refused rather than guessed.
+    let e = assert_err(
+        "t\nL1 b 0 1m m=2\nL2 c 0 1m\nK1 L1 L2 0.5\n",
+        ErrorKind::Unsupported,
+        4,
+        4,
+    );
+    assert!(
+        e.message.contains("coupled inductor written with `m=`"),
+        "{e}"
+    );
 }
 
 /// Analyses dirac does not run (`.ac`, `.dc`, `.noise`, …) in a deck that also asks for `.tran` or
