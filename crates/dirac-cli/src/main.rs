@@ -377,32 +377,10 @@ impl From<RunError> for Failure {
 /// meant there. Unlike a netlist, a flag refuses other trailing letters: `0.3x` is a typo here,
 /// not 0.3.
 pub(crate) fn spice_number(text: &str) -> Result<f64, String> {
-    const SCALES: [(&str, f64); 10] = [
-        ("meg", 1e6),
-        ("mil", 25.4e-6),
-        ("t", 1e12),
-        ("g", 1e9),
-        ("k", 1e3),
-        ("m", 1e-3),
-        ("u", 1e-6),
-        ("n", 1e-9),
-        ("p", 1e-12),
-        ("f", 1e-15),
-    ];
-    let trimmed = text.trim();
-    let lower = trimmed.to_ascii_lowercase();
-    let unitless = lower.strip_suffix('s').unwrap_or(&lower);
-    let scaled = || {
-        SCALES.iter().find_map(|(suffix, factor)| {
-            let head = unitless.strip_suffix(suffix)?;
-            head.parse::<f64>().ok().map(|v| v * factor)
-        })
-    };
-    trimmed
+    text.trim()
         .parse::<f64>()
         .ok()
-        .or_else(|| unitless.parse::<f64>().ok())
-        .or_else(scaled)
+        .or_else(|| dirac_netlist::parse_spice_quantity(text, "s"))
         .ok_or_else(|| {
             format!(
                 "`{text}` is not a number (a float such as 3e-4, or with a SPICE suffix such as 0.3m or 10us)"

@@ -485,36 +485,6 @@ impl SharedParts {
     }
 }
 
-/// The connections of a source whose current controls the sensing shorts `shorts` (of `F` and `H`
-/// sources), from `a` to `b`: `a` → the source's port `i` → each short's port `ic` → `b`, through
-/// nodes named after the source that no netlist can name (they get no signal); they are listed in
-/// `internal`.
-fn sensed_chain(
-    source: &str,
-    a: &str,
-    b: &str,
-    shorts: &[&str],
-    internal: &mut Vec<String>,
-) -> Vec<(String, &'static str, String, String)> {
-    let mut from = a.to_owned();
-    let ports = std::iter::once((source.to_owned(), "i"))
-        .chain(shorts.iter().map(|c| ((*c).to_owned(), "ic")));
-    ports
-        .enumerate()
-        .map(|(k, (part, port))| {
-            let to = if k == shorts.len() {
-                b.to_owned()
-            } else {
-                let node = format!("{source} sense {}", k + 1);
-                internal.push(node.clone());
-                node
-            };
-            let from = std::mem::replace(&mut from, to.clone());
-            (part, port, from, to)
-        })
-        .collect()
-}
-
 /// Builds the circuit of `netlist` (read from `file`).
 ///
 /// # Errors
@@ -620,14 +590,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     }
     // Voltage sources whose current controls an F or H source: each of those gets a sensing
     // branch (a short) in series, wired once every part exists.
-    let mut sensors: HashMap<&str, Vec<&str>> = HashMap::new();
-    for element in &netlist.elements {
-        if let Element::Controlled { name, source, .. } = element
-            && let Some(control) = source.control_source()
-        {
-            sensors.entry(control).or_default().push(name);
-        }
-    }
+    let sensors = netlist.sensing_shorts();
     // Every other element is a part of its own between its two nodes, in card order; a coupled
     // inductor is a winding of its K part. The builder sets the port signs from terminal order.
     // Resistors, inductors and capacitors of equal value share one model object.
@@ -759,7 +722,12 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         }
         if let Some((a, b)) = element.terminals() {
             match sensors.get(name.as_str()) {
-                Some(shorts) => pending.extend(sensed_chain(name, a, b, shorts, &mut internal)),
+                // Through nodes no netlist can name (they get no signal).
+                Some(shorts) => pending.extend(crate::sensed_chain(name, a, b, shorts, |k| {
+                    let node = format!("{name} sense {k}");
+                    internal.push(node.clone());
+                    node
+                })),
                 None => {
                     circuit.connect(name, "i", a, b)?;
                 }

@@ -604,17 +604,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                 let mut model = diode_model(found_model, mscope, out)?;
                 // The instance's area replaces the model's AREA; `m` multiplies either.
                 let area = match area {
-                    Some(e) => {
-                        let a = scope.eval(e)?;
-                        if !(a > 0.0 && a.is_finite()) {
-                            return Err(NetlistError::bad_value(
-                                e.pos,
-                                e.text.clone(),
-                                format!("area of `{}` must be positive, got {a}", el.name.orig),
-                            ));
-                        }
-                        a
-                    }
+                    Some(e) => positive_factor(e, "area", scope, &el.name)?,
                     None => model.card.area,
                 };
                 model.card.area = area * multiplicity(m.as_ref(), scope, &el.name)?;
@@ -813,16 +803,25 @@ fn instantiate(
     expand(&inner, out)
 }
 
-/// An R, L or C card's `m=` (that many equal elements in parallel, as ngspice reads it: R and L
-/// divided by it, C multiplied), 1 when absent; it must be positive.
+/// An R, L, C or D card's `m=` (that many equal elements in parallel, as ngspice reads it: R and
+/// L divided by it, C and a diode's area multiplied), 1 when absent.
 fn multiplicity(
     m: Option<&ExprTok>,
     scope: &Scope<'_>,
     element: &Name,
 ) -> Result<f64, NetlistError> {
-    let Some(e) = m else {
-        return Ok(1.0);
-    };
+    m.map_or(Ok(1.0), |e| {
+        positive_factor(e, "multiplicity m", scope, element)
+    })
+}
+
+/// The value of `e`, a scale factor (`what`) of `element` that must be positive and finite.
+fn positive_factor(
+    e: &ExprTok,
+    what: &str,
+    scope: &Scope<'_>,
+    element: &Name,
+) -> Result<f64, NetlistError> {
     let value = scope.eval(e)?;
     if value > 0.0 && value.is_finite() {
         Ok(value)
@@ -830,10 +829,7 @@ fn multiplicity(
         Err(NetlistError::bad_value(
             e.pos,
             e.text.clone(),
-            format!(
-                "multiplicity m of `{}` must be positive, got {value}",
-                element.orig
-            ),
+            format!("{what} of `{}` must be positive, got {value}", element.orig),
         ))
     }
 }

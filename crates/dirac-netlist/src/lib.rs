@@ -116,7 +116,7 @@ pub use circuit::{Circuit, CircuitError, DeviceConditions, build_circuit, wavefo
 pub use error::{ErrorKind, NetlistError, Pos, Warning};
 pub use parser::{OptionCard, OutputRequest};
 pub use source::SourceSpec;
-pub use units::parse_spice_number;
+pub use units::{parse_spice_number, parse_spice_quantity};
 
 /// Diode model parameters from `.model NAME D(...)`.
 #[derive(Debug, Clone, PartialEq)]
@@ -415,7 +415,51 @@ pub struct Netlist {
     pub warnings: Vec<Warning>,
 }
 
+/// The branches of a source (named `source`, from node `a` to node `b`) whose current controls
+/// the `F` and `H` sources `shorts`: `a` → the source's port `i` → each one's sensing short (port
+/// `ic`) → `b`, as `(part, port, from, to)`; `node(k)` names the `k`-th node between them (from
+/// 1). One definition for `dirac run` ([`build_circuit`]) and for a scene written from the netlist.
+pub fn sensed_chain(
+    source: &str,
+    a: &str,
+    b: &str,
+    shorts: &[&str],
+    mut node: impl FnMut(usize) -> String,
+) -> Vec<(String, &'static str, String, String)> {
+    let mut from = a.to_owned();
+    std::iter::once((source.to_owned(), "i"))
+        .chain(shorts.iter().map(|c| ((*c).to_owned(), "ic")))
+        .enumerate()
+        .map(|(k, (part, port))| {
+            let to = if k == shorts.len() {
+                b.to_owned()
+            } else {
+                node(k + 1)
+            };
+            let from = std::mem::replace(&mut from, to.clone());
+            (part, port, from, to)
+        })
+        .collect()
+}
+
 impl Netlist {
+    /// Per voltage source (`V`, or an `E` or `H` output) whose current controls `F` or `H`
+    /// sources: those sources in card order, whose sensing shorts go in series with it
+    /// ([`sensed_chain`]).
+    #[must_use]
+    pub fn sensing_shorts(&self) -> std::collections::HashMap<&str, Vec<&str>> {
+        let mut shorts: std::collections::HashMap<&str, Vec<&str>> =
+            std::collections::HashMap::new();
+        for element in &self.elements {
+            if let Element::Controlled { name, source, .. } = element
+                && let Some(control) = source.control_source()
+            {
+                shorts.entry(control).or_default().push(name);
+            }
+        }
+        shorts
+    }
+
     /// Non-ground nodes in order of first appearance in [`elements`](Self::elements) (the natural
     /// column order for output).
     pub fn nodes(&self) -> Vec<String> {

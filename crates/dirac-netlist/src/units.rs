@@ -68,29 +68,54 @@ pub(crate) fn parse_number_prefix(chars: &[char]) -> Option<(f64, usize)> {
         i += 1;
     }
     let letters: String = chars[start..i].iter().collect::<String>().to_lowercase();
-    let mut factor = 1.0;
-    if letters.starts_with("meg") {
-        exponent = exponent.saturating_add(6);
-    } else if letters.starts_with("mil") {
-        factor = 25.4e-6;
-    } else if let Some(c) = letters.chars().next() {
-        exponent = exponent.saturating_add(match c {
-            'f' => -15,
-            'p' => -12,
-            'n' => -9,
-            'u' | 'µ' | 'μ' => -6,
-            'm' => -3,
-            'k' => 3,
-            'g' => 9,
-            't' => 12,
-            _ => 0,
-        });
-    }
+    let (shift, factor, _) = scale_suffix(&letters).unwrap_or((0, 1.0, 0));
+    exponent = exponent.saturating_add(shift);
     // Keep the exponent inside what `f64::from_str` handles sensibly; beyond that the value
     // over/underflows anyway.
     let exponent = exponent.clamp(-100_000, 100_000);
     let value: f64 = format!("{mantissa}e{exponent}").parse().ok()?;
     Some((value * factor, i))
+}
+
+/// The scale suffix that `letters` (lowercase) starts with: its decimal exponent, an extra factor
+/// (for `mil`) and its length in characters; `None` when the first letter is no suffix.
+fn scale_suffix(letters: &str) -> Option<(i64, f64, usize)> {
+    if letters.starts_with("meg") {
+        return Some((6, 1.0, 3));
+    }
+    if letters.starts_with("mil") {
+        return Some((0, 25.4e-6, 3));
+    }
+    let shift = match letters.chars().next()? {
+        'f' => -15,
+        'p' => -12,
+        'n' => -9,
+        'u' | 'µ' | 'μ' => -6,
+        'm' => -3,
+        'k' => 3,
+        'g' => 9,
+        't' => 12,
+        _ => return None,
+    };
+    Some((shift, 1.0, 1))
+}
+
+/// [`parse_spice_number`] that refuses letters other than a scale suffix and then `unit` (or
+/// nothing): `"0.3m"`, `"300us"`, `"1megs"` read with unit `"s"`, `"0.3x"` does not, where a
+/// netlist would read 0.3. For values typed on a command line, where stray letters are typos.
+pub fn parse_spice_quantity(text: &str, unit: &str) -> Option<f64> {
+    let value = parse_spice_number(text)?;
+    let trimmed = text.trim().to_lowercase();
+    let body = trimmed.strip_suffix(unit).unwrap_or(&trimmed);
+    let start = body
+        .char_indices()
+        .rev()
+        .take_while(|(_, c)| c.is_alphabetic())
+        .last()
+        .map_or(body.len(), |(i, _)| i);
+    let letters = &body[start..];
+    let suffix = scale_suffix(letters).map_or(0, |(_, _, len)| len);
+    (letters.chars().count() == suffix).then_some(value)
 }
 
 /// Parses a whole string as a SPICE number, e.g. `"10uF"` → 1e-5, `"1meg"` → 1e6, `"2.2k"` →
@@ -110,6 +135,24 @@ pub fn parse_spice_number(text: &str) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A quantity takes a scale suffix and then the unit, or nothing; any other letters refuse it.
+    #[test]
+    fn quantities_refuse_stray_letters() {
+        for (text, value) in [
+            ("0.3m", 3e-4),
+            ("300us", 3e-4),
+            ("1megs", 1e6),
+            ("2", 2.0),
+            ("1mil", 25.4e-6),
+        ] {
+            let parsed = parse_spice_quantity(text, "s").unwrap_or(f64::NAN);
+            assert!((parsed - value).abs() <= 1e-15 * value, "{text}: {parsed}");
+        }
+        for text in ["0.3x", "0.3mx", "2mss", "1kohm", ""] {
+            assert_eq!(parse_spice_quantity(text, "s"), None, "{text}");
+        }
+    }
 
     #[test]
     fn suffixes_and_units() {

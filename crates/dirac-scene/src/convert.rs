@@ -292,14 +292,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
     // current controls F or H sources runs through their sensing shorts (`ic`) in series, joined
     // by nodes of its own (`{source}_sense_{k}`, as `dirac run` builds them); an E or G senses its
     // controlling nodes with its `ic` branch.
-    let mut shorts: HashMap<&str, Vec<&str>> = HashMap::new();
-    for element in &netlist.elements {
-        if let Element::Controlled { name, source, .. } = element
-            && let Some(control) = source.control_source()
-        {
-            shorts.entry(control).or_default().push(name);
-        }
-    }
+    let shorts = netlist.sensing_shorts();
     let taken: std::collections::HashSet<String> =
         netlist.nodes().iter().map(|n| ident(n)).collect();
     let mut terminals: HashMap<String, Vec<(String, f64)>> = HashMap::new();
@@ -324,24 +317,21 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
         let (Some((a, b)), Some(port)) = (element.terminals(), port_of.get(name)) else {
             continue;
         };
-        let chain = shorts.get(name).map_or(&[][..], Vec::as_slice);
-        let mut from = a.to_owned();
-        let ports =
-            std::iter::once(port.clone()).chain(chain.iter().map(|c| format!("{}.ic", ident(c))));
-        for (k, port) in ports.enumerate() {
-            let to = if k == chain.len() {
-                b.to_owned()
-            } else {
-                // A name no netlist node takes (one more `_` while one does).
-                let mut node = format!("{}_sense_{}", ident(name), k + 1);
-                while taken.contains(&node) {
-                    node.push('_');
-                }
-                internal.push(node.clone());
-                node
-            };
-            join(&from, &to, port);
-            from = to;
+        let Some(chain) = shorts.get(name) else {
+            join(a, b, port.clone());
+            continue;
+        };
+        let branches = dirac_netlist::sensed_chain(name, a, b, chain, |k| {
+            // A name no netlist node takes (one more `_` while one does).
+            let mut node = format!("{}_sense_{k}", ident(name));
+            while taken.contains(&node) {
+                node.push('_');
+            }
+            internal.push(node.clone());
+            node
+        });
+        for (part, port, from, to) in branches {
+            join(&from, &to, format!("{}.{port}", ident(&part)));
         }
     }
     let named = netlist.nodes().into_iter().map(|n| (ident(&n), n));
