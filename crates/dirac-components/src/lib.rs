@@ -81,6 +81,7 @@
 //! The crate's tests run such a part (a driven Duffing oscillator) beside stock parts and match
 //! the hand-written equivalent to 1e-12.
 
+mod behavioural;
 mod checked;
 mod circuit;
 mod controlled;
@@ -98,6 +99,7 @@ mod testing;
 mod user_part;
 mod waveform;
 
+pub use behavioural::{BehaviouralSource, Control, Expression, Function, Operator, Output};
 pub use circuit::CircuitBuilder;
 pub use controlled::{Cccs, Ccvs, Vccs, Vcvs};
 pub use diode::{Diode, DiodeBuild, DiodeError, DiodeParameters};

@@ -3,9 +3,11 @@
 use std::collections::HashMap;
 
 use dirac_components::{
-    Capacitor, Cccs, Ccvs, CircuitBuilder, CoupledInductors, CurrentSource, Diode, DiodeParameters,
-    Inductor, PartError, Resistor, Vccs, Vcvs, VoltageSource, Waveform,
+    BehaviouralSource, Capacitor, Cccs, Ccvs, CircuitBuilder, Control, CoupledInductors,
+    CurrentSource, Diode, DiodeParameters, Inductor, PartError, Resistor, Vccs, Vcvs,
+    VoltageSource, Waveform,
 };
+use dirac_core::Model;
 use dirac_graph::{ConnectionId, GraphError, Interconnection, PortRef, Subsystem, SubsystemId};
 use dirac_sim::{
     Discretisation, Execution, IntegratorOptions, Probe, RunError, Signal, Simulation, Start,
@@ -13,7 +15,7 @@ use dirac_sim::{
 };
 use thiserror::Error;
 
-use crate::{ControlledSource, Element, Netlist, OptionCard, SourceSpec, Tran};
+use crate::{ControlledSource, Element, Netlist, OptionCard, Sensing, SourceSpec, Tran};
 
 /// A netlist that cannot be turned into a circuit model.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -574,8 +576,8 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         let Element::Controlled { source, .. } = element else {
             continue;
         };
-        let sensed = source.control_nodes().into_iter().flat_map(|(a, b)| [a, b]);
-        for node in sensed {
+        let sensed = source.sensed_voltages();
+        for node in sensed.iter().flat_map(|&(_, a, b)| [a, b]) {
             if !CircuitBuilder::is_ground(node) && !connected.contains(node) {
                 let origin = &netlist.origins[e];
                 return Err(CircuitError::SensedOnly {
@@ -597,7 +599,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let mut shared = SharedParts::default();
     // Connections that wait for a part added later (a sensing short), and the nodes between a
     // controlling source and its shorts (no netlist node: no signal, no `v(…)`).
-    let mut pending: Vec<(String, &'static str, String, String)> = Vec::new();
+    let mut pending: Vec<(String, String, String, String)> = Vec::new();
     let mut internal: Vec<String> = Vec::new();
     for (e, element) in netlist.elements.iter().enumerate() {
         let check = |part: Result<Subsystem, PartError>| part.map_err(|err| located(e, err));
@@ -698,18 +700,34 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 (name, diode.subsystem(name.clone()), none(2), none(2))
             }
             Element::Controlled { name, source, .. } => {
-                let (part, dim) = match *source {
+                let (part, dim) = match source {
                     ControlledSource::Vcvs { gain, .. } => {
-                        (Vcvs::new(gain).map(|p| p.subsystem(name.clone())), 3)
+                        (Vcvs::new(*gain).map(|p| p.subsystem(name.clone())), 3)
                     }
                     ControlledSource::Vccs { gm, .. } => {
-                        (Vccs::new(gm).map(|p| p.subsystem(name.clone())), 4)
+                        (Vccs::new(*gm).map(|p| p.subsystem(name.clone())), 4)
                     }
                     ControlledSource::Cccs { gain, .. } => {
-                        (Cccs::new(gain).map(|p| p.subsystem(name.clone())), 3)
+                        (Cccs::new(*gain).map(|p| p.subsystem(name.clone())), 3)
                     }
                     ControlledSource::Ccvs { r, .. } => {
-                        (Ccvs::new(r).map(|p| p.subsystem(name.clone())), 2)
+                        (Ccvs::new(*r).map(|p| p.subsystem(name.clone())), 2)
+                    }
+                    ControlledSource::Behavioural {
+                        output,
+                        controls,
+                        expression,
+                    } => {
+                        let kinds = controls
+                            .iter()
+                            .map(|c| match c {
+                                Sensing::Voltage { .. } => Control::Voltage,
+                                Sensing::Current { .. } => Control::Current,
+                            })
+                            .collect();
+                        let part = BehaviouralSource::new(*output, kinds, expression.clone());
+                        let dim = part.as_ref().map_or(0, Model::dim);
+                        (part.map(|p| p.subsystem(name.clone())), dim)
                     }
                 };
                 (name, check(part)?, none(dim), none(dim))
@@ -733,10 +751,10 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 }
             }
         }
-        if let Element::Controlled { source, .. } = element
-            && let Some((a, b)) = source.control_nodes()
-        {
-            circuit.connect(name, "ic", a, b)?;
+        if let Element::Controlled { source, .. } = element {
+            for (port, a, b) in source.sensed_voltages() {
+                circuit.connect(name, &port, a, b)?;
+            }
         }
         branches.insert(
             name.clone(),
@@ -759,9 +777,10 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let mut terminals: HashMap<&str, Vec<usize>> = HashMap::new();
     for (e, element) in netlist.elements.iter().enumerate() {
         let sensed = match element {
-            Element::Controlled { source, .. } => source.control_nodes(),
-            _ => None,
+            Element::Controlled { source, .. } => source.sensed_voltages(),
+            _ => Vec::new(),
         };
+        let sensed = sensed.into_iter().map(|(_, a, b)| (a, b));
         for (a, b) in element.terminals().into_iter().chain(sensed) {
             terminals.entry(a).or_default().push(e);
             terminals.entry(b).or_default().push(e);
@@ -829,16 +848,12 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     // Voltage sources include the controlled ones (E, H), whose branch currents ngspice's `.op`
     // prints as well.
     for element in &netlist.elements {
-        if let Element::L { name, .. }
-        | Element::V { name, .. }
-        | Element::Controlled {
-            name,
-            source: ControlledSource::Vcvs { .. } | ControlledSource::Ccvs { .. },
-            ..
-        } = element
-        {
-            signals.push(circuit.signal(&format!("i({name})"))?);
-        }
+        let name = match element {
+            Element::L { name, .. } | Element::V { name, .. } => name,
+            Element::Controlled { name, source, .. } if source.drives_voltage() => name,
+            _ => continue,
+        };
+        signals.push(circuit.signal(&format!("i({name})"))?);
     }
     for element in &netlist.elements {
         if let Element::C { name, .. } = element {

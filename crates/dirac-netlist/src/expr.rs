@@ -1,54 +1,80 @@
-//! Parameter arithmetic: parsing and evaluating `.param` and `{...}` expressions.
+//! Parameter and behavioural arithmetic: parsing `.param`, `{...}` and B-source expressions,
+//! evaluating the former and turning the latter into a [`dirac_components::Expression`].
 //!
-//! Grammar, loosest first:
+//! Grammar, loosest first (ngspice's, from `inpptree-parser.y` and what its `.param` reader
+//! computes):
 //!
 //! ```text
-//! expr    := term (('+' | '-') term)*
+//! cond    := or ('?' cond ':' cond)?
+//! or      := and ('||' and)*
+//! and     := eq ('&&' eq)*
+//! eq      := rel (('==' | '!=') rel)*
+//! rel     := sum (('<' | '<=' | '>' | '>=') sum)*
+//! sum     := term (('+' | '-') term)*
 //! term    := unary (('*' | '/') unary)*
-//! unary   := ('-' | '+') unary | power
-//! power   := primary (('^' | '**') unary)?        right-associative: 2^3^2 = 2^9
-//! primary := number | name | name '(' expr (',' expr)* ')' | '(' expr ')'
+//! unary   := ('-' | '+' | '!') unary | power
+//! power   := primary (('^' | '**') operand)*        left-associative: 2^3^2 = 64
+//! operand := ('-' | '+' | '!') operand | primary
+//! primary := number | name | name '(' cond (',' cond)* ')' | '(' cond ')'
+//!          | v '(' node [',' node] ')' | i '(' element ')'
 //! ```
 //!
-//! so `-2^2` is -4 and `2^-1` is 0.5. Numbers take SPICE suffixes (`1k`, `10uF`). Names are
-//! case-insensitive parameter references. Functions: `sqrt exp log ln log10 sin cos tan atan abs`
-//! (one argument; `log` and `ln` are the natural logarithm, as in ngspice) and `min max pow` (two
-//! arguments).
+//! so `-2^2` is -4 and `2^-1` is 0.5. `a ^ b` is `|a|^b`, as ngspice-39 computes it in both
+//! places (`.param p = {(-2)^3}` is 8); `pow(a, b)` is the real power in a parameter (−8) and
+//! `|a|^b` in a B source, as there. Comparisons and `!`, `&&`, `||` give 1 or 0. Numbers take
+//! SPICE suffixes (`1k`, `10uF`). Names are case-insensitive parameter references (`time` in a
+//! B source). Functions: [`FUNCTIONS`], `min max pow pwr` and `ternary_fcn`. `v(…)` and `i(…)`
+//! (node voltages and element currents) are read by B sources only.
 
 use super::error::{ErrorKind, NetlistError, Pos};
 use super::lexer::Spanned;
 use super::units::parse_number_prefix;
+use dirac_components::{Expression, Function, Operator};
 
-/// A one-argument function.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Func1 {
-    Sqrt,
-    Exp,
-    Ln,
-    Log10,
-    Sin,
-    Cos,
-    Tan,
-    Atan,
-    Abs,
-}
+/// The one-argument functions by name.
+pub(crate) const FUNCTIONS: [(&str, Function); 32] = [
+    ("abs", Function::Abs),
+    ("sgn", Function::Sgn),
+    ("sqrt", Function::Sqrt),
+    ("exp", Function::Exp),
+    ("ln", Function::Ln),
+    ("log", Function::Ln),
+    ("log10", Function::Log10),
+    ("sin", Function::Sin),
+    ("cos", Function::Cos),
+    ("tan", Function::Tan),
+    ("asin", Function::Asin),
+    ("acos", Function::Acos),
+    ("atan", Function::Atan),
+    ("arctan", Function::Atan),
+    ("sinh", Function::Sinh),
+    ("cosh", Function::Cosh),
+    ("tanh", Function::Tanh),
+    ("asinh", Function::Asinh),
+    ("acosh", Function::Acosh),
+    ("atanh", Function::Atanh),
+    ("u", Function::Step),
+    ("u2", Function::ClippedRamp),
+    ("uramp", Function::Ramp),
+    ("ceil", Function::Ceil),
+    ("floor", Function::Floor),
+    ("nint", Function::Round),
+    ("eq0", Function::IsZero),
+    ("ne0", Function::IsNonZero),
+    ("gt0", Function::IsPositive),
+    ("lt0", Function::IsNegative),
+    ("ge0", Function::IsNonNegative),
+    ("le0", Function::IsNonPositive),
+];
 
-/// A two-argument function.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Func2 {
-    Min,
-    Max,
-    Pow,
-}
-
-/// A binary operator.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum BinOp {
-    Add,
-    Sub,
-    Mul,
-    Div,
-    Pow,
+/// What a B source reads of the circuit: `v(a)`, `v(a, b)` or `i(name)` (names lowercased as
+/// written; the netlist maps them into subcircuit scope).
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Probe {
+    /// The voltage from the first node to the second (ground when absent).
+    Voltage(String, Option<String>),
+    /// The current of an element.
+    Current(String),
 }
 
 /// A parsed expression.
@@ -57,10 +83,13 @@ pub(crate) enum Expr {
     Num(f64),
     /// A parameter reference (lowercased name) and where it is.
     Param(String, Pos),
-    Neg(Box<Expr>),
-    Bin(BinOp, Box<Expr>, Box<Expr>),
-    Call1(Func1, Box<Expr>),
-    Call2(Func2, Box<Expr>, Box<Expr>),
+    /// A circuit quantity and where it is.
+    Probe(Probe, Pos),
+    Call1(Function, Box<Expr>),
+    Bin(Operator, Box<Expr>, Box<Expr>),
+    /// `pow(a, b)`, whose meaning depends on where it is read (see the module's doc).
+    PowCall(Box<Expr>, Box<Expr>),
+    Ternary(Box<Expr>, Box<Expr>, Box<Expr>),
 }
 
 /// An expression with its source text and position, as written in a card.
@@ -89,9 +118,10 @@ impl ExprTok {
 /// The nesting depth of an expression tree.
 fn nesting(e: &Expr) -> usize {
     match e {
-        Expr::Num(_) | Expr::Param(..) => 1,
-        Expr::Neg(a) | Expr::Call1(_, a) => 1 + nesting(a),
-        Expr::Bin(_, a, b) | Expr::Call2(_, a, b) => 1 + nesting(a).max(nesting(b)),
+        Expr::Num(_) | Expr::Param(..) | Expr::Probe(..) => 1,
+        Expr::Call1(_, a) => 1 + nesting(a),
+        Expr::Bin(_, a, b) | Expr::PowCall(a, b) => 1 + nesting(a).max(nesting(b)),
+        Expr::Ternary(c, a, b) => 1 + nesting(c).max(nesting(a)).max(nesting(b)),
     }
 }
 
@@ -100,6 +130,8 @@ enum Tok {
     /// A number's value and its text as written (`.3u`), which messages quote.
     Num(f64, String),
     Ident(String),
+    /// `v(…)` or `i(…)`.
+    Probe(Probe),
     Plus,
     Minus,
     Star,
@@ -108,23 +140,90 @@ enum Tok {
     LParen,
     RParen,
     Comma,
+    Question,
+    Colon,
+    Not,
+    And,
+    Or,
+    /// A comparison, as the function of `a − b` ngspice builds for it.
+    Compare(Function, &'static str),
 }
 
 impl Tok {
     fn describe(&self) -> String {
-        match self {
-            Tok::Num(_, text) => format!("number `{text}`"),
-            Tok::Ident(s) => format!("`{s}`"),
-            Tok::Plus => "`+`".into(),
-            Tok::Minus => "`-`".into(),
-            Tok::Star => "`*`".into(),
-            Tok::Slash => "`/`".into(),
-            Tok::Pow => "`^`".into(),
-            Tok::LParen => "`(`".into(),
-            Tok::RParen => "`)`".into(),
-            Tok::Comma => "`,`".into(),
-        }
+        let symbol = match self {
+            Tok::Num(_, text) => return format!("number `{text}`"),
+            Tok::Ident(s) => s,
+            Tok::Probe(Probe::Voltage(..)) => "v(…)",
+            Tok::Probe(Probe::Current(..)) => "i(…)",
+            Tok::Plus => "+",
+            Tok::Minus => "-",
+            Tok::Star => "*",
+            Tok::Slash => "/",
+            Tok::Pow => "^",
+            Tok::LParen => "(",
+            Tok::RParen => ")",
+            Tok::Comma => ",",
+            Tok::Question => "?",
+            Tok::Colon => ":",
+            Tok::Not => "!",
+            Tok::And => "&&",
+            Tok::Or => "||",
+            Tok::Compare(_, s) => s,
+        };
+        format!("`{symbol}`")
     }
+}
+
+/// The probe `v(…)`/`i(…)` whose name `name` ends at `chars[i]`, if one opens there: its
+/// arguments (blank- or comma-separated names, lowercased) and the index after its `)`.
+fn probe(
+    span: &Spanned,
+    chars: &[char],
+    name: &str,
+    mut i: usize,
+) -> Result<Option<(Probe, usize)>, NetlistError> {
+    if name != "v" && name != "i" {
+        return Ok(None);
+    }
+    while chars.get(i).is_some_and(|c| c.is_whitespace()) {
+        i += 1;
+    }
+    if chars.get(i) != Some(&'(') {
+        return Ok(None);
+    }
+    let open = i;
+    let Some(close) = (open..chars.len()).find(|&k| chars[k] == ')') else {
+        return Err(NetlistError::syntax(
+            span.pos_at(open),
+            "(",
+            format!("unterminated `{name}(`: missing `)` in `{}`", span.text),
+        ));
+    };
+    let inside: String = chars[open + 1..close].iter().collect();
+    let args: Vec<String> = inside
+        .split(|c: char| c == ',' || c.is_whitespace())
+        .filter(|a| !a.is_empty())
+        .map(|a| {
+            let a = a.to_lowercase();
+            if a == "gnd" { "0".to_owned() } else { a }
+        })
+        .collect();
+    let bad = |what: &str| {
+        Err(NetlistError::syntax(
+            span.pos_at(open),
+            format!("{name}({inside})"),
+            format!("`{name}({inside})` {what} in `{}`", span.text),
+        ))
+    };
+    let p = match (name, args.as_slice()) {
+        ("v", [a]) => Probe::Voltage(a.clone(), None),
+        ("v", [a, b]) => Probe::Voltage(a.clone(), Some(b.clone())),
+        ("v", _) => return bad("must name one or two nodes"),
+        ("i", [a]) => Probe::Current(a.clone()),
+        _ => return bad("must name one element"),
+    };
+    Ok(Some((p, close + 1)))
 }
 
 fn tokenize(span: &Spanned) -> Result<Vec<(Tok, usize)>, NetlistError> {
@@ -138,9 +237,8 @@ fn tokenize(span: &Spanned) -> Result<Vec<(Tok, usize)>, NetlistError> {
             continue;
         }
         let start = i;
-        let tok = if c.is_ascii_digit()
-            || (c == '.' && chars.get(i + 1).is_some_and(|d| d.is_ascii_digit()))
-        {
+        let next = chars.get(i + 1).copied();
+        let tok = if c.is_ascii_digit() || (c == '.' && next.is_some_and(|d| d.is_ascii_digit())) {
             match parse_number_prefix(&chars[i..]) {
                 Some((v, used)) => {
                     i += used;
@@ -158,22 +256,37 @@ fn tokenize(span: &Spanned) -> Result<Vec<(Tok, usize)>, NetlistError> {
             while i < chars.len() && (chars[i].is_alphanumeric() || chars[i] == '_') {
                 i += 1;
             }
-            Tok::Ident(chars[start..i].iter().collect::<String>().to_lowercase())
-        } else {
-            i += 1;
-            match c {
-                '+' => Tok::Plus,
-                '-' => Tok::Minus,
-                '*' if chars.get(i) == Some(&'*') => {
-                    i += 1;
-                    Tok::Pow
+            let name = chars[start..i].iter().collect::<String>().to_lowercase();
+            match probe(span, &chars, &name, i)? {
+                Some((p, after)) => {
+                    i = after;
+                    Tok::Probe(p)
                 }
-                '*' => Tok::Star,
-                '/' => Tok::Slash,
-                '^' => Tok::Pow,
-                '(' => Tok::LParen,
-                ')' => Tok::RParen,
-                ',' => Tok::Comma,
+                None => Tok::Ident(name),
+            }
+        } else {
+            let two = |second: char| next == Some(second);
+            let (tok, used) = match c {
+                '+' => (Tok::Plus, 1),
+                '-' => (Tok::Minus, 1),
+                '*' if two('*') => (Tok::Pow, 2),
+                '*' => (Tok::Star, 1),
+                '/' => (Tok::Slash, 1),
+                '^' => (Tok::Pow, 1),
+                '(' => (Tok::LParen, 1),
+                ')' => (Tok::RParen, 1),
+                ',' => (Tok::Comma, 1),
+                '?' => (Tok::Question, 1),
+                ':' => (Tok::Colon, 1),
+                '&' if two('&') => (Tok::And, 2),
+                '|' if two('|') => (Tok::Or, 2),
+                '=' if two('=') => (Tok::Compare(Function::IsZero, "=="), 2),
+                '!' if two('=') => (Tok::Compare(Function::IsNonZero, "!="), 2),
+                '!' => (Tok::Not, 1),
+                '<' if two('=') => (Tok::Compare(Function::IsNonPositive, "<="), 2),
+                '<' => (Tok::Compare(Function::IsNegative, "<"), 1),
+                '>' if two('=') => (Tok::Compare(Function::IsNonNegative, ">="), 2),
+                '>' => (Tok::Compare(Function::IsPositive, ">"), 1),
                 _ => {
                     return Err(NetlistError::syntax(
                         span.pos_at(start),
@@ -181,7 +294,9 @@ fn tokenize(span: &Spanned) -> Result<Vec<(Tok, usize)>, NetlistError> {
                         format!("unexpected character `{c}` in expression `{}`", span.text),
                     ));
                 }
-            }
+            };
+            i += used;
+            tok
         };
         toks.push((tok, start));
     }
@@ -196,6 +311,14 @@ struct Parser<'a> {
     toks: Vec<(Tok, usize)>,
     k: usize,
     depth: usize,
+}
+
+fn call1(f: Function, a: Expr) -> Expr {
+    Expr::Call1(f, Box::new(a))
+}
+
+fn bin(op: Operator, a: Expr, b: Expr) -> Expr {
+    Expr::Bin(op, Box::new(a), Box::new(b))
 }
 
 impl Parser<'_> {
@@ -225,35 +348,11 @@ impl Parser<'_> {
         )
     }
 
-    fn expr(&mut self) -> Result<Expr, NetlistError> {
-        let mut lhs = self.term()?;
-        loop {
-            let op = match self.peek() {
-                Some(Tok::Plus) => BinOp::Add,
-                Some(Tok::Minus) => BinOp::Sub,
-                _ => return Ok(lhs),
-            };
-            self.k += 1;
-            let rhs = self.term()?;
-            lhs = Expr::Bin(op, Box::new(lhs), Box::new(rhs));
-        }
-    }
-
-    fn term(&mut self) -> Result<Expr, NetlistError> {
-        let mut lhs = self.unary()?;
-        loop {
-            let op = match self.peek() {
-                Some(Tok::Star) => BinOp::Mul,
-                Some(Tok::Slash) => BinOp::Div,
-                _ => return Ok(lhs),
-            };
-            self.k += 1;
-            let rhs = self.unary()?;
-            lhs = Expr::Bin(op, Box::new(lhs), Box::new(rhs));
-        }
-    }
-
-    fn unary(&mut self) -> Result<Expr, NetlistError> {
+    /// Counts one level of nesting for `inner` (each unary level, so each parenthesis).
+    fn nested(
+        &mut self,
+        inner: impl FnOnce(&mut Self) -> Result<Expr, NetlistError>,
+    ) -> Result<Expr, NetlistError> {
         self.depth += 1;
         if self.depth > MAX_DEPTH {
             return Err(NetlistError::syntax(
@@ -262,37 +361,137 @@ impl Parser<'_> {
                 format!("expression nested more than {MAX_DEPTH} levels deep"),
             ));
         }
-        let e = self.unary_inner();
+        let e = inner(self);
         self.depth -= 1;
         e
     }
 
-    fn unary_inner(&mut self) -> Result<Expr, NetlistError> {
-        match self.peek() {
-            Some(Tok::Minus) => {
-                self.k += 1;
-                Ok(Expr::Neg(Box::new(self.unary()?)))
+    fn cond(&mut self) -> Result<Expr, NetlistError> {
+        let c = self.or()?;
+        if self.peek() != Some(&Tok::Question) {
+            return Ok(c);
+        }
+        self.k += 1;
+        let a = self.cond()?;
+        self.expect(&Tok::Colon, "`:`")?;
+        let b = self.cond()?;
+        Ok(Expr::Ternary(Box::new(c), Box::new(a), Box::new(b)))
+    }
+
+    fn or(&mut self) -> Result<Expr, NetlistError> {
+        let mut lhs = self.and()?;
+        while self.peek() == Some(&Tok::Or) {
+            self.k += 1;
+            let rhs = self.and()?;
+            // ngspice: ne0(ne0(a) + ne0(b)).
+            let sum = bin(
+                Operator::Add,
+                call1(Function::IsNonZero, lhs),
+                call1(Function::IsNonZero, rhs),
+            );
+            lhs = call1(Function::IsNonZero, sum);
+        }
+        Ok(lhs)
+    }
+
+    fn and(&mut self) -> Result<Expr, NetlistError> {
+        let mut lhs = self.comparison(true)?;
+        while self.peek() == Some(&Tok::And) {
+            self.k += 1;
+            let rhs = self.comparison(true)?;
+            // ngspice: eq0(eq0(a) + eq0(b)).
+            let sum = bin(
+                Operator::Add,
+                call1(Function::IsZero, lhs),
+                call1(Function::IsZero, rhs),
+            );
+            lhs = call1(Function::IsZero, sum);
+        }
+        Ok(lhs)
+    }
+
+    /// `==`/`!=` (`equality`) over `<`, `<=`, `>`, `>=` (otherwise), each `f(a − b)`.
+    fn comparison(&mut self, equality: bool) -> Result<Expr, NetlistError> {
+        let operand = |p: &mut Self| {
+            if equality {
+                p.comparison(false)
+            } else {
+                p.sum()
             }
-            Some(Tok::Plus) => {
-                self.k += 1;
-                self.unary()
+        };
+        let mut lhs = operand(self)?;
+        while let Some(Tok::Compare(f, symbol)) = self.peek() {
+            let f = *f;
+            if (*symbol == "==" || *symbol == "!=") != equality {
+                break;
             }
-            _ => self.power(),
+            self.k += 1;
+            let rhs = operand(self)?;
+            lhs = call1(f, bin(Operator::Sub, lhs, rhs));
+        }
+        Ok(lhs)
+    }
+
+    fn sum(&mut self) -> Result<Expr, NetlistError> {
+        let mut lhs = self.term()?;
+        loop {
+            let op = match self.peek() {
+                Some(Tok::Plus) => Operator::Add,
+                Some(Tok::Minus) => Operator::Sub,
+                _ => return Ok(lhs),
+            };
+            self.k += 1;
+            let rhs = self.term()?;
+            lhs = bin(op, lhs, rhs);
         }
     }
 
-    fn power(&mut self) -> Result<Expr, NetlistError> {
-        let base = self.primary()?;
-        if self.peek() == Some(&Tok::Pow) {
+    fn term(&mut self) -> Result<Expr, NetlistError> {
+        let mut lhs = self.unary(false)?;
+        loop {
+            let op = match self.peek() {
+                Some(Tok::Star) => Operator::Mul,
+                Some(Tok::Slash) => Operator::Div,
+                _ => return Ok(lhs),
+            };
             self.k += 1;
-            let exponent = self.unary()?;
-            return Ok(Expr::Bin(BinOp::Pow, Box::new(base), Box::new(exponent)));
+            let rhs = self.unary(false)?;
+            lhs = bin(op, lhs, rhs);
+        }
+    }
+
+    /// A unary operator, then a power (`operand`: a primary, the right side of `^`).
+    fn unary(&mut self, operand: bool) -> Result<Expr, NetlistError> {
+        self.nested(|p| match p.peek() {
+            Some(Tok::Minus) => {
+                p.k += 1;
+                Ok(call1(Function::Neg, p.unary(operand)?))
+            }
+            Some(Tok::Plus) => {
+                p.k += 1;
+                p.unary(operand)
+            }
+            Some(Tok::Not) => {
+                p.k += 1;
+                Ok(call1(Function::IsZero, p.unary(operand)?))
+            }
+            _ if operand => p.primary(),
+            _ => p.power(),
+        })
+    }
+
+    fn power(&mut self) -> Result<Expr, NetlistError> {
+        let mut base = self.primary()?;
+        while self.peek() == Some(&Tok::Pow) {
+            self.k += 1;
+            let exponent = self.unary(true)?;
+            base = bin(Operator::Pow, base, exponent);
         }
         Ok(base)
     }
 
-    fn expect(&mut self, tok: Tok, wanted: &str) -> Result<(), NetlistError> {
-        if self.peek() == Some(&tok) {
+    fn expect(&mut self, tok: &Tok, wanted: &str) -> Result<(), NetlistError> {
+        if self.peek() == Some(tok) {
             self.k += 1;
             Ok(())
         } else {
@@ -307,10 +506,14 @@ impl Parser<'_> {
                 self.k += 1;
                 Ok(Expr::Num(v))
             }
+            Some(Tok::Probe(p)) => {
+                self.k += 1;
+                Ok(Expr::Probe(p, pos))
+            }
             Some(Tok::LParen) => {
                 self.k += 1;
-                let e = self.expr()?;
-                self.expect(Tok::RParen, "`)`")?;
+                let e = self.cond()?;
+                self.expect(&Tok::RParen, "`)`")?;
                 Ok(e)
             }
             Some(Tok::Ident(name)) => {
@@ -319,12 +522,12 @@ impl Parser<'_> {
                     return Ok(Expr::Param(name, pos));
                 }
                 self.k += 1;
-                let mut args = vec![self.expr()?];
+                let mut args = vec![self.cond()?];
                 while self.peek() == Some(&Tok::Comma) {
                     self.k += 1;
-                    args.push(self.expr()?);
+                    args.push(self.cond()?);
                 }
-                self.expect(Tok::RParen, "`)` or `,`")?;
+                self.expect(&Tok::RParen, "`)` or `,`")?;
                 call(&name, args, pos, self.span)
             }
             _ => Err(self.unexpected("a number, a name or `(`")),
@@ -332,58 +535,51 @@ impl Parser<'_> {
     }
 }
 
-fn call(name: &str, mut args: Vec<Expr>, pos: Pos, span: &Spanned) -> Result<Expr, NetlistError> {
-    let f1 = match name {
-        "sqrt" => Some(Func1::Sqrt),
-        "exp" => Some(Func1::Exp),
-        "log" | "ln" => Some(Func1::Ln),
-        "log10" => Some(Func1::Log10),
-        "sin" => Some(Func1::Sin),
-        "cos" => Some(Func1::Cos),
-        "tan" => Some(Func1::Tan),
-        "atan" => Some(Func1::Atan),
-        "abs" => Some(Func1::Abs),
-        _ => None,
+fn call(name: &str, args: Vec<Expr>, pos: Pos, span: &Spanned) -> Result<Expr, NetlistError> {
+    let arity = if FUNCTIONS.iter().any(|(n, _)| *n == name) {
+        1
+    } else {
+        match name {
+            "min" | "max" | "pow" | "pwr" => 2,
+            "ternary_fcn" => 3,
+            _ => {
+                return Err(NetlistError::new(
+                    ErrorKind::UnknownFunction,
+                    pos,
+                    name,
+                    format!("unknown function `{name}` in expression `{}`", span.text),
+                ));
+            }
+        }
     };
-    let f2 = match name {
-        "min" => Some(Func2::Min),
-        "max" => Some(Func2::Max),
-        "pow" => Some(Func2::Pow),
-        _ => None,
-    };
-    let wrong_count = |n: usize| {
-        NetlistError::syntax(
+    if args.len() != arity {
+        return Err(NetlistError::syntax(
             pos,
             name,
             format!(
-                "function `{name}` takes {n} argument{}, got {} in expression `{}`",
-                if n == 1 { "" } else { "s" },
+                "function `{name}` takes {arity} argument{}, got {} in expression `{}`",
+                if arity == 1 { "" } else { "s" },
                 args.len(),
                 span.text
             ),
-        )
-    };
-    if let Some(f) = f1 {
-        if args.len() != 1 {
-            return Err(wrong_count(1));
-        }
-        let a = args.remove(0);
-        return Ok(Expr::Call1(f, Box::new(a)));
+        ));
     }
-    if let Some(f) = f2 {
-        if args.len() != 2 {
-            return Err(wrong_count(2));
+    let mut args = args.into_iter().map(Box::new);
+    let mut arg = || args.next().unwrap_or_else(|| Box::new(Expr::Num(0.0)));
+    Ok(match name {
+        "min" => Expr::Bin(Operator::Min, arg(), arg()),
+        "max" => Expr::Bin(Operator::Max, arg(), arg()),
+        "pwr" => Expr::Bin(Operator::Pwr, arg(), arg()),
+        "pow" => Expr::PowCall(arg(), arg()),
+        "ternary_fcn" => Expr::Ternary(arg(), arg(), arg()),
+        _ => {
+            let f = FUNCTIONS
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map_or(Function::Abs, |(_, f)| *f);
+            Expr::Call1(f, arg())
         }
-        let b = args.remove(1);
-        let a = args.remove(0);
-        return Ok(Expr::Call2(f, Box::new(a), Box::new(b)));
-    }
-    Err(NetlistError::new(
-        ErrorKind::UnknownFunction,
-        pos,
-        name,
-        format!("unknown function `{name}` in expression `{}`", span.text),
-    ))
+    })
 }
 
 /// Parses the whole of `span` as an expression.
@@ -395,15 +591,15 @@ pub(crate) fn parse(span: &Spanned) -> Result<Expr, NetlistError> {
         k: 0,
         depth: 0,
     };
-    let e = p.expr()?;
+    let e = p.cond()?;
     if p.k < p.toks.len() {
         return Err(p.unexpected("an operator or the end of the expression"));
     }
     Ok(e)
 }
 
-/// Evaluates `expr`, resolving parameter names with `lookup` (given the lowercased name and its
-/// position).
+/// Evaluates a parameter expression, resolving parameter names with `lookup` (given the
+/// lowercased name and its position). `v(…)` and `i(…)` are refused: only B sources read them.
 pub(crate) fn eval(
     expr: &Expr,
     lookup: &dyn Fn(&str, Pos) -> Result<f64, NetlistError>,
@@ -411,40 +607,55 @@ pub(crate) fn eval(
     Ok(match expr {
         Expr::Num(v) => *v,
         Expr::Param(name, pos) => lookup(name, *pos)?,
-        Expr::Neg(a) => -eval(a, lookup)?,
-        Expr::Bin(op, a, b) => {
-            let a = eval(a, lookup)?;
-            let b = eval(b, lookup)?;
-            match op {
-                BinOp::Add => a + b,
-                BinOp::Sub => a - b,
-                BinOp::Mul => a * b,
-                BinOp::Div => a / b,
-                BinOp::Pow => a.powf(b),
+        Expr::Probe(p, pos) => {
+            let text = match p {
+                Probe::Voltage(..) => "v(…)",
+                Probe::Current(..) => "i(…)",
+            };
+            return Err(NetlistError::new(
+                ErrorKind::BadValue,
+                *pos,
+                text,
+                format!(
+                    "`{text}` reads the circuit while it runs: only a B source (or an E or G \
+                     source's VALUE=) can use it, not a parameter or a value"
+                ),
+            ));
+        }
+        Expr::Call1(f, a) => f.apply(eval(a, lookup)?),
+        Expr::Bin(op, a, b) => op.apply(eval(a, lookup)?, eval(b, lookup)?),
+        Expr::PowCall(a, b) => eval(a, lookup)?.powf(eval(b, lookup)?),
+        Expr::Ternary(c, a, b) => {
+            if eval(c, lookup)? != 0.0 {
+                eval(a, lookup)?
+            } else {
+                eval(b, lookup)?
             }
         }
-        Expr::Call1(f, a) => {
-            let a = eval(a, lookup)?;
-            match f {
-                Func1::Sqrt => a.sqrt(),
-                Func1::Exp => a.exp(),
-                Func1::Ln => a.ln(),
-                Func1::Log10 => a.log10(),
-                Func1::Sin => a.sin(),
-                Func1::Cos => a.cos(),
-                Func1::Tan => a.tan(),
-                Func1::Atan => a.atan(),
-                Func1::Abs => a.abs(),
-            }
+    })
+}
+
+/// A B source's expression as the part evaluates it: parameters resolved by `lookup` (`time` is
+/// time), each probe replaced by the control `probe` numbers it with, `pow(a, b)` read as
+/// `|a|^b`.
+pub(crate) fn behavioural(
+    expr: &Expr,
+    lookup: &dyn Fn(&str, Pos) -> Result<f64, NetlistError>,
+    probe: &mut dyn FnMut(&Probe, Pos) -> Result<usize, NetlistError>,
+) -> Result<Expression, NetlistError> {
+    let mut go = |e: &Expr| behavioural(e, lookup, probe);
+    Ok(match expr {
+        Expr::Num(v) => Expression::Constant(*v),
+        Expr::Param(name, _) if name == "time" => Expression::Time,
+        Expr::Param(name, pos) => Expression::Constant(lookup(name, *pos)?),
+        Expr::Probe(p, pos) => Expression::Control(probe(p, *pos)?),
+        Expr::Call1(f, a) => Expression::Unary(*f, Box::new(go(a)?)),
+        Expr::Bin(op, a, b) => Expression::Binary(*op, Box::new(go(a)?), Box::new(go(b)?)),
+        Expr::PowCall(a, b) => {
+            Expression::Binary(Operator::Pow, Box::new(go(a)?), Box::new(go(b)?))
         }
-        Expr::Call2(f, a, b) => {
-            let a = eval(a, lookup)?;
-            let b = eval(b, lookup)?;
-            match f {
-                Func2::Min => a.min(b),
-                Func2::Max => a.max(b),
-                Func2::Pow => a.powf(b),
-            }
+        Expr::Ternary(c, a, b) => {
+            Expression::Conditional(Box::new(go(c)?), Box::new(go(a)?), Box::new(go(b)?))
         }
     })
 }
@@ -485,7 +696,16 @@ mod tests {
         assert_eq!(value("(1+2)*3"), 9.0);
         assert_eq!(value("10-4-3"), 3.0);
         assert_eq!(value("24/4/3"), 2.0);
-        assert_eq!(value("2^3^2"), 512.0);
+        // ngspice-39: `.param q = {2^3^2}` is 64, `{(-2)^3}` and `{(-2)**3}` are 8,
+        // `{pow(-2,3)}` is -8, `{3 > 2 ? 7 : 8}` is 7.
+        assert_eq!(value("2^3^2"), 64.0);
+        assert_eq!(value("(-2)^3"), 8.0);
+        assert_eq!(value("(-2)**3"), 8.0);
+        assert_eq!(value("pow(-2,3)"), -8.0);
+        assert_eq!(value("3 > 2 ? 7 : 8"), 7.0);
+        assert_eq!(value("a >= 2 && b <= 3 || !a"), 1.0);
+        assert_eq!(value("a >= 2 && b < 3 || !a"), 0.0);
+        assert_eq!(value("a == 2 ? b != 3 : 5"), 0.0);
         assert_eq!(value("2**3"), 8.0);
         assert_eq!(value("-2^2"), -4.0);
         assert_eq!(value("2^-1"), 0.5);

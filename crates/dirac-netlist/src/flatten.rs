@@ -13,10 +13,11 @@ use std::rc::Rc;
 
 use super::error::{ErrorKind, NetlistError, Pos, Warning};
 use super::expr::{self, ExprTok};
+use super::parser::PolyControls;
 use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef, TranCard};
 use super::source::SourceSpec;
-use super::{ControlledSource, DiodeModel, Element, Netlist, Origin, Tran};
-use dirac_components::{Diode, DiodeParameters, Waveform};
+use super::{ControlledSource, DiodeModel, Element, Netlist, Origin, Sensing, Tran};
+use dirac_components::{Diode, DiodeParameters, Expression, Operator, Waveform};
 
 enum Slot {
     Value(f64),
@@ -659,6 +660,72 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     },
                 }
             }
+            ElemKind::Behavioural(output, e) => {
+                let mut controls = Vec::new();
+                let expression = expr::behavioural(
+                    &e.expr,
+                    &|name, pos| scope.lookup(name, pos),
+                    &mut |probe, pos| {
+                        let sensing = match probe {
+                            expr::Probe::Voltage(a, b) => {
+                                let node = |n: &str| ctx.node(&Name::at(n, pos));
+                                Sensing::Voltage {
+                                    plus: node(a),
+                                    minus: b.as_deref().map_or_else(|| "0".to_owned(), node),
+                                }
+                            }
+                            expr::Probe::Current(c) => {
+                                let source = Ctx::join(&ctx.prefix, c);
+                                out.vrefs.push((index, source.clone(), Name::at(c, pos)));
+                                Sensing::Current { source }
+                            }
+                        };
+                        Ok(control_index(&mut controls, sensing))
+                    },
+                )?;
+                Element::Controlled {
+                    name: full,
+                    n_plus: n(0),
+                    n_minus: n(1),
+                    source: ControlledSource::Behavioural {
+                        output: *output,
+                        controls,
+                        expression,
+                    },
+                }
+            }
+            ElemKind::Poly(output, poly, coefficients) => {
+                let controls: Vec<Sensing> = match poly {
+                    PolyControls::Nodes(count) => (0..*count)
+                        .map(|k| Sensing::Voltage {
+                            plus: n(2 + 2 * k),
+                            minus: n(3 + 2 * k),
+                        })
+                        .collect(),
+                    PolyControls::Sources(names) => names
+                        .iter()
+                        .map(|c| {
+                            let source = Ctx::join(&ctx.prefix, &c.norm);
+                            out.vrefs.push((index, source.clone(), c.clone()));
+                            Sensing::Current { source }
+                        })
+                        .collect(),
+                };
+                let values = coefficients
+                    .iter()
+                    .map(|c| scope.eval(c))
+                    .collect::<Result<Vec<f64>, _>>()?;
+                Element::Controlled {
+                    name: full,
+                    n_plus: n(0),
+                    n_minus: n(1),
+                    source: ControlledSource::Behavioural {
+                        output: *output,
+                        expression: polynomial(controls.len(), &values),
+                        controls,
+                    },
+                }
+            }
             ElemKind::X(..) => continue,
         };
         out.elements.push(element);
@@ -673,6 +740,61 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
         out.ics.push((ctx.node(node), v, node.clone()));
     }
     Ok(())
+}
+
+/// The index of `sensing` among a behavioural source's `controls`, added if new (a quantity read
+/// twice is sensed once).
+fn control_index(controls: &mut Vec<Sensing>, sensing: Sensing) -> usize {
+    match controls.iter().position(|c| *c == sensing) {
+        Some(k) => k,
+        None => {
+            controls.push(sensing);
+            controls.len() - 1
+        }
+    }
+}
+
+/// SPICE's `POLY(n)` with `coefficients` `p₀, p₁, …`: `p₀`, then the terms of each degree in turn,
+/// each a product `x_{i₁}·…·x_{i_d}` over the index tuples `i₁ ≤ … ≤ i_d` in lexicographic order
+/// (`POLY(2)`: `p₀ + p₁x₁ + p₂x₂ + p₃x₁² + p₄x₁x₂ + p₅x₂² + p₆x₁³ + …`), as ngspice-39 evaluates
+/// it (a single coefficient is `p₀`). Zero coefficients add no term.
+fn polynomial(n: usize, coefficients: &[f64]) -> Expression {
+    let mut sum = Expression::Constant(coefficients.first().copied().unwrap_or(0.0));
+    let mut term: Vec<usize> = Vec::new();
+    for &c in coefficients.iter().skip(1) {
+        next_monomial(&mut term, n);
+        if c == 0.0 {
+            continue;
+        }
+        let product = term.iter().fold(Expression::Constant(c), |acc, &k| {
+            Expression::Binary(
+                Operator::Mul,
+                Box::new(acc),
+                Box::new(Expression::Control(k)),
+            )
+        });
+        sum = Expression::Binary(Operator::Add, Box::new(sum), Box::new(product));
+    }
+    sum
+}
+
+/// The monomial after `term` (nondecreasing indices below `n`) in SPICE's order: the next tuple
+/// of the same degree in lexicographic order, or the first of the next degree.
+fn next_monomial(term: &mut Vec<usize>, n: usize) {
+    // The last position that can still grow; the ones after it restart at its new value.
+    match (0..term.len()).rev().find(|&j| term[j] + 1 < n) {
+        Some(j) => {
+            let v = term[j] + 1;
+            for t in &mut term[j..] {
+                *t = v;
+            }
+        }
+        None => {
+            let degree = term.len() + 1;
+            term.clear();
+            term.resize(degree, 0);
+        }
+    }
 }
 
 fn instantiate(
@@ -987,16 +1109,11 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         // A voltage source: independent, or the output of an E or H source (ngspice reads those
         // branch currents too; an inductor's it refuses).
         let found = out.names.get(full);
-        if matches!(found, Some(Some(i)) if matches!(
-            out.elements.get(*i),
-            Some(
-                Element::V { .. }
-                    | Element::Controlled {
-                        source: ControlledSource::Vcvs { .. } | ControlledSource::Ccvs { .. },
-                        ..
-                    }
-            )
-        )) {
+        if matches!(found, Some(Some(i)) if match out.elements.get(*i) {
+            Some(Element::V { .. }) => true,
+            Some(Element::Controlled { source, .. }) => source.drives_voltage(),
+            _ => false,
+        }) {
             continue;
         }
         let element = out
@@ -1005,9 +1122,9 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
             .map(|o| o.name.clone())
             .unwrap_or_default();
         let why = match found {
-            Some(_) => "which is not a voltage source (V, E or H)".to_owned(),
+            Some(_) => "which is not a voltage source (V, E, H, or B with V=)".to_owned(),
             None if full.contains('.') && out.names.contains_key(&name.norm) => format!(
-                "which its subcircuit does not have (names in F and H cards are local to the \
+                "which its subcircuit does not have (names in F, H and B cards are local to the \
                  subcircuit, as in ngspice; the top-level `{}` is not seen there)",
                 name.orig
             ),

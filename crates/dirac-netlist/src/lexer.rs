@@ -353,6 +353,22 @@ impl<'a> Cursor<'a> {
         Ok((self.i > from).then(|| self.span(from, self.i)))
     }
 
+    /// Reads a behavioural expression: `{expr}`, `'expr'`, or the rest of the card (blanks
+    /// allowed). `None` if nothing is left.
+    pub fn expression(&mut self) -> Result<Option<Spanned>, NetlistError> {
+        self.skip_ws();
+        match self.peek_raw() {
+            None => Ok(None),
+            Some('{') => self.delimited('{', '}').map(Some),
+            Some('\'') => self.delimited('\'', '\'').map(Some),
+            Some(_) => {
+                let rest = self.rest();
+                self.i = self.card.chars.len();
+                Ok(Some(rest))
+            }
+        }
+    }
+
     /// Whether a `name =` (not `==`) or `params:` starts at character `k` (after blanks/commas).
     fn assignment_ahead(&self, mut k: usize) -> bool {
         let chars = &self.card.chars;

@@ -113,6 +113,8 @@ mod units;
 mod circuit;
 
 pub use circuit::{Circuit, CircuitError, DeviceConditions, build_circuit, waveform};
+use dirac_components::BehaviouralSource;
+pub use dirac_components::{Expression, Output};
 pub use error::{ErrorKind, NetlistError, Pos, Warning};
 pub use parser::{OptionCard, OutputRequest};
 pub use source::SourceSpec;
@@ -285,29 +287,100 @@ pub enum ControlledSource {
         /// Transresistance in Ω.
         r: f64,
     },
+    /// `B n+ n− V=expr` or `I=expr`, `E`/`G` with `VALUE=`, `VOL=`, `CUR=` or `POLY(n)`, `F`/`H`
+    /// with `POLY(n)`: a voltage `V(n+) − V(n−)` or a current from `n+` through the source to
+    /// `n−` that is an expression of sensed voltages and currents and of time.
+    Behavioural {
+        /// Voltage or current.
+        output: Output,
+        /// What the expression's controls are, in the order of [`Expression::Control`]'s index.
+        controls: Vec<Sensing>,
+        /// The output's value.
+        expression: Expression,
+    },
+}
+
+/// What one control of a controlled source senses.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Sensing {
+    /// The voltage `V(plus) − V(minus)`.
+    Voltage {
+        /// Positive node.
+        plus: String,
+        /// Negative node.
+        minus: String,
+    },
+    /// The current of a voltage source (a `V`, or the output of an `E`, `H` or voltage `B`
+    /// source; hierarchical name) from its `+` node through it to its `−` node.
+    Current {
+        /// The source.
+        source: String,
+    },
+}
+
+/// A borrowed view of one control: what [`ControlledSource::sensing`] lists.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sensed<'a> {
+    /// The voltage from the first node to the second.
+    Voltage(&'a str, &'a str),
+    /// The current of the named voltage source.
+    Current(&'a str),
+}
+
+impl Sensing {
+    /// This control as a borrowed view.
+    #[must_use]
+    pub fn view(&self) -> Sensed<'_> {
+        match self {
+            Self::Voltage { plus, minus } => Sensed::Voltage(plus, minus),
+            Self::Current { source } => Sensed::Current(source),
+        }
+    }
 }
 
 impl ControlledSource {
-    /// The controlling node pair of a voltage-controlled source.
+    /// Each sensing branch: the part's port for it and what it senses (one for the linear forms,
+    /// at port `ic`; one per control for a behavioural source, at ports `ic0`, `ic1`, …).
     #[must_use]
-    pub fn control_nodes(&self) -> Option<(&str, &str)> {
+    pub fn sensing(&self) -> Vec<(String, Sensed<'_>)> {
         match self {
             Self::Vcvs {
                 c_plus, c_minus, ..
             }
             | Self::Vccs {
                 c_plus, c_minus, ..
-            } => Some((c_plus, c_minus)),
-            Self::Cccs { .. } | Self::Ccvs { .. } => None,
+            } => vec![("ic".into(), Sensed::Voltage(c_plus, c_minus))],
+            Self::Cccs { control, .. } | Self::Ccvs { control, .. } => {
+                vec![("ic".into(), Sensed::Current(control))]
+            }
+            Self::Behavioural { controls, .. } => controls
+                .iter()
+                .enumerate()
+                .map(|(k, c)| (BehaviouralSource::control_port(k), c.view()))
+                .collect(),
         }
     }
 
-    /// The controlling voltage source of a current-controlled source.
+    /// The controlling node pairs, with the port of each one's sensing branch.
     #[must_use]
-    pub fn control_source(&self) -> Option<&str> {
+    pub fn sensed_voltages(&self) -> Vec<(String, &str, &str)> {
+        self.sensing()
+            .into_iter()
+            .filter_map(|(port, s)| match s {
+                Sensed::Voltage(plus, minus) => Some((port, plus, minus)),
+                Sensed::Current(_) => None,
+            })
+            .collect()
+    }
+
+    /// Whether the output is a voltage (its branch current is then a source current that other
+    /// sources may sense, and a default output column).
+    #[must_use]
+    pub fn drives_voltage(&self) -> bool {
         match self {
-            Self::Cccs { control, .. } | Self::Ccvs { control, .. } => Some(control),
-            Self::Vcvs { .. } | Self::Vccs { .. } => None,
+            Self::Vcvs { .. } | Self::Ccvs { .. } => true,
+            Self::Vccs { .. } | Self::Cccs { .. } => false,
+            Self::Behavioural { output, .. } => *output == Output::Voltage,
         }
     }
 }
@@ -369,7 +442,7 @@ impl Element {
                 ..
             } => {
                 let mut nodes = vec![n_plus.as_str(), n_minus.as_str()];
-                if let Some((a, b)) = source.control_nodes() {
+                for (_, a, b) in source.sensed_voltages() {
                     nodes.extend([a, b]);
                 }
                 nodes
@@ -416,19 +489,24 @@ pub struct Netlist {
 }
 
 /// The branches of a source (named `source`, from node `a` to node `b`) whose current controls
-/// the `F` and `H` sources `shorts`: `a` → the source's port `i` → each one's sensing short (port
-/// `ic`) → `b`, as `(part, port, from, to)`; `node(k)` names the `k`-th node between them (from
-/// 1). One definition for `dirac run` ([`build_circuit`]) and for a scene written from the netlist.
+/// other sources through the sensing shorts `shorts` (each a part and its port): `a` → the
+/// source's port `i` → each sensing short → `b`, as `(part, port, from, to)`; `node(k)` names the
+/// `k`-th node between them (from 1). One definition for `dirac run` ([`build_circuit`]) and for a
+/// scene written from the netlist.
 pub fn sensed_chain(
     source: &str,
     a: &str,
     b: &str,
-    shorts: &[&str],
+    shorts: &[(&str, String)],
     mut node: impl FnMut(usize) -> String,
-) -> Vec<(String, &'static str, String, String)> {
+) -> Vec<(String, String, String, String)> {
     let mut from = a.to_owned();
-    std::iter::once((source.to_owned(), "i"))
-        .chain(shorts.iter().map(|c| ((*c).to_owned(), "ic")))
+    std::iter::once((source.to_owned(), "i".to_owned()))
+        .chain(
+            shorts
+                .iter()
+                .map(|(c, port)| ((*c).to_owned(), port.clone())),
+        )
         .enumerate()
         .map(|(k, (part, port))| {
             let to = if k == shorts.len() {
@@ -443,18 +521,20 @@ pub fn sensed_chain(
 }
 
 impl Netlist {
-    /// Per voltage source (`V`, or an `E` or `H` output) whose current controls `F` or `H`
-    /// sources: those sources in card order, whose sensing shorts go in series with it
-    /// ([`sensed_chain`]).
+    /// Per voltage source (`V`, or an `E`, `H` or voltage `B` output) whose current controls
+    /// other sources: the sensing shorts that go in series with it ([`sensed_chain`]), each as
+    /// the controlled source and its port, in card order.
     #[must_use]
-    pub fn sensing_shorts(&self) -> std::collections::HashMap<&str, Vec<&str>> {
-        let mut shorts: std::collections::HashMap<&str, Vec<&str>> =
+    pub fn sensing_shorts(&self) -> std::collections::HashMap<&str, Vec<(&str, String)>> {
+        let mut shorts: std::collections::HashMap<&str, Vec<(&str, String)>> =
             std::collections::HashMap::new();
         for element in &self.elements {
-            if let Element::Controlled { name, source, .. } = element
-                && let Some(control) = source.control_source()
-            {
-                shorts.entry(control).or_default().push(name);
+            if let Element::Controlled { name, source, .. } = element {
+                for (port, sensed) in source.sensing() {
+                    if let Sensed::Current(control) = sensed {
+                        shorts.entry(control).or_default().push((name, port));
+                    }
+                }
             }
         }
         shorts

@@ -3,6 +3,7 @@
 use super::error::{ErrorKind, NetlistError, Pos, Warning};
 use super::expr::ExprTok;
 use super::lexer::{Card, Cursor, Lexed, Spanned};
+use dirac_components::Output;
 
 /// A name as written and normalised (lowercase; ground `gnd` → `0` for nodes).
 #[derive(Debug, Clone, PartialEq)]
@@ -13,6 +14,15 @@ pub(crate) struct Name {
 }
 
 impl Name {
+    /// A name already normalised (lowercase, ground as `0`) found at `pos`.
+    pub(crate) fn at(norm: &str, pos: Pos) -> Self {
+        Self {
+            orig: norm.to_owned(),
+            norm: norm.to_owned(),
+            pos,
+        }
+    }
+
     fn plain(s: &Spanned) -> Self {
         Self {
             orig: s.text.clone(),
@@ -68,6 +78,22 @@ pub(crate) enum ElemKind {
     /// `F` (current gain) and `H` (transresistance): the controlling voltage source, the value.
     F(Name, ExprTok),
     H(Name, ExprTok),
+    /// `B … V=expr`/`I=expr`, `E … VALUE=`/`VOL=`, `G … VALUE=`/`CUR=`: the output's kind and
+    /// its expression.
+    Behavioural(Output, ExprTok),
+    /// `E`, `G`, `F`, `H` with `POLY(n)`: the output's kind, the `n` controls (node pairs for `E`
+    /// and `G`, which follow the output pair in the card's nodes; source names for `F` and `H`)
+    /// and the coefficients in SPICE's order.
+    Poly(Output, PolyControls, Vec<ExprTok>),
+}
+
+/// The controls of a `POLY(n)` source.
+#[derive(Debug, Clone)]
+pub(crate) enum PolyControls {
+    /// `n` controlling node pairs (the card's nodes after the output pair).
+    Nodes(usize),
+    /// `n` controlling voltage sources.
+    Sources(Vec<Name>),
 }
 
 /// An element card.
@@ -370,9 +396,11 @@ impl<'a> CardParser<'a> {
         }
     }
 
-    /// Refuses the nonlinear forms of a controlled source (`POLY(n)`, `VALUE=`, `VOL=`, `CUR=`,
-    /// `TABLE`, `LAPLACE`, …) where the linear form's next node or name would stand.
-    fn refuse_nonlinear_form(&mut self) -> Result<(), NetlistError> {
+    /// The nonlinear form of a controlled source (`POLY(n)`, `VALUE=`, `VOL=`, `CUR=`, `TABLE`,
+    /// `LAPLACE`, …) whose keyword stands where the linear form's next node or name would, if
+    /// one does: a form's keyword opens its arguments (`POLY(2)`, `VALUE={…}`, `TABLE {…}`); the
+    /// same word followed by anything else is a node or source name, as ngspice reads it.
+    fn nonlinear_form(&mut self) -> Option<String> {
         const FORMS: [&str; 9] = [
             "poly",
             "value",
@@ -384,23 +412,102 @@ impl<'a> CardParser<'a> {
             "tablefile",
             "smoothbsp",
         ];
-        // A form's keyword opens its arguments (`POLY(2)`, `VALUE={…}`, `TABLE {…}`); the same
-        // word followed by anything else is a node or source name, as ngspice reads it.
-        if !self.cur.peek_word_and_next().is_some_and(|(w, next)| {
-            FORMS.contains(&w.as_str()) && matches!(next, Some('(' | '=' | '{' | '\''))
-        }) {
-            return Ok(());
+        self.cur
+            .peek_word_and_next()
+            .filter(|(w, next)| {
+                FORMS.contains(&w.as_str()) && matches!(next, Some('(' | '=' | '{' | '\''))
+            })
+            .map(|(w, _)| w)
+    }
+
+    /// The nonlinear forms of `E`, `G` (`letter`), `F` and `H` after the output nodes: `POLY(n)`
+    /// for all four, `VALUE=`/`VOL=` for `E`, `VALUE=`/`CUR=` for `G`. `None` for the linear form;
+    /// every other form is refused at its keyword.
+    fn controlled_form(
+        &mut self,
+        letter: char,
+        nodes: &mut Vec<Name>,
+    ) -> Result<Option<ElemKind>, NetlistError> {
+        let Some(form) = self.nonlinear_form() else {
+            return Ok(None);
+        };
+        let output = if matches!(letter, 'e' | 'h') {
+            Output::Voltage
+        } else {
+            Output::Current
+        };
+        let keyword = self.word("node")?;
+        match form.as_str() {
+            "poly" => {
+                let n = self.poly_dimension()?;
+                let controls = if matches!(letter, 'e' | 'g') {
+                    for _ in 0..2 * n {
+                        nodes.push(self.node()?);
+                    }
+                    PolyControls::Nodes(n)
+                } else {
+                    PolyControls::Sources(
+                        (0..n)
+                            .map(|_| {
+                                self.word("controlling voltage source")
+                                    .map(|w| Name::plain(&w))
+                            })
+                            .collect::<Result<_, _>>()?,
+                    )
+                };
+                let mut coefficients = Vec::new();
+                while !self.cur.at_end() {
+                    coefficients.push(self.value("coefficient")?);
+                }
+                if coefficients.is_empty() {
+                    return Err(self.syntax("missing POLY coefficients"));
+                }
+                Ok(Some(ElemKind::Poly(output, controls, coefficients)))
+            }
+            "value" | "vol" if letter == 'e' => self.behavioural(output).map(Some),
+            "value" | "cur" if letter == 'g' => self.behavioural(output).map(Some),
+            _ => Err(NetlistError::unsupported_in(
+                keyword.start(),
+                &keyword.text,
+                &format!(
+                    "the form `{}` (E and G sources read the linear form, VALUE=, VOL= (E), \
+                     CUR= (G) and POLY(n); F and H the linear form and POLY(n))",
+                    keyword.text
+                ),
+                &self.text,
+            )),
         }
-        let w = self.word("node")?;
-        Err(NetlistError::unsupported_in(
-            w.start(),
-            &w.text,
-            &format!(
-                "the nonlinear form `{}` (of E, F, G and H sources only the linear form is read)",
-                w.text
-            ),
-            &self.text,
-        ))
+    }
+
+    /// `(n)` after `POLY`: the number of controls, a positive integer.
+    fn poly_dimension(&mut self) -> Result<usize, NetlistError> {
+        if !self.cur.eat('(') {
+            return Err(self.syntax("expected `(` after POLY"));
+        }
+        let pos = self.cur.pos();
+        let n = self.cur.word().map(|w| w.text).unwrap_or_default();
+        if !self.cur.eat(')') {
+            return Err(self.syntax("expected `)` after POLY's dimension"));
+        }
+        match n.parse::<usize>() {
+            Ok(n) if (1..=20).contains(&n) => Ok(n),
+            _ => Err(NetlistError::bad_value(
+                pos,
+                n.clone(),
+                format!("POLY's dimension must be an integer from 1 to 20, got `{n}`"),
+            )),
+        }
+    }
+
+    /// `=expr` (or `={expr}`, `'expr'`, `{expr}`) to the end of the card: a behavioural output.
+    fn behavioural(&mut self, output: Output) -> Result<ElemKind, NetlistError> {
+        self.cur.eat('=');
+        let Some(span) = self.cur.expression()? else {
+            return Err(self.syntax("missing expression"));
+        };
+        let expr = ExprTok::parse(&span)?;
+        self.finish()?;
+        Ok(ElemKind::Behavioural(output, expr))
     }
 
     /// ngspice's options after `PWL(…)`, `r=R` (repeat from time `R`) and `td=TD` (delay), in
@@ -699,7 +806,9 @@ impl<'a> CardParser<'a> {
             }
             'e' | 'g' => {
                 let mut nodes = two_nodes(self)?;
-                self.refuse_nonlinear_form()?;
+                if let Some(kind) = self.controlled_form(letter, &mut nodes)? {
+                    return Ok(ElemCard { name, nodes, kind });
+                }
                 nodes.extend(two_nodes(self)?);
                 let value = self.value(if letter == 'e' {
                     "voltage gain"
@@ -715,8 +824,10 @@ impl<'a> CardParser<'a> {
                 (nodes, kind)
             }
             'f' | 'h' => {
-                let nodes = two_nodes(self)?;
-                self.refuse_nonlinear_form()?;
+                let mut nodes = two_nodes(self)?;
+                if let Some(kind) = self.controlled_form(letter, &mut nodes)? {
+                    return Ok(ElemCard { name, nodes, kind });
+                }
                 let control = Name::plain(&self.word("controlling voltage source")?);
                 let value = self.value(if letter == 'f' {
                     "current gain"
@@ -730,6 +841,25 @@ impl<'a> CardParser<'a> {
                     ElemKind::H(control, value)
                 };
                 (nodes, kind)
+            }
+            'b' => {
+                let nodes = two_nodes(self)?;
+                let keyword = self.word("`V=` or `I=`")?;
+                let output = match keyword.lower().as_str() {
+                    "v" => Output::Voltage,
+                    "i" => Output::Current,
+                    _ => {
+                        return Err(NetlistError::syntax(
+                            keyword.start(),
+                            keyword.text.clone(),
+                            format!(
+                                "expected `V=` or `I=` after the nodes of `{}`, found `{}`",
+                                name.orig, keyword.text
+                            ),
+                        ));
+                    }
+                };
+                (nodes, self.behavioural(output)?)
             }
             'x' => {
                 let (mut words, params) =

@@ -19,6 +19,22 @@ pub enum ConvertError {
     /// The netlist has no `.tran` card, so the scene would have no step size.
     #[error("{0}: no .tran card; a scene needs h and t_end")]
     NoTran(String),
+    /// A behavioural source (`B`, or `E`/`F`/`G`/`H` with `VALUE=` or `POLY`), which has no scene
+    /// part.
+    #[error(
+        "{file}:{line}:{column}: `{element}` is a behavioural source (B, or E F G H with VALUE=, \
+         VOL=, CUR= or POLY): scenes have no part for its expression; run the netlist itself"
+    )]
+    Behavioural {
+        /// The netlist file.
+        file: String,
+        /// Line of the element's card.
+        line: usize,
+        /// Column of the element's name.
+        column: usize,
+        /// The element as written.
+        element: String,
+    },
     /// The generated scene did not parse back (a bug in the converter).
     #[error("generated scene is invalid: {0}")]
     Invalid(#[from] SceneError),
@@ -237,7 +253,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
         }
     }
     let mut port_of: HashMap<&str, String> = HashMap::new();
-    for element in &netlist.elements {
+    for (element, origin) in netlist.elements.iter().zip(&netlist.origins) {
         let name = element.name();
         let part = ident(name);
         let body = match element {
@@ -283,6 +299,14 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
                     format!("type = \"cccs\"\ngain = {}", number(*gain))
                 }
                 ControlledSource::Ccvs { r, .. } => format!("type = \"ccvs\"\nr = {}", number(*r)),
+                ControlledSource::Behavioural { .. } => {
+                    return Err(ConvertError::Behavioural {
+                        file: file.to_owned(),
+                        line: origin.line,
+                        column: origin.column,
+                        element: origin.name.clone(),
+                    });
+                }
             },
         };
         let _ = writeln!(out, "\n[[part]]\nname = \"{part}\"\n{body}");
@@ -309,10 +333,10 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
     };
     for element in &netlist.elements {
         let name = element.name();
-        if let Element::Controlled { source, .. } = element
-            && let Some((a, b)) = source.control_nodes()
-        {
-            join(a, b, format!("{}.ic", ident(name)));
+        if let Element::Controlled { source, .. } = element {
+            for (port, a, b) in source.sensed_voltages() {
+                join(a, b, format!("{}.{port}", ident(name)));
+            }
         }
         let (Some((a, b)), Some(port)) = (element.terminals(), port_of.get(name)) else {
             continue;

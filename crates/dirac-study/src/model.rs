@@ -499,11 +499,13 @@ fn element_keys(element: &Element) -> Vec<&'static str> {
         Element::C { .. } => vec!["c", "ic"],
         Element::K { .. } => vec!["k"],
         Element::D { .. } => vec!["is", "n", "rs"],
-        Element::Controlled { source, .. } => vec![match source {
-            ControlledSource::Vcvs { .. } | ControlledSource::Cccs { .. } => "gain",
-            ControlledSource::Vccs { .. } => "gm",
-            ControlledSource::Ccvs { .. } => "r",
-        }],
+        Element::Controlled { source, .. } => match source {
+            ControlledSource::Vcvs { .. } | ControlledSource::Cccs { .. } => vec!["gain"],
+            ControlledSource::Vccs { .. } => vec!["gm"],
+            ControlledSource::Ccvs { .. } => vec!["r"],
+            // An expression has no one number to sweep.
+            ControlledSource::Behavioural { .. } => Vec::new(),
+        },
         Element::V { source, .. } | Element::I { source, .. } => match source {
             SourceSpec::Dc(_) => vec!["waveform"],
             SourceSpec::Sin { .. } => vec![
