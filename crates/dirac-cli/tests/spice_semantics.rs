@@ -125,6 +125,54 @@ fn operating_point_through_controlled_sources() {
     }
 }
 
+/// Behavioural sources at the operating point, against what ngspice-39's `.op` prints for the
+/// same deck: `v(a)^3`, `pow` and `**` of −2 are 8 (ngspice's `|x|^y`), `pwr` −8, `-2^2` −4,
+/// `2^3^2` 64, the ternary 5, `log(1 − v(a))` 1.098612, `E VALUE` −3, `POLY(1)` 1 + 2·(−2) + 3·4
+/// = 9, `POLY(2)` of (3, −2) with 1…7 220, `F POLY(2)` of the currents (−3, 1) 34, `G POLY(1)` 9,
+/// `H POLY(1)` −3; `b1#branch` −8 (B1 drives 1 Ω).
+#[test]
+fn operating_point_of_behavioural_sources() {
+    let file = deck(
+        "behavioural_op.cir",
+        "b\nv1 a 0 -2\nb1 b 0 v = v(a)^3\nr1 b 0 1\nb2 c 0 v = pow(v(a),3)\nb3 d 0 v = pwr(v(a),3)\n\
+         b4 e 0 v = v(a)**3\nb5 f 0 v = -2^2\nb6 g 0 v = 2^3^2\nb7 h 0 v = v(a) > -3 ? 5 : 6\n\
+         b9 j 0 v = log(1-v(a))\ne1 k 0 value = {v(a)*2+1}\ne2 l 0 poly(1) a 0 1 2 3\n\
+         v2 x 0 3\nv3 y 0 -2\nr8 x 0 1\nr9 y 0 2\ne3 o 0 poly(2) x 0 y 0 1 2 3 4 5 6 7\n\
+         f1 0 p poly(2) v2 v3 1 2 3 4\nrp p 0 1\ng1 0 s poly(1) x 0 0 0 1\nrs s 0 1\n\
+         h1 u 0 poly(1) v2 0 1\n.op\n.end\n",
+    );
+    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
+    assert!(
+        json.status.success(),
+        "{}",
+        String::from_utf8_lossy(&json.stderr)
+    );
+    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
+    for (signal, printed) in [
+        ("v(b)", 8.0),
+        ("v(c)", 8.0),
+        ("v(d)", -8.0),
+        ("v(e)", 8.0),
+        ("v(f)", -4.0),
+        ("v(g)", 64.0),
+        ("v(h)", 5.0),
+        ("v(j)", 1.098612),
+        ("v(k)", -3.0),
+        ("v(l)", 9.0),
+        ("v(o)", 220.0),
+        ("v(p)", 34.0),
+        ("v(s)", 9.0),
+        ("v(u)", -3.0),
+        ("i(b1)", -8.0),
+    ] {
+        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
+        assert!(
+            (value - printed).abs() <= 5e-7 * printed.abs(),
+            "{signal}: {value} (ngspice {printed}); {parsed}"
+        );
+    }
+}
+
 /// Instance parameters as ngspice reads them, at the operating point: `R2 … 1k m=2` is 500 Ω (so
 /// `v(b)` = 1·1k/1.5k = 2/3 V), and `D1 … dm area=2 m=3` a junction six times the model's (ngspice-39
 /// prints `d = 4.133852e-01` and `v1#branch = -3.08005e-03` on this deck).
