@@ -34,7 +34,10 @@ fn converted_scenes_reproduce_their_netlists() {
         if let Some((_, origin)) = behavioural {
             // A behavioural source has no scene part: convert refuses it at its card.
             let e = netlist_to_scene(&net, &file).unwrap_err().to_string();
-            let place = format!("{file}:{}:{}: `{}`", origin.line, origin.column, origin.name);
+            let place = format!(
+                "{file}:{}:{}: `{}`",
+                origin.line, origin.column, origin.name
+            );
             assert!(e.starts_with(&place), "{e}");
             continue;
         }
