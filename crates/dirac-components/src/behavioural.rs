@@ -140,6 +140,10 @@ pub enum Expression {
     Binary(Operator, Box<Expression>, Box<Expression>),
     /// `c ? a : b`: `a` where `c ≠ 0`, else `b`.
     Conditional(Box<Expression>, Box<Expression>, Box<Expression>),
+    /// `pwl(a, x₀, y₀, x₁, y₁, …)`: the polyline through the points (`x` strictly increasing, at
+    /// least two), extended beyond its ends along its first and last segments, as ngspice's
+    /// `pwl` function computes it.
+    Piecewise(Box<Expression>, Vec<(f64, f64)>),
 }
 
 /// A value and its derivative along one direction.
@@ -187,6 +191,7 @@ impl Expression {
             Self::Unary(_, a) => a.controls(),
             Self::Binary(_, a, b) => a.controls().max(b.controls()),
             Self::Conditional(c, a, b) => c.controls().max(a.controls()).max(b.controls()),
+            Self::Piecewise(a, _) => a.controls(),
         }
     }
 
@@ -199,6 +204,7 @@ impl Expression {
             Self::Unary(_, a) => a.reads_time(),
             Self::Binary(_, a, b) => a.reads_time() || b.reads_time(),
             Self::Conditional(c, a, b) => c.reads_time() || a.reads_time() || b.reads_time(),
+            Self::Piecewise(a, _) => a.reads_time(),
         }
     }
 
@@ -219,8 +225,32 @@ impl Expression {
                     b.dual(x, t, k)
                 }
             }
+            Self::Piecewise(a, points) => {
+                let a = a.dual(x, t, k);
+                let ((x0, y0), (x1, y1)) = segment(points, a.v);
+                let slope = (y1 - y0) / (x1 - x0);
+                Dual {
+                    v: y0 + slope * (a.v - x0),
+                    d: slope * a.d,
+                }
+            }
         }
     }
+}
+
+/// The segment of `points` that `pwl` uses at `a`: ngspice's bisection (`PTpwl`), the first or
+/// last segment outside the points, the one to the right of a point met exactly.
+fn segment(points: &[(f64, f64)], a: f64) -> ((f64, f64), (f64, f64)) {
+    let (mut k0, mut k1) = (0, points.len().saturating_sub(1));
+    while k1 - k0 > 1 {
+        let k = (k0 + k1) / 2;
+        if points[k].0 > a {
+            k1 = k;
+        } else {
+            k0 = k;
+        }
+    }
+    (points[k0], points[k1])
 }
 
 /// `f(a)` with its derivative (zero where `f` is piecewise constant).
@@ -450,6 +480,14 @@ impl BehaviouralSource {
                 requirement: "reads a control the source does not sense",
             });
         }
+        if let Some(value) = badly_ordered(&expression) {
+            return Err(PartError::Parameter {
+                part: "behavioural",
+                parameter: "expression".into(),
+                value,
+                requirement: "needs pwl points at strictly increasing x, two at least",
+            });
+        }
         if let Some(value) = first_non_finite(&expression) {
             return Err(PartError::Parameter {
                 part: "behavioural",
@@ -511,6 +549,27 @@ fn output_dim(output: Output) -> usize {
     }
 }
 
+/// The first `x` of a `pwl` in `e` that does not exceed the one before it (or the only point's).
+fn badly_ordered(e: &Expression) -> Option<f64> {
+    match e {
+        Expression::Constant(_) | Expression::Control(_) | Expression::Time => None,
+        Expression::Unary(_, a) => badly_ordered(a),
+        Expression::Binary(_, a, b) => badly_ordered(a).or_else(|| badly_ordered(b)),
+        Expression::Conditional(c, a, b) => badly_ordered(c)
+            .or_else(|| badly_ordered(a))
+            .or_else(|| badly_ordered(b)),
+        Expression::Piecewise(a, points) => match points.as_slice() {
+            [] => Some(f64::NAN),
+            [(x, _)] => Some(*x),
+            _ => points
+                .windows(2)
+                .find(|w| w[1].0 <= w[0].0)
+                .map(|w| w[1].0)
+                .or_else(|| badly_ordered(a)),
+        },
+    }
+}
+
 /// The first number of `e` that is not finite.
 fn first_non_finite(e: &Expression) -> Option<f64> {
     match e {
@@ -521,6 +580,11 @@ fn first_non_finite(e: &Expression) -> Option<f64> {
         Expression::Conditional(c, a, b) => first_non_finite(c)
             .or_else(|| first_non_finite(a))
             .or_else(|| first_non_finite(b)),
+        Expression::Piecewise(a, points) => points
+            .iter()
+            .flat_map(|&(x, y)| [x, y])
+            .find(|v| !v.is_finite())
+            .or_else(|| first_non_finite(a)),
     }
 }
 
@@ -642,6 +706,13 @@ mod tests {
         assert_eq!(un(Function::Step, c(0.0)).value(&a, 0.0), 0.5);
         assert_eq!(un(Function::ClippedRamp, c(0.25)).value(&a, 0.0), 0.25);
         assert_eq!(un(Function::Round, c(2.5)).value(&a, 0.0), 2.0);
+        // ngspice-39, `pwl(v(b)·s, -1,0, 0,1, 1,3)` at v(b) = −0.5: s = 1 → 0.5, s = 4 → −1 (the
+        // first segment extended), s = −4 → 5 (the last one extended).
+        let table = vec![(-1.0, 0.0), (0.0, 1.0), (1.0, 3.0)];
+        for (scale, printed) in [(1.0, 0.5), (4.0, -1.0), (-4.0, 5.0)] {
+            let e = Expression::Piecewise(bin(Operator::Mul, x(0), c(scale)), table.clone());
+            assert_eq!(e.value(&[-0.5], 0.0), printed);
+        }
     }
 
     /// Every smooth function's derivative against a central difference.
@@ -681,6 +752,8 @@ mod tests {
         let mut expressions: Vec<Box<Expression>> =
             functions.iter().map(|&f| un(f, x(0))).collect();
         expressions.push(un(Function::Acosh, bin(Operator::Add, x(0), c(2.0))));
+        let table = vec![(-1.0, 0.5), (0.5, 1.0), (1.0, -2.0)];
+        expressions.push(Box::new(Expression::Piecewise(x(0), table)));
         for op in operators {
             expressions.push(bin(op, x(0), x(1)));
             expressions.push(bin(op, un(Function::Neg, x(1)), x(0)));
@@ -753,5 +826,9 @@ mod tests {
             BehaviouralSource::new(Output::Voltage, vec![], Expression::Constant(f64::NAN))
                 .is_err()
         );
+        let table = |points: Vec<(f64, f64)>| Expression::Piecewise(c(0.0), points);
+        for points in [vec![(0.0, 1.0)], vec![(0.0, 1.0), (0.0, 2.0)]] {
+            assert!(BehaviouralSource::new(Output::Voltage, vec![], table(points)).is_err());
+        }
     }
 }

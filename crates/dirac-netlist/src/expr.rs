@@ -90,7 +90,36 @@ pub(crate) enum Expr {
     /// `pow(a, b)`, whose meaning depends on where it is read (see the module's doc).
     PowCall(Box<Expr>, Box<Expr>),
     Ternary(Box<Expr>, Box<Expr>, Box<Expr>),
+    /// `pwl(a, x₀, y₀, …)`: the argument and the points' coordinates (constants).
+    Pwl(Box<Expr>, Vec<Expr>),
+    /// A call of a function no built-in has this name of: a `.func` resolved where it is
+    /// evaluated (lowercased name, arguments, position).
+    UserCall(String, Vec<Expr>, Pos),
 }
+
+/// A `.func name(params) {body}` definition.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct FuncDef {
+    /// The parameters' names, lowercased.
+    pub params: Vec<String>,
+    /// The body.
+    pub body: Expr,
+}
+
+/// What an expression's names resolve to where it is evaluated: parameters and `.func`s.
+pub(crate) trait Env {
+    /// The value of parameter `name` (lowercased), found at `pos`.
+    fn param(&self, name: &str, pos: Pos) -> Result<f64, NetlistError>;
+    /// The `.func` named `name` (lowercased), if one is in scope.
+    fn function(&self, name: &str) -> Option<std::rc::Rc<FuncDef>>;
+}
+
+/// Deepest nesting of `.func` calls (a function calling itself ends here).
+const MAX_CALL_DEPTH: usize = 50;
+
+/// Most `.func` calls one evaluation may expand: functions that each call the one before twice
+/// would otherwise take time (and, inlined into a B source, memory) exponential in their number.
+const MAX_CALLS: usize = 10_000;
 
 /// An expression with its source text and position, as written in a card.
 #[derive(Debug, Clone, PartialEq)]
@@ -122,6 +151,8 @@ fn nesting(e: &Expr) -> usize {
         Expr::Call1(_, a) => 1 + nesting(a),
         Expr::Bin(_, a, b) | Expr::PowCall(a, b) => 1 + nesting(a).max(nesting(b)),
         Expr::Ternary(c, a, b) => 1 + nesting(c).max(nesting(a)).max(nesting(b)),
+        Expr::Pwl(a, rest) => 1 + rest.iter().map(nesting).fold(nesting(a), usize::max),
+        Expr::UserCall(_, args, _) => 1 + args.iter().map(nesting).max().unwrap_or(0),
     }
 }
 
@@ -273,8 +304,10 @@ fn tokenize(span: &Spanned) -> Result<Vec<(Tok, usize)>, NetlistError> {
                 '*' => (Tok::Star, 1),
                 '/' => (Tok::Slash, 1),
                 '^' => (Tok::Pow, 1),
-                '(' => (Tok::LParen, 1),
-                ')' => (Tok::RParen, 1),
+                // Braces inside an expression group as parentheses do (ngspice substitutes a
+                // `{param}` in a B source's expression by its value before parsing it).
+                '(' | '{' => (Tok::LParen, 1),
+                ')' | '}' => (Tok::RParen, 1),
                 ',' => (Tok::Comma, 1),
                 '?' => (Tok::Question, 1),
                 ':' => (Tok::Colon, 1),
@@ -542,14 +575,21 @@ fn call(name: &str, args: Vec<Expr>, pos: Pos, span: &Spanned) -> Result<Expr, N
         match name {
             "min" | "max" | "pow" | "pwr" => 2,
             "ternary_fcn" => 3,
-            _ => {
-                return Err(NetlistError::new(
-                    ErrorKind::UnknownFunction,
+            "pwl" if args.len() >= 5 && args.len() % 2 == 1 => args.len(),
+            "pwl" => {
+                return Err(NetlistError::syntax(
                     pos,
                     name,
-                    format!("unknown function `{name}` in expression `{}`", span.text),
+                    format!(
+                        "`pwl` takes its argument and two points at least (x, y pairs), got {} \
+                         arguments in expression `{}`",
+                        args.len(),
+                        span.text
+                    ),
                 ));
             }
+            // A `.func`, resolved where the expression is evaluated.
+            _ => return Ok(Expr::UserCall(name.to_owned(), args, pos)),
         }
     };
     if args.len() != arity {
@@ -564,14 +604,18 @@ fn call(name: &str, args: Vec<Expr>, pos: Pos, span: &Spanned) -> Result<Expr, N
             ),
         ));
     }
-    let mut args = args.into_iter().map(Box::new);
-    let mut arg = || args.next().unwrap_or_else(|| Box::new(Expr::Num(0.0)));
+    let mut args = args.into_iter();
+    let mut arg = || Box::new(args.next().unwrap_or(Expr::Num(0.0)));
     Ok(match name {
         "min" => Expr::Bin(Operator::Min, arg(), arg()),
         "max" => Expr::Bin(Operator::Max, arg(), arg()),
         "pwr" => Expr::Bin(Operator::Pwr, arg(), arg()),
         "pow" => Expr::PowCall(arg(), arg()),
         "ternary_fcn" => Expr::Ternary(arg(), arg(), arg()),
+        "pwl" => {
+            let a = arg();
+            Expr::Pwl(a, args.collect())
+        }
         _ => {
             let f = FUNCTIONS
                 .iter()
@@ -598,15 +642,92 @@ pub(crate) fn parse(span: &Spanned) -> Result<Expr, NetlistError> {
     Ok(e)
 }
 
-/// Evaluates a parameter expression, resolving parameter names with `lookup` (given the
-/// lowercased name and its position). `v(…)` and `i(…)` are refused: only B sources read them.
-pub(crate) fn eval(
+/// The `.func` a call names, with its arguments checked against its parameters.
+fn user_function<T>(
+    bound: &Bound<'_, T>,
+    name: &str,
+    args: usize,
+    pos: Pos,
+    depth: usize,
+) -> Result<std::rc::Rc<FuncDef>, NetlistError> {
+    let env = bound.env;
+    let Some(def) = env.function(name) else {
+        return Err(NetlistError::new(
+            ErrorKind::UnknownFunction,
+            pos,
+            name,
+            format!("unknown function `{name}` (neither built in nor defined by a .func)"),
+        ));
+    };
+    if def.params.len() != args {
+        return Err(NetlistError::syntax(
+            pos,
+            name,
+            format!(
+                "function `{name}` takes {} argument{}, got {args}",
+                def.params.len(),
+                if def.params.len() == 1 { "" } else { "s" },
+            ),
+        ));
+    }
+    if depth >= MAX_CALL_DEPTH {
+        return Err(NetlistError::new(
+            ErrorKind::RecursiveParam,
+            pos,
+            name,
+            format!(
+                "function `{name}`: calls nested more than {MAX_CALL_DEPTH} deep (does it call \
+                 itself?)"
+            ),
+        ));
+    }
+    bound.calls.set(bound.calls.get() + 1);
+    if bound.calls.get() > MAX_CALLS {
+        return Err(NetlistError::new(
+            ErrorKind::Unsupported,
+            pos,
+            name,
+            format!("function `{name}`: an expression expanding to more than {MAX_CALLS} calls"),
+        ));
+    }
+    Ok(def)
+}
+
+/// Names bound by a `.func` call: its parameters first, then the environment.
+struct Bound<'a, T> {
+    env: &'a dyn Env,
+    names: &'a [String],
+    values: &'a [T],
+    /// Calls expanded (and, in a B source, argument terms copied) so far in this evaluation.
+    calls: &'a std::cell::Cell<usize>,
+}
+
+/// Evaluates a parameter expression in `env`. `v(…)` and `i(…)` are refused: only B sources
+/// read them.
+pub(crate) fn eval(expr: &Expr, env: &dyn Env) -> Result<f64, NetlistError> {
+    let calls = std::cell::Cell::new(0);
+    let top = Bound {
+        env,
+        names: &[],
+        values: &[],
+        calls: &calls,
+    };
+    evaluate(expr, env, &top, 0)
+}
+
+fn evaluate(
     expr: &Expr,
-    lookup: &dyn Fn(&str, Pos) -> Result<f64, NetlistError>,
+    env: &dyn Env,
+    bound: &Bound<'_, f64>,
+    depth: usize,
 ) -> Result<f64, NetlistError> {
+    let go = |e: &Expr| evaluate(e, env, bound, depth);
     Ok(match expr {
         Expr::Num(v) => *v,
-        Expr::Param(name, pos) => lookup(name, *pos)?,
+        Expr::Param(name, pos) => match bound.names.iter().position(|n| n == name) {
+            Some(k) => bound.values[k],
+            None => bound.env.param(name, *pos)?,
+        },
         Expr::Probe(p, pos) => {
             let text = match p {
                 Probe::Voltage(..) => "v(…)",
@@ -618,44 +739,127 @@ pub(crate) fn eval(
                 text,
                 format!(
                     "`{text}` reads the circuit while it runs: only a B source (or an E or G \
-                     source's VALUE=) can use it, not a parameter or a value"
+                     source's VALUE=) can use it, not a parameter, a value or a pwl point"
                 ),
             ));
         }
-        Expr::Call1(f, a) => f.apply(eval(a, lookup)?),
-        Expr::Bin(op, a, b) => op.apply(eval(a, lookup)?, eval(b, lookup)?),
-        Expr::PowCall(a, b) => eval(a, lookup)?.powf(eval(b, lookup)?),
+        Expr::Call1(f, a) => f.apply(go(a)?),
+        Expr::Bin(op, a, b) => op.apply(go(a)?, go(b)?),
+        Expr::PowCall(a, b) => go(a)?.powf(go(b)?),
         Expr::Ternary(c, a, b) => {
-            if eval(c, lookup)? != 0.0 {
-                eval(a, lookup)?
+            if go(c)? != 0.0 {
+                go(a)?
             } else {
-                eval(b, lookup)?
+                go(b)?
             }
+        }
+        Expr::Pwl(a, rest) => {
+            let points = rest.iter().map(go).collect::<Result<Vec<f64>, _>>()?;
+            let table = pairs(&points);
+            Expression::Piecewise(Box::new(Expression::Constant(go(a)?)), table).value(&[], 0.0)
+        }
+        Expr::UserCall(name, args, pos) => {
+            let def = user_function(bound, name, args.len(), *pos, depth)?;
+            let values = args.iter().map(go).collect::<Result<Vec<f64>, _>>()?;
+            let inner = Bound {
+                env,
+                names: &def.params,
+                values: &values,
+                calls: bound.calls,
+            };
+            evaluate(&def.body, env, &inner, depth + 1)?
         }
     })
 }
 
-/// A B source's expression as the part evaluates it: parameters resolved by `lookup` (`time` is
-/// time), each probe replaced by the control `probe` numbers it with, `pow(a, b)` read as
-/// `|a|^b`.
+/// The number of nodes of an expression tree.
+fn size(e: &Expression) -> usize {
+    1 + match e {
+        Expression::Constant(_) | Expression::Control(_) | Expression::Time => 0,
+        Expression::Unary(_, a) | Expression::Piecewise(a, _) => size(a),
+        Expression::Binary(_, a, b) => size(a) + size(b),
+        Expression::Conditional(c, a, b) => size(c) + size(a) + size(b),
+    }
+}
+
+fn pairs(points: &[f64]) -> Vec<(f64, f64)> {
+    points.chunks_exact(2).map(|p| (p[0], p[1])).collect()
+}
+
+/// A B source's expression as the part evaluates it: parameters and `.func`s resolved in `env`
+/// (`time` is time), each probe replaced by the control `probe` numbers it with, `pow(a, b)` read
+/// as `|a|^b`, `pwl` points evaluated as parameters.
 pub(crate) fn behavioural(
     expr: &Expr,
-    lookup: &dyn Fn(&str, Pos) -> Result<f64, NetlistError>,
+    env: &dyn Env,
     probe: &mut dyn FnMut(&Probe, Pos) -> Result<usize, NetlistError>,
 ) -> Result<Expression, NetlistError> {
-    let mut go = |e: &Expr| behavioural(e, lookup, probe);
+    let calls = std::cell::Cell::new(0);
+    let top = Bound {
+        env,
+        names: &[],
+        values: &[],
+        calls: &calls,
+    };
+    convert(expr, env, &top, probe, 0)
+}
+
+fn convert(
+    expr: &Expr,
+    env: &dyn Env,
+    bound: &Bound<'_, Expression>,
+    probe: &mut dyn FnMut(&Probe, Pos) -> Result<usize, NetlistError>,
+    depth: usize,
+) -> Result<Expression, NetlistError> {
+    let mut go = |e: &Expr| convert(e, env, bound, probe, depth).map(Box::new);
     Ok(match expr {
         Expr::Num(v) => Expression::Constant(*v),
-        Expr::Param(name, _) if name == "time" => Expression::Time,
-        Expr::Param(name, pos) => Expression::Constant(lookup(name, *pos)?),
+        Expr::Param(name, pos) => match bound.names.iter().position(|n| n == name) {
+            Some(k) => {
+                // Each use of a parameter copies its argument: bound the copies, which nested
+                // calls would otherwise multiply.
+                bound.calls.set(bound.calls.get() + size(&bound.values[k]));
+                if bound.calls.get() > MAX_CALLS * 100 {
+                    return Err(NetlistError::new(
+                        ErrorKind::Unsupported,
+                        *pos,
+                        name,
+                        format!(
+                            "an expression whose .func calls expand to more than {} terms",
+                            MAX_CALLS * 100
+                        ),
+                    ));
+                }
+                bound.values[k].clone()
+            }
+            None if name == "time" => Expression::Time,
+            None => Expression::Constant(env.param(name, *pos)?),
+        },
         Expr::Probe(p, pos) => Expression::Control(probe(p, *pos)?),
-        Expr::Call1(f, a) => Expression::Unary(*f, Box::new(go(a)?)),
-        Expr::Bin(op, a, b) => Expression::Binary(*op, Box::new(go(a)?), Box::new(go(b)?)),
-        Expr::PowCall(a, b) => {
-            Expression::Binary(Operator::Pow, Box::new(go(a)?), Box::new(go(b)?))
+        Expr::Call1(f, a) => Expression::Unary(*f, go(a)?),
+        Expr::Bin(op, a, b) => Expression::Binary(*op, go(a)?, go(b)?),
+        Expr::PowCall(a, b) => Expression::Binary(Operator::Pow, go(a)?, go(b)?),
+        Expr::Ternary(c, a, b) => Expression::Conditional(go(c)?, go(a)?, go(b)?),
+        Expr::Pwl(a, rest) => {
+            let points = rest
+                .iter()
+                .map(|e| eval(e, env))
+                .collect::<Result<Vec<f64>, _>>()?;
+            Expression::Piecewise(go(a)?, pairs(&points))
         }
-        Expr::Ternary(c, a, b) => {
-            Expression::Conditional(Box::new(go(c)?), Box::new(go(a)?), Box::new(go(b)?))
+        Expr::UserCall(name, args, pos) => {
+            let def = user_function(bound, name, args.len(), *pos, depth)?;
+            let values = args
+                .iter()
+                .map(|a| go(a).map(|b| *b))
+                .collect::<Result<Vec<Expression>, _>>()?;
+            let inner = Bound {
+                env,
+                names: &def.params,
+                values: &values,
+                calls: bound.calls,
+            };
+            convert(&def.body, env, &inner, probe, depth + 1)?
         }
     })
 }
@@ -675,19 +879,62 @@ mod tests {
         }
     }
 
+    /// Parameters `a` = 2, `b` = 3 and the functions `f(x, y) = x·y + 1`, `g(x) = f(x, 2)·b`
+    /// and `loop(x) = loop(x)`.
+    struct Test;
+
+    impl Env for Test {
+        fn param(&self, name: &str, pos: Pos) -> Result<f64, NetlistError> {
+            match name {
+                "a" => Ok(2.0),
+                "b" => Ok(3.0),
+                _ => Err(NetlistError::new(
+                    ErrorKind::UnknownParam,
+                    pos,
+                    name,
+                    "unknown",
+                )),
+            }
+        }
+        fn function(&self, name: &str) -> Option<std::rc::Rc<FuncDef>> {
+            let (params, body) = match name {
+                "f" => (vec!["x", "y"], "x*y+1"),
+                "g" => (vec!["x"], "f(x,2)*b"),
+                "loop" => (vec!["x"], "loop(x)"),
+                _ => return None,
+            };
+            Some(std::rc::Rc::new(FuncDef {
+                params: params.into_iter().map(String::from).collect(),
+                body: parse(&span(body)).expect("parses"),
+            }))
+        }
+    }
+
     fn value(text: &str) -> f64 {
         let e = parse(&span(text)).expect("parses");
-        eval(&e, &|name, pos| match name {
-            "a" => Ok(2.0),
-            "b" => Ok(3.0),
-            _ => Err(NetlistError::new(
-                ErrorKind::UnknownParam,
-                pos,
-                name,
-                "unknown",
-            )),
-        })
-        .expect("evaluates")
+        eval(&e, &Test).expect("evaluates")
+    }
+
+    /// `.func`s and `pwl` as ngspice-39 evaluates them (`.param p = {g(2)}` is 15 there with the
+    /// same definitions and b = 3; `pwl(-0.5, -1,0, 0,1, 1,3)` is 0.5, at −2 it is −1, at 2 5).
+    #[test]
+    fn user_functions_and_tables() {
+        assert_eq!(value("g(2)"), 15.0);
+        assert_eq!(value("f(a, b) - a"), 5.0);
+        assert_eq!(value("pwl(-0.5, -1,0, 0,1, 1,3)"), 0.5);
+        assert_eq!(value("pwl(-2, -1,0, 0,1, 1,3)"), -1.0);
+        assert_eq!(value("pwl(2, -1,0, 0,1, 1,3)"), 5.0);
+        let e = parse(&span("loop(1)")).expect("parses");
+        assert_eq!(
+            eval(&e, &Test).expect_err("recursive").kind,
+            ErrorKind::RecursiveParam
+        );
+        let e = parse(&span("f(1)")).expect("parses");
+        assert_eq!(eval(&e, &Test).expect_err("arity").kind, ErrorKind::Syntax);
+        assert_eq!(
+            parse(&span("pwl(1, 2, 3)")).expect_err("short").kind,
+            ErrorKind::Syntax
+        );
     }
 
     #[test]
@@ -734,7 +981,8 @@ mod tests {
         assert_eq!((err.kind, err.pos()), (ErrorKind::Syntax, Pos::new(1, 12)));
         let err = parse(&span("(1+2")).expect_err("bad");
         assert_eq!((err.kind, err.pos()), (ErrorKind::Syntax, Pos::new(1, 14)));
-        let err = parse(&span("2*foo(1)")).expect_err("bad");
+        let foo = parse(&span("2*foo(1)")).expect("a .func call parses");
+        let err = eval(&foo, &Test).expect_err("no such .func");
         assert_eq!(
             (err.kind, err.pos()),
             (ErrorKind::UnknownFunction, Pos::new(1, 12))

@@ -12,7 +12,7 @@ use std::collections::{HashMap, HashSet};
 use std::rc::Rc;
 
 use super::error::{ErrorKind, NetlistError, Pos, Warning};
-use super::expr::{self, ExprTok};
+use super::expr::{self, Env, ExprTok, FuncDef};
 use super::parser::PolyControls;
 use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef, TranCard};
 use super::source::SourceSpec;
@@ -29,6 +29,8 @@ enum Slot {
 struct Scope<'p> {
     parent: Option<&'p Scope<'p>>,
     slots: RefCell<HashMap<String, Slot>>,
+    /// The `.func`s defined at this level.
+    funcs: RefCell<HashMap<String, Rc<FuncDef>>>,
     /// How many parameter evaluations are in progress, shared by all scopes.
     depth: Rc<Cell<usize>>,
 }
@@ -53,6 +55,7 @@ impl<'p> Scope<'p> {
         Self {
             parent,
             slots: RefCell::new(HashMap::new()),
+            funcs: RefCell::new(HashMap::new()),
             depth: parent.map_or_else(|| Rc::new(Cell::new(0)), |p| Rc::clone(&p.depth)),
         }
     }
@@ -113,7 +116,7 @@ impl<'p> Scope<'p> {
 
     /// Evaluates an expression in this scope; the result must be finite.
     fn eval(&self, e: &ExprTok) -> Result<f64, NetlistError> {
-        let v = expr::eval(&e.expr, &|name, pos| self.lookup(name, pos))?;
+        let v = expr::eval(&e.expr, self)?;
         if v.is_finite() {
             Ok(v)
         } else {
@@ -122,6 +125,28 @@ impl<'p> Scope<'p> {
                 e.text.clone(),
                 format!("`{}` evaluates to {v}", e.text),
             ))
+        }
+    }
+}
+
+impl Env for Scope<'_> {
+    fn param(&self, name: &str, pos: Pos) -> Result<f64, NetlistError> {
+        self.lookup(name, pos)
+    }
+    fn function(&self, name: &str) -> Option<Rc<FuncDef>> {
+        match self.funcs.borrow().get(name) {
+            Some(def) => Some(Rc::clone(def)),
+            None => self.parent.and_then(|p| p.function(name)),
+        }
+    }
+}
+
+impl Scope<'_> {
+    /// Defines the `.func`s of a block at this level.
+    fn define_functions(&self, funcs: &[(Name, FuncDef)]) {
+        let mut table = self.funcs.borrow_mut();
+        for (name, def) in funcs {
+            table.insert(name.norm.clone(), Rc::new(def.clone()));
         }
     }
 }
@@ -662,27 +687,23 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
             }
             ElemKind::Behavioural(output, e) => {
                 let mut controls = Vec::new();
-                let expression = expr::behavioural(
-                    &e.expr,
-                    &|name, pos| scope.lookup(name, pos),
-                    &mut |probe, pos| {
-                        let sensing = match probe {
-                            expr::Probe::Voltage(a, b) => {
-                                let node = |n: &str| ctx.node(&Name::at(n, pos));
-                                Sensing::Voltage {
-                                    plus: node(a),
-                                    minus: b.as_deref().map_or_else(|| "0".to_owned(), node),
-                                }
+                let expression = expr::behavioural(&e.expr, scope, &mut |probe, pos| {
+                    let sensing = match probe {
+                        expr::Probe::Voltage(a, b) => {
+                            let node = |n: &str| ctx.node(&Name::at(n, pos));
+                            Sensing::Voltage {
+                                plus: node(a),
+                                minus: b.as_deref().map_or_else(|| "0".to_owned(), node),
                             }
-                            expr::Probe::Current(c) => {
-                                let source = Ctx::join(&ctx.prefix, c);
-                                out.vrefs.push((index, source.clone(), Name::at(c, pos)));
-                                Sensing::Current { source }
-                            }
-                        };
-                        Ok(control_index(&mut controls, sensing))
-                    },
-                )?;
+                        }
+                        expr::Probe::Current(c) => {
+                            let source = Ctx::join(&ctx.prefix, c);
+                            out.vrefs.push((index, source.clone(), Name::at(c, pos)));
+                            Sensing::Current { source }
+                        }
+                    };
+                    Ok(control_index(&mut controls, sensing))
+                })?;
                 Element::Controlled {
                     name: full,
                     n_plus: n(0),
@@ -870,6 +891,7 @@ fn instantiate(
         ));
     }
     let scope = Scope::new(Some(ctx.scope));
+    scope.define_functions(&def.body.funcs);
     for (name, e) in &def.defaults {
         scope.define(&name.norm, Slot::Pending(e.clone()));
     }
@@ -1042,6 +1064,7 @@ fn tran(parsed: &Parsed, scope: &Scope<'_>) -> Result<Option<Tran>, NetlistError
 /// Expands subcircuits and evaluates parameters.
 pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
     let global = Scope::new(None);
+    global.define_functions(&parsed.top.funcs);
     for (name, e) in &parsed.top.params {
         global.define(&name.norm, Slot::Pending(e.clone()));
     }

@@ -1,7 +1,7 @@
 //! Cards to a hierarchical syntax tree (subcircuits still unexpanded, expressions unevaluated).
 
 use super::error::{ErrorKind, NetlistError, Pos, Warning};
-use super::expr::ExprTok;
+use super::expr::{ExprTok, FuncDef};
 use super::lexer::{Card, Cursor, Lexed, Spanned};
 use dirac_components::Output;
 
@@ -132,6 +132,8 @@ pub(crate) struct TranCard {
 pub(crate) struct Block {
     pub elements: Vec<ElemCard>,
     pub params: Vec<(Name, ExprTok)>,
+    /// `.func` definitions, in card order (a later one of the same name replaces it).
+    pub funcs: Vec<(Name, FuncDef)>,
     pub models: Vec<ModelDef>,
     pub subckts: Vec<SubcktDef>,
     pub ics: Vec<(Name, ExprTok)>,
@@ -497,6 +499,34 @@ impl<'a> CardParser<'a> {
                 format!("POLY's dimension must be an integer from 1 to 20, got `{n}`"),
             )),
         }
+    }
+
+    /// `.func name(a, b, …) {body}` (also `= {body}`, `'body'` or a bare body to the end of the
+    /// card): the function's name and definition.
+    fn func(&mut self) -> Result<(Name, FuncDef), NetlistError> {
+        let name = Name::plain(&self.word("function name")?);
+        if !self.cur.eat('(') {
+            return Err(self.syntax("expected `(` and the function's parameters"));
+        }
+        let mut params: Vec<String> = Vec::new();
+        while !self.cur.eat(')') {
+            let param = self.word("parameter name or `)`")?;
+            if params.contains(&param.lower()) {
+                return Err(NetlistError::syntax(
+                    param.start(),
+                    param.text.clone(),
+                    format!("parameter `{}` listed twice", param.text),
+                ));
+            }
+            params.push(param.lower());
+        }
+        self.cur.eat('=');
+        let Some(span) = self.cur.expression()? else {
+            return Err(self.syntax("missing function body"));
+        };
+        let body = ExprTok::parse(&span)?.expr;
+        self.finish()?;
+        Ok((name, FuncDef { params, body }))
     }
 
     /// `=expr` (or `={expr}`, `'expr'`, `{expr}`) to the end of the card: a behavioural output.
@@ -1114,6 +1144,21 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
                         }
                         block.params.push((name, value));
                     }
+                }
+                ".func" => {
+                    let (name, def) = p.func()?;
+                    if let Some(k) = block.funcs.iter().position(|(n, _)| n.norm == name.norm) {
+                        warnings.push(Warning::new(
+                            name.pos,
+                            name.orig.clone(),
+                            format!(
+                                "function `{}` redefined; the last definition is used",
+                                name.orig
+                            ),
+                        ));
+                        block.funcs.remove(k);
+                    }
+                    block.funcs.push((name, def));
                 }
                 ".model" => {
                     let model = p.model()?;

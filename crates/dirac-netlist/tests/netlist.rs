@@ -667,7 +667,6 @@ fn unsupported_cards() {
         ".dc V1 0 1 0.1",
         ".include models.lib",
         ".lib models.lib tt",
-        ".func f(x) {x*2}",
     ] {
         let e = assert_err(
             &format!("t\nR1 a 0 1\n{card}\n"),
@@ -942,6 +941,48 @@ fn behavioural_sources_and_their_controls() {
         sensed("x1.b1"),
         (Output::Voltage, vec![v("a", "0"), i("x1.vin")])
     );
+}
+
+/// `.func` definitions (top level and subcircuit-local, using the instance's parameters) in
+/// values, parameters and B expressions, and `pwl` tables; ngspice-39 on the same top-level
+/// definitions gives `.param p = {g(2)}` = 15 and `f(v(b), 4) + g(1)` = 8 at v(b) = −0.5.
+#[test]
+fn functions_and_tables_in_cards() {
+    let net = parse(
+        "t\n.func f(x,y) {x*y+1}\n.func g(x) = {f(x,2)*k}\n.param k=3\n.param p={g(2)}\n\
+         R1 a 0 {p}\nV1 b 0 -0.5\nB1 c 0 V = f(v(b), 4) + g(1)\n\
+         B2 d 0 V = pwl(v(b), -1,0, 0,1, 1,{k})\n.subckt s o gain=2\n.func h(x) 'gain*x'\n\
+         B1 o 0 V = h(v(o))\nR1 o 0 {h(10)}\n.ends\nX1 e s gain=5\n",
+    );
+    assert_eq!(value_of(&net, "r1"), 15.0);
+    assert_eq!(value_of(&net, "x1.r1"), 50.0);
+    let value = |name: &str, x: f64| match net.element(name) {
+        Some(Element::Controlled {
+            source: ControlledSource::Behavioural { expression, .. },
+            ..
+        }) => expression.value(&[x], 0.0),
+        other => panic!("{name}: {other:?}"),
+    };
+    assert_eq!(value("b1", -0.5), 8.0);
+    assert_eq!(value("b2", -0.5), 0.5);
+    assert_eq!(value("b2", 2.0), 5.0);
+    assert_eq!(value("x1.b1", 0.3), 1.5);
+    let e = assert_err("t\nR1 a 0 {2*nope(1)}\n", ErrorKind::UnknownFunction, 2, 11);
+    assert!(e.message.contains("nor defined by a .func"), "{e}");
+    assert_err(
+        "t\n.func r(x) {r(x)}\nR1 a 0 {r(1)}\n",
+        ErrorKind::RecursiveParam,
+        2,
+        13,
+    );
+    // A subcircuit's function is local to it.
+    assert_err(
+        "t\n.subckt s o\n.func h(x) {x}\nR1 o 0 1\n.ends\nX1 a s\nR2 a 0 {h(1)}\n",
+        ErrorKind::UnknownFunction,
+        7,
+        9,
+    );
+    assert_err("t\n.func f(x, x) {x}\n", ErrorKind::Syntax, 2, 12);
 }
 
 /// ngspice's other spellings of R, L, C and D cards: the value as `r=`/`l=`/`c=`, a multiplicity
