@@ -173,6 +173,48 @@ fn operating_point_of_behavioural_sources() {
     }
 }
 
+/// `E`/`G` `TABLE`s at the operating point, as ngspice-39's `.op` prints them for this deck (it
+/// builds an XSPICE `pwl` with rounded corners and flat ends): on a straight piece 1.8 and 1.86, on
+/// the corner parabola at 0 1.838, beyond both ends 1 and −0.5 (flat), past the first corner
+/// −0.42, a `G` table 0.3 mA into 1k, and a single pair its y, 7.
+#[test]
+fn operating_point_of_tables() {
+    let file = deck(
+        "table_op.cir",
+        "t\nv1 a 0 0.3\n\
+         e1 b 0 table {v(a)*2} = (-1, -0.5) (-0.5, 0) (0, 2) (0.5, 2) (1, 1)\n\
+         e2 c 0 table {v(a)*2-0.03} = (-1, -0.5) (-0.5, 0) (0, 2) (0.5, 2) (1, 1)\n\
+         e3 d 0 table {v(a)*2-0.64} = (-1, -0.5) (-0.5, 0) (0, 2) (0.5, 2) (1, 1)\n\
+         e4 e 0 table {v(a)*10} = (-1, -0.5) (-0.5, 0) (0, 2) (0.5, 2) (1, 1)\n\
+         e5 f 0 table {-v(a)*10} (-1, -0.5) (-0.5, 0) (0, 2) (0.5, 2) (1, 1)\n\
+         e8 k 0 table {v(a)*2-1.52} = (-1, -0.5) (-0.5, 0) (0, 2) (0.5, 2) (1, 1)\n\
+         g1 0 h table {v(a)} = (0,0) (1,1m)\nr1 h 0 1k\ne7 j 0 table {v(a)} = (0, 7)\n.op\n.end\n",
+    );
+    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
+    assert!(
+        json.status.success(),
+        "{}",
+        String::from_utf8_lossy(&json.stderr)
+    );
+    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
+    for (signal, printed) in [
+        ("v(b)", 1.8),
+        ("v(c)", 1.86),
+        ("v(d)", 1.838),
+        ("v(e)", 1.0),
+        ("v(f)", -0.5),
+        ("v(k)", -0.42),
+        ("v(h)", 0.3),
+        ("v(j)", 7.0),
+    ] {
+        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
+        assert!(
+            (value - printed).abs() <= 5e-7 * printed.abs(),
+            "{signal}: {value} (ngspice {printed}); {parsed}"
+        );
+    }
+}
+
 /// Instance parameters as ngspice reads them, at the operating point: `R2 … 1k m=2` is 500 Ω (so
 /// `v(b)` = 1·1k/1.5k = 2/3 V), and `D1 … dm area=2 m=3` a junction six times the model's (ngspice-39
 /// prints `d = 4.133852e-01` and `v1#branch = -3.08005e-03` on this deck).

@@ -144,6 +144,11 @@ pub enum Expression {
     /// least two), extended beyond its ends along its first and last segments, as ngspice's
     /// `pwl` function computes it.
     Piecewise(Box<Expression>, Vec<(f64, f64)>),
+    /// An `E`/`G` `TABLE`: ngspice's XSPICE `pwl` model as ngspice-39 builds it for one
+    /// (`limit=TRUE`, `fraction=TRUE`, `input_domain=0.1`): the polyline through the points
+    /// (`x` strictly increasing, at least two), flat beyond the ends, each corner rounded by a
+    /// parabola over ±10 % of the shorter adjacent segment.
+    Table(Box<Expression>, Vec<(f64, f64)>),
 }
 
 /// A value and its derivative along one direction.
@@ -191,7 +196,7 @@ impl Expression {
             Self::Unary(_, a) => a.controls(),
             Self::Binary(_, a, b) => a.controls().max(b.controls()),
             Self::Conditional(c, a, b) => c.controls().max(a.controls()).max(b.controls()),
-            Self::Piecewise(a, _) => a.controls(),
+            Self::Piecewise(a, _) | Self::Table(a, _) => a.controls(),
         }
     }
 
@@ -204,7 +209,7 @@ impl Expression {
             Self::Unary(_, a) => a.reads_time(),
             Self::Binary(_, a, b) => a.reads_time() || b.reads_time(),
             Self::Conditional(c, a, b) => c.reads_time() || a.reads_time() || b.reads_time(),
-            Self::Piecewise(a, _) => a.reads_time(),
+            Self::Piecewise(a, _) | Self::Table(a, _) => a.reads_time(),
         }
     }
 
@@ -224,6 +229,11 @@ impl Expression {
                 } else {
                     b.dual(x, t, k)
                 }
+            }
+            Self::Table(a, points) => {
+                let a = a.dual(x, t, k);
+                let (v, slope) = smooth_table(points, a.v);
+                Dual { v, d: slope * a.d }
             }
             Self::Piecewise(a, points) => {
                 let a = a.dual(x, t, k);
@@ -251,6 +261,49 @@ fn segment(points: &[(f64, f64)], a: f64) -> ((f64, f64), (f64, f64)) {
         }
     }
     (points[k0], points[k1])
+}
+
+/// The value and slope of an `E`/`G` `TABLE` at `a` (XSPICE's `pwl` code model, `cfunc.mod`, with
+/// `limit`, `fraction` and `input_domain = 0.1`; its corner parabola is `cm_smooth_corner`).
+fn smooth_table(points: &[(f64, f64)], a: f64) -> (f64, f64) {
+    let n = points.len();
+    // The points with one more at each end, as far out as the neighbouring one, at the same y.
+    let at = |i: usize| -> (f64, f64) {
+        match i {
+            0 => (2.0 * points[0].0 - points[1].0, points[0].1),
+            i if i == n + 1 => (2.0 * points[n - 1].0 - points[n - 2].0, points[n - 1].1),
+            i => points[i - 1],
+        }
+    };
+    let size = n + 2;
+    if a <= (at(0).0 + at(1).0) / 2.0 {
+        return (at(0).1, 0.0);
+    }
+    if a >= (at(size - 2).0 + at(size - 1).0) / 2.0 {
+        return (at(size - 1).1, 0.0);
+    }
+    for i in 1..size - 1 {
+        let ((x0, y0), (x1, y1), (x2, y2)) = (at(i - 1), at(i), at(i + 1));
+        if a >= (x1 + x2) / 2.0 {
+            continue;
+        }
+        let (lower, upper) = (x1 - x0, x2 - x1);
+        let (lower_slope, upper_slope) = ((y1 - y0) / lower, (y2 - y1) / upper);
+        let domain = 0.1 * lower.min(upper);
+        if a < x1 - domain {
+            return (y1 + (a - x1) * lower_slope, lower_slope);
+        }
+        if a >= x1 + domain {
+            return (y1 + (a - x1) * upper_slope, upper_slope);
+        }
+        let x_upper = x1 + domain;
+        let y_upper = y1 + upper_slope * domain;
+        let p = (upper_slope - lower_slope) / 4.0 / domain;
+        let q = upper_slope - 2.0 * p * x_upper;
+        let r = y_upper - p * x_upper * x_upper - q * x_upper;
+        return (p * a * a + q * a + r, 2.0 * p * a + q);
+    }
+    (at(size - 1).1, 0.0)
 }
 
 /// `f(a)` with its derivative (zero where `f` is piecewise constant).
@@ -558,15 +611,17 @@ fn badly_ordered(e: &Expression) -> Option<f64> {
         Expression::Conditional(c, a, b) => badly_ordered(c)
             .or_else(|| badly_ordered(a))
             .or_else(|| badly_ordered(b)),
-        Expression::Piecewise(a, points) => match points.as_slice() {
-            [] => Some(f64::NAN),
-            [(x, _)] => Some(*x),
-            _ => points
-                .windows(2)
-                .find(|w| w[1].0 <= w[0].0)
-                .map(|w| w[1].0)
-                .or_else(|| badly_ordered(a)),
-        },
+        Expression::Piecewise(a, points) | Expression::Table(a, points) => {
+            match points.as_slice() {
+                [] => Some(f64::NAN),
+                [(x, _)] => Some(*x),
+                _ => points
+                    .windows(2)
+                    .find(|w| w[1].0 <= w[0].0)
+                    .map(|w| w[1].0)
+                    .or_else(|| badly_ordered(a)),
+            }
+        }
     }
 }
 
@@ -580,7 +635,7 @@ fn first_non_finite(e: &Expression) -> Option<f64> {
         Expression::Conditional(c, a, b) => first_non_finite(c)
             .or_else(|| first_non_finite(a))
             .or_else(|| first_non_finite(b)),
-        Expression::Piecewise(a, points) => points
+        Expression::Piecewise(a, points) | Expression::Table(a, points) => points
             .iter()
             .flat_map(|&(x, y)| [x, y])
             .find(|v| !v.is_finite())
@@ -753,7 +808,11 @@ mod tests {
             functions.iter().map(|&f| un(f, x(0))).collect();
         expressions.push(un(Function::Acosh, bin(Operator::Add, x(0), c(2.0))));
         let table = vec![(-1.0, 0.5), (0.5, 1.0), (1.0, -2.0)];
-        expressions.push(Box::new(Expression::Piecewise(x(0), table)));
+        expressions.push(Box::new(Expression::Piecewise(x(0), table.clone())));
+        // On `wide`, 0.37 lies on the corner parabola at 0.4 (±0.14) and 0.61 on a straight piece.
+        let wide = vec![(-1.0, 0.5), (0.4, 1.0), (2.0, -2.0)];
+        expressions.push(Box::new(Expression::Table(x(0), wide)));
+        expressions.push(Box::new(Expression::Table(x(0), table)));
         for op in operators {
             expressions.push(bin(op, x(0), x(1)));
             expressions.push(bin(op, un(Function::Neg, x(1)), x(0)));

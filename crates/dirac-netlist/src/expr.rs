@@ -776,7 +776,7 @@ fn evaluate(
 fn size(e: &Expression) -> usize {
     1 + match e {
         Expression::Constant(_) | Expression::Control(_) | Expression::Time => 0,
-        Expression::Unary(_, a) | Expression::Piecewise(a, _) => size(a),
+        Expression::Unary(_, a) | Expression::Piecewise(a, _) | Expression::Table(a, _) => size(a),
         Expression::Binary(_, a, b) => size(a) + size(b),
         Expression::Conditional(c, a, b) => size(c) + size(a) + size(b),
     }

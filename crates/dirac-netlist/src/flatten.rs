@@ -685,9 +685,9 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     },
                 }
             }
-            ElemKind::Behavioural(output, e) => {
+            ElemKind::Behavioural(output, e) | ElemKind::Table(output, e, _) => {
                 let mut controls = Vec::new();
-                let expression = expr::behavioural(&e.expr, scope, &mut |probe, pos| {
+                let read = expr::behavioural(&e.expr, scope, &mut |probe, pos| {
                     let sensing = match probe {
                         expr::Probe::Voltage(a, b) => {
                             let node = |n: &str| ctx.node(&Name::at(n, pos));
@@ -704,6 +704,23 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     };
                     Ok(control_index(&mut controls, sensing))
                 })?;
+                let expression = match &el.kind {
+                    ElemKind::Table(_, _, coordinates) => {
+                        let values = coordinates.iter().map(|c| scope.eval(c)).collect::<Result<
+                            Vec<f64>,
+                            _,
+                        >>(
+                        )?;
+                        let points: Vec<(f64, f64)> =
+                            values.chunks_exact(2).map(|p| (p[0], p[1])).collect();
+                        match points.as_slice() {
+                            // One pair is its y, as ngspice-39 makes it (a constant source).
+                            [(_, y)] => Expression::Constant(*y),
+                            _ => Expression::Table(Box::new(read), points),
+                        }
+                    }
+                    _ => read,
+                };
                 Element::Controlled {
                     name: full,
                     n_plus: n(0),

@@ -85,6 +85,9 @@ pub(crate) enum ElemKind {
     /// and `G`, which follow the output pair in the card's nodes; source names for `F` and `H`)
     /// and the coefficients in SPICE's order.
     Poly(Output, PolyControls, Vec<ExprTok>),
+    /// `E`/`G` with `TABLE {expr} = (x₀, y₀) (x₁, y₁) …`: the output's kind, the expression and
+    /// the points' coordinates in order.
+    Table(Output, ExprTok, Vec<ExprTok>),
 }
 
 /// The controls of a `POLY(n)` source.
@@ -466,6 +469,7 @@ impl<'a> CardParser<'a> {
                 }
                 Ok(Some(ElemKind::Poly(output, controls, coefficients)))
             }
+            "table" if matches!(letter, 'e' | 'g') => self.table(output).map(Some),
             "value" | "vol" if letter == 'e' => self.behavioural(output).map(Some),
             "value" | "cur" if letter == 'g' => self.behavioural(output).map(Some),
             _ => Err(NetlistError::unsupported_in(
@@ -473,12 +477,37 @@ impl<'a> CardParser<'a> {
                 &keyword.text,
                 &format!(
                     "the form `{}` (E and G sources read the linear form, VALUE=, VOL= (E), \
-                     CUR= (G) and POLY(n); F and H the linear form and POLY(n))",
+                     CUR= (G), TABLE and POLY(n); F and H the linear form and POLY(n))",
                     keyword.text
                 ),
                 &self.text,
             )),
         }
+    }
+
+    /// `{expr} = (x₀, y₀) (x₁, y₁) …` after `TABLE` (the `=` optional, as ngspice allows `TABLE =
+    /// {expr}` too): the expression and the coordinates.
+    fn table(&mut self, output: Output) -> Result<ElemKind, NetlistError> {
+        self.cur.eat('=');
+        if self.cur.peek() != Some('{') {
+            return Err(self.syntax("expected `{expression}` after TABLE"));
+        }
+        let expr = self.value("table expression")?;
+        let mut points = Vec::new();
+        while !self.cur.at_end() {
+            if self.cur.eat('(') || self.cur.eat(')') || self.cur.eat('=') {
+                continue;
+            }
+            points.push(self.value("table point")?);
+        }
+        if points.is_empty() || points.len() % 2 == 1 {
+            return Err(self.syntax(format!(
+                "TABLE needs (x, y) pairs, got {} number{}",
+                points.len(),
+                if points.len() == 1 { "" } else { "s" }
+            )));
+        }
+        Ok(ElemKind::Table(output, expr, points))
     }
 
     /// `(n)` after `POLY`: the number of controls, a positive integer.

@@ -821,12 +821,24 @@ fn controlled_sources_are_read() {
 #[test]
 fn controlled_source_errors_name_the_place() {
     let e = assert_err(
-        "t\nE1 o 0 TABLE {v(a)} = (0,0) (1,1)\n",
+        "t\nF1 o 0 TABLE {v(a)} = (0,0) (1,1)\n",
         ErrorKind::Unsupported,
         2,
         8,
     );
     assert!(e.message.contains("the form `TABLE`"), "{e}");
+    assert_err(
+        "t\nE1 o 0 TABLE {v(a)} = (0,0) (1)\n",
+        ErrorKind::Syntax,
+        2,
+        32,
+    );
+    assert_err(
+        "t\nE1 o 0 TABLE = v(a) (0,0) (1,1)\n",
+        ErrorKind::Syntax,
+        2,
+        16,
+    );
     assert_err("t\nG1 o 0 laplace={v(a)}\n", ErrorKind::Unsupported, 2, 8);
     // VOL= is E's, CUR= is G's.
     assert_err("t\nE1 o 0 cur={v(a)}\n", ErrorKind::Unsupported, 2, 8);
