@@ -23,6 +23,11 @@ use dirac_graph::{Check, PartError};
 /// - [`Waveform::Exp`] `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`: `V1` for `t ≤ TD1`, then
 ///   `V1 + (V2 − V1)(1 − e^{−(t−TD1)/TAU1})`, and for `t > TD2` plus `(V1 − V2)(1 − e^{−(t−TD2)/TAU2})`.
 ///   A zero time constant is an ideal edge.
+/// - [`Waveform::Sffm`] `SFFM(VO VA FC MDI FS PHASEC PHASES)`:
+///   `VO + VA·sin(2π·FC·t + PHASEC·π/180 + MDI·sin(2π·FS·t + PHASES·π/180))`.
+/// - [`Waveform::Am`] `AM(VA VO MF FC TD PHASEC PHASES)`: 0 for `τ = t − TD ≤ 0`, else
+///   `VA·(VO + sin(2π·MF·τ + φ))·sin(2π·FC·τ + φ)` with `φ = PHASES·π/180` in both sines, as
+///   ngspice-39 computes it (it reads `PHASEC` and does not use it).
 /// - [`Waveform::Pwl`] `PWL(T1 V1 T2 V2 …) [r=R] [td=TD]`: with `τ = t − TD`, `V1` for `τ ≤ T1`,
 ///   linear interpolation on `(Tᵢ₋₁, Tᵢ]`, and for `τ > Tₙ` the last value held or, with `r=R`
 ///   (`R` one of the times `Tᵢ` before `Tₙ`), the stretch `(R, Tₙ]` repeated forever with period
@@ -88,6 +93,38 @@ pub enum Waveform {
         fall_delay: f64,
         /// `TAU2`: time constant of the fall (0: an ideal edge).
         fall_tau: f64,
+    },
+    /// Single-frequency FM `SFFM(VO VA FC MDI FS PHASEC PHASES)`.
+    Sffm {
+        /// `VO`: offset.
+        offset: f64,
+        /// `VA`: amplitude.
+        amplitude: f64,
+        /// `FC`: carrier frequency in Hz.
+        carrier: f64,
+        /// `MDI`: modulation index.
+        index: f64,
+        /// `FS`: signal frequency in Hz.
+        signal: f64,
+        /// `PHASEC`: carrier phase in degrees.
+        carrier_phase_deg: f64,
+        /// `PHASES`: signal phase in degrees.
+        signal_phase_deg: f64,
+    },
+    /// Amplitude modulation `AM(VA VO MF FC TD PHASEC PHASES)` (ngspice).
+    Am {
+        /// `VA`: amplitude.
+        amplitude: f64,
+        /// `VO`: offset of the modulating sine.
+        offset: f64,
+        /// `MF`: modulating frequency in Hz.
+        modulation: f64,
+        /// `FC`: carrier frequency in Hz.
+        carrier: f64,
+        /// `TD`: delay.
+        delay: f64,
+        /// `PHASES`: the phase, in degrees, of both sines (ngspice-39's use of it).
+        phase_deg: f64,
     },
     /// Piecewise linear `PWL(T1 V1 T2 V2 …) [r=R] [td=TD]` (see [`Waveform::pwl`] and
     /// [`Waveform::pwl_repeating`]).
@@ -273,6 +310,38 @@ impl Waveform {
                 c.finite(&k("fall_delay"), *fall_delay)?;
                 c.non_negative(&k("fall_tau"), *fall_tau)?;
             }
+            Self::Sffm {
+                offset,
+                amplitude,
+                carrier,
+                index,
+                signal,
+                carrier_phase_deg,
+                signal_phase_deg,
+            } => {
+                c.finite(&k("offset"), *offset)?;
+                c.finite(&k("amplitude"), *amplitude)?;
+                c.non_negative(&k("carrier"), *carrier)?;
+                c.finite(&k("index"), *index)?;
+                c.non_negative(&k("signal"), *signal)?;
+                c.finite(&k("carrier_phase"), *carrier_phase_deg)?;
+                c.finite(&k("signal_phase"), *signal_phase_deg)?;
+            }
+            Self::Am {
+                amplitude,
+                offset,
+                modulation,
+                carrier,
+                delay,
+                phase_deg,
+            } => {
+                c.finite(&k("amplitude"), *amplitude)?;
+                c.finite(&k("offset"), *offset)?;
+                c.non_negative(&k("modulation"), *modulation)?;
+                c.non_negative(&k("carrier"), *carrier)?;
+                c.finite(&k("delay"), *delay)?;
+                c.finite(&k("phase"), *phase_deg)?;
+            }
             Self::Pwl {
                 points,
                 delay,
@@ -373,6 +442,10 @@ impl Waveform {
                     .into_iter()
                     .find(|&c| moves && c > t)
             }
+            Self::Sffm { .. } => None,
+            Self::Am {
+                amplitude, delay, ..
+            } => (*amplitude != 0.0 && *delay > t).then_some(*delay),
             Self::Pwl {
                 points,
                 delay,
@@ -455,6 +528,46 @@ impl Waveform {
                         (v1 - v2) / fall,
                     )
                 }
+            }
+            Self::Sffm {
+                offset,
+                amplitude,
+                carrier,
+                index,
+                signal,
+                carrier_phase_deg,
+                signal_phase_deg,
+            } => {
+                let (wc, ws) = (2.0 * PI * carrier, 2.0 * PI * signal);
+                let inner = ws * t + signal_phase_deg * PI / 180.0;
+                let arg = wc * t + carrier_phase_deg * PI / 180.0 + index * inner.sin();
+                (
+                    offset + amplitude * arg.sin(),
+                    amplitude * arg.cos() * (wc + index * ws * inner.cos()),
+                )
+            }
+            Self::Am {
+                amplitude,
+                offset,
+                modulation,
+                carrier,
+                delay,
+                phase_deg,
+            } => {
+                let tau = t - delay;
+                if tau <= 0.0 {
+                    return (0.0, 0.0);
+                }
+                let phase = phase_deg * PI / 180.0;
+                let (wm, wc) = (2.0 * PI * modulation, 2.0 * PI * carrier);
+                let envelope = offset + (wm * tau + phase).sin();
+                let wave = (wc * tau + phase).sin();
+                (
+                    amplitude * envelope * wave,
+                    amplitude
+                        * (wm * (wm * tau + phase).cos() * wave
+                            + envelope * wc * (wc * tau + phase).cos()),
+                )
             }
             Self::Exp {
                 v1,
@@ -735,6 +848,61 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("waveform.repeat"), "{err}");
+    }
+
+    /// `SFFM` and `AM` as `vsrcload.c` of ngspice-39 writes them (`AM` uses `PHASES` in both
+    /// sines), and their slopes against central differences.
+    #[test]
+    fn sffm_and_am_as_ngspice() {
+        let sffm = Waveform::Sffm {
+            offset: 0.5,
+            amplitude: 2.0,
+            carrier: 10e3,
+            index: 3.0,
+            signal: 1e3,
+            carrier_phase_deg: 30.0,
+            signal_phase_deg: 60.0,
+        };
+        let am = Waveform::Am {
+            amplitude: 1.5,
+            offset: 0.4,
+            modulation: 1e3,
+            carrier: 10e3,
+            delay: 0.2e-3,
+            phase_deg: 45.0,
+        };
+        let rad = PI / 180.0;
+        for t in [0.0, 0.1e-3, 0.35e-3, 0.77e-3] {
+            let fm = 0.5
+                + 2.0
+                    * (2.0 * PI * 10e3 * t
+                        + 30.0 * rad
+                        + 3.0 * (2.0 * PI * 1e3 * t + 60.0 * rad).sin())
+                    .sin();
+            assert!((sffm.value(t) - fm).abs() < 1e-13, "{t}");
+            let tau = t - 0.2e-3;
+            let modulated = if tau <= 0.0 {
+                0.0
+            } else {
+                1.5 * (0.4 + (2.0 * PI * 1e3 * tau + 45.0 * rad).sin())
+                    * (2.0 * PI * 10e3 * tau + 45.0 * rad).sin()
+            };
+            assert!((am.value(t) - modulated).abs() < 1e-13, "{t}");
+            for w in [&sffm, &am] {
+                let dt = 1e-10;
+                let difference = (w.value(t + dt) - w.value(t - dt)) / (2.0 * dt);
+                if t > 0.0 {
+                    assert!(
+                        (w.derivative(t) - difference).abs() < 1e-5 * (1.0 + difference.abs()),
+                        "{w:?} at {t}: {} against {difference}",
+                        w.derivative(t)
+                    );
+                }
+            }
+        }
+        assert_eq!(am.next_breakpoint(0.0), Some(0.2e-3));
+        assert_eq!(am.next_breakpoint(0.3e-3), None);
+        assert_eq!(sffm.next_breakpoint(0.0), None);
     }
 
     /// `EXP(1 3 1 0.5 2 0.25)` by hand from ngspice's `vsrcload.c`: 1 up to TD1 = 1, then

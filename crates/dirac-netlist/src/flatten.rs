@@ -308,6 +308,40 @@ fn source(
                 tau2: at(5),
             }
         }
+        SourceFn::Sffm(args) => {
+            let v = eval_all(args)?;
+            non_negative(args, &v, 2, &["SFFM carrier frequency"])?;
+            non_negative(args, &v, 4, &["SFFM signal frequency"])?;
+            let at = |i: usize| v.get(i).copied().unwrap_or(0.0);
+            SourceSpec::Sffm {
+                vo: at(0),
+                va: at(1),
+                fc: at(2),
+                mdi: at(3),
+                fs: at(4),
+                phasec: at(5),
+                phases: at(6),
+            }
+        }
+        SourceFn::Am(args) => {
+            let v = eval_all(args)?;
+            non_negative(
+                args,
+                &v,
+                2,
+                &["AM modulating frequency", "AM carrier frequency"],
+            )?;
+            let at = |i: usize| v.get(i).copied().unwrap_or(0.0);
+            SourceSpec::Am {
+                va: at(0),
+                vo: at(1),
+                mf: at(2),
+                fc: at(3),
+                td: at(4),
+                phasec: at(5),
+                phases: at(6),
+            }
+        }
         SourceFn::Pwl(args, repeat, delay) => {
             let v = eval_all(args)?;
             let points: Vec<(f64, f64)> = v.chunks_exact(2).map(|c| (c[0], c[1])).collect();

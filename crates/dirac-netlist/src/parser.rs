@@ -53,6 +53,8 @@ pub(crate) enum SourceFn {
     Sin(Vec<ExprTok>),
     Pulse(Vec<ExprTok>),
     Exp(Vec<ExprTok>),
+    Sffm(Vec<ExprTok>),
+    Am(Vec<ExprTok>),
     /// The points, then the `r=` and `td=` options.
     Pwl(Vec<ExprTok>, Option<ExprTok>, Option<ExprTok>),
 }
@@ -656,7 +658,7 @@ impl<'a> CardParser<'a> {
                         let w = self.cur.peek_word();
                         if matches!(
                             w.as_deref(),
-                            Some("dc" | "sin" | "sine" | "pulse" | "pwl" | "exp")
+                            Some("dc" | "sin" | "sine" | "pulse" | "pwl" | "exp" | "sffm" | "am")
                         ) {
                             break;
                         }
@@ -669,7 +671,7 @@ impl<'a> CardParser<'a> {
                         format!("AC specification ignored in card `{}`", self.text),
                     ));
                 }
-                Some(f @ ("sin" | "sine" | "pulse" | "pwl" | "exp")) => {
+                Some(f @ ("sin" | "sine" | "pulse" | "pwl" | "exp" | "sffm" | "am")) => {
                     let f = f.to_owned();
                     let kw = self.cur.word().map(|w| w.text).unwrap_or_default();
                     if tran.is_some() {
@@ -682,6 +684,7 @@ impl<'a> CardParser<'a> {
                     let args = self.function_args()?;
                     let range = match f.as_str() {
                         "pulse" => (2, 8),
+                        "sffm" | "am" => (2, 7),
                         "pwl" => (2, usize::MAX),
                         _ => (2, 6),
                     };
@@ -715,6 +718,8 @@ impl<'a> CardParser<'a> {
                     tran = Some(match f.as_str() {
                         "pulse" => SourceFn::Pulse(args),
                         "exp" => SourceFn::Exp(args),
+                        "sffm" => SourceFn::Sffm(args),
+                        "am" => SourceFn::Am(args),
                         "pwl" => {
                             let (repeat, delay) = self.pwl_options()?;
                             SourceFn::Pwl(args, repeat, delay)
@@ -723,8 +728,8 @@ impl<'a> CardParser<'a> {
                     });
                 }
                 Some(
-                    f @ ("sffm" | "am" | "trnoise" | "trrandom" | "external" | "distof1"
-                    | "distof2" | "portnum" | "z0" | "pat"),
+                    f @ ("trnoise" | "trrandom" | "external" | "distof1" | "distof2" | "portnum"
+                    | "z0" | "pat"),
                 ) => {
                     let f = f.to_uppercase();
                     let kw = self.cur.word().map(|w| w.text).unwrap_or_default();

@@ -11,6 +11,11 @@
 //! - `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`: `V1` up to `TD1`, then `V1 + (V2−V1)(1 − e^{−(t−TD1)/TAU1})`,
 //!   after `TD2` plus `(V1−V2)(1 − e^{−(t−TD2)/TAU2})`. `TD1`, `TAU1`, `TAU2` absent or 0 mean
 //!   `TSTEP`, `TD2` absent or 0 means `TD1 + TSTEP` (ngspice's code; its manual gives 0 for `TD1`).
+//! - `SFFM(VO VA FC MDI FS PHASEC PHASES)`: `VO + VA·sin(2π·FC·t + PHASEC·π/180 +
+//!   MDI·sin(2π·FS·t + PHASES·π/180))`; `FC`, `FS` absent or 0 mean `1/TSTOP`.
+//! - `AM(VA VO MF FC TD PHASEC PHASES)`: 0 up to `TD`, then with `τ = t − TD`
+//!   `VA·(VO + sin(2π·MF·τ + φ))·sin(2π·FC·τ + φ)`, `φ = PHASES·π/180` in both (ngspice-39 reads
+//!   `PHASEC` and does not use it); `MF` absent or 0 means `1/TSTOP`.
 //! - `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`: with `τ = t − TD`, `v1` before `t1`, linear
 //!   interpolation in between (at a time point, the segment ending there is used), and after the
 //!   last time the last value, or with `r=R` the stretch from the time point `R` to the last one
@@ -75,6 +80,40 @@ pub enum SourceSpec {
         /// Fall time constant (0 = default `TSTEP`, until resolved).
         tau2: f64,
     },
+    /// `SFFM(VO VA [FC [MDI [FS [PHASEC [PHASES]]]]])`.
+    Sffm {
+        /// Offset.
+        vo: f64,
+        /// Amplitude.
+        va: f64,
+        /// Carrier frequency in Hz (0 = default `1/TSTOP`, until resolved).
+        fc: f64,
+        /// Modulation index.
+        mdi: f64,
+        /// Signal frequency in Hz (0 = default `1/TSTOP`, until resolved).
+        fs: f64,
+        /// Carrier phase in degrees.
+        phasec: f64,
+        /// Signal phase in degrees.
+        phases: f64,
+    },
+    /// `AM(VA VO [MF [FC [TD [PHASEC [PHASES]]]]])` (ngspice).
+    Am {
+        /// Amplitude.
+        va: f64,
+        /// Offset of the modulating sine.
+        vo: f64,
+        /// Modulating frequency in Hz (0 = default `1/TSTOP`, until resolved).
+        mf: f64,
+        /// Carrier frequency in Hz.
+        fc: f64,
+        /// Delay.
+        td: f64,
+        /// Carrier phase in degrees (read, and unused by ngspice-39).
+        phasec: f64,
+        /// Phase of both sines in degrees (ngspice-39's use of it).
+        phases: f64,
+    },
     /// `PWL(t1 v1 t2 v2 ...) [r=R] [td=TD]`.
     Pwl {
         /// Time–value points with non-decreasing times.
@@ -114,7 +153,8 @@ impl SourceSpec {
     /// The waveform with ngspice's transient defaults filled in from `.tran TSTEP TSTOP`: a zero
     /// `SIN` frequency becomes `1/tstop`; zero `PULSE` rise and fall times become `tstep`; zero
     /// pulse width and period become `tstop`; zero `EXP` delays and time constants become `tstep`
-    /// (the fall delay `TD1 + tstep`). Other waveforms are returned unchanged.
+    /// (the fall delay `TD1 + tstep`); zero `SFFM` frequencies and a zero `AM` modulating
+    /// frequency become `1/tstop`. Other waveforms are returned unchanged.
     pub fn resolved(&self, tstep: f64, tstop: f64) -> SourceSpec {
         let or = |x: f64, default: f64| if x == 0.0 { default } else { x };
         match self {
@@ -170,6 +210,40 @@ impl SourceSpec {
                     tau2: or(*tau2, tstep),
                 }
             }
+            SourceSpec::Sffm {
+                vo,
+                va,
+                fc,
+                mdi,
+                fs,
+                phasec,
+                phases,
+            } => SourceSpec::Sffm {
+                vo: *vo,
+                va: *va,
+                fc: or(*fc, 1.0 / tstop),
+                mdi: *mdi,
+                fs: or(*fs, 1.0 / tstop),
+                phasec: *phasec,
+                phases: *phases,
+            },
+            SourceSpec::Am {
+                va,
+                vo,
+                mf,
+                fc,
+                td,
+                phasec,
+                phases,
+            } => SourceSpec::Am {
+                va: *va,
+                vo: *vo,
+                mf: or(*mf, 1.0 / tstop),
+                fc: *fc,
+                td: *td,
+                phasec: *phasec,
+                phases: *phases,
+            },
             other => other.clone(),
         }
     }

@@ -24,7 +24,15 @@ fn all_example_netlists_parse() {
         .collect();
     names.sort();
     assert!(names.len() >= 7, "{names:?}");
-    let (mut dc, mut sin, mut pulse, mut exp, mut pwl) = (false, false, false, false, false);
+    let [
+        mut dc,
+        mut sin,
+        mut pulse,
+        mut exp,
+        mut pwl,
+        mut sffm,
+        mut am,
+    ] = [false; 7];
     for name in &names {
         let net = load(name);
         // Every bundled netlist has a transient or an operating point; the ones written for the
@@ -40,7 +48,8 @@ fn all_example_netlists_parse() {
                     && name != "rc_fast_coarse_tstep.cir"
                     && name != "opamp_filter.cir"
                     && name != "ccsources.cir"
-                    && name != "behavioural.cir",
+                    && name != "behavioural.cir"
+                    && name != "modulated.cir",
                 "{name}: UIC"
             ),
             None => assert!(net.op, "{name}: neither .tran nor .op"),
@@ -60,6 +69,8 @@ fn all_example_netlists_parse() {
                     SourceSpec::Pulse { .. } => pulse = true,
                     SourceSpec::Exp { .. } => exp = true,
                     SourceSpec::Pwl { .. } => pwl = true,
+                    SourceSpec::Sffm { .. } => sffm = true,
+                    SourceSpec::Am { .. } => am = true,
                 }
             }
         }
@@ -71,7 +82,7 @@ fn all_example_netlists_parse() {
         }
     }
     assert!(
-        dc && sin && pulse && exp && pwl,
+        dc && sin && pulse && exp && pwl && sffm && am,
         "every source kind is exercised"
     );
 }

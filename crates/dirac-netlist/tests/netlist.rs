@@ -1166,16 +1166,60 @@ fn pwl_repeat_and_delay_options() {
     assert_err("t\nV1 a 0 PWL(0 0 1 1) r 0\n", ErrorKind::Syntax, 2, 21);
 }
 
+/// `SFFM` and `AM` with ngspice-39's parameter order and defaults: a zero or absent `SFFM`
+/// frequency and `AM` modulating frequency are `1/TSTOP` once `.tran` is read.
+#[test]
+fn sffm_and_am_sources() {
+    let net = parse(
+        "t\nV1 a 0 SFFM(0.5 2 10k 3 1k 30 60)\nI2 0 b SFFM(0 1m)\nV3 c 0 AM(1.5 0.4 1k 10k 0.2m 0 45)\n\
+         V4 d 0 AM(1 0.5)\nR1 a b 1\nR2 c d 1\nR3 d 0 1\n.tran 1u 2m\n",
+    );
+    assert_eq!(
+        source_of(&net, "v1"),
+        &SourceSpec::Sffm {
+            vo: 0.5,
+            va: 2.0,
+            fc: 10e3,
+            mdi: 3.0,
+            fs: 1e3,
+            phasec: 30.0,
+            phases: 60.0
+        }
+    );
+    assert!(matches!(
+        source_of(&net, "i2"),
+        &SourceSpec::Sffm { fc, fs, mdi, .. } if fc == 500.0 && fs == 500.0 && mdi == 0.0
+    ));
+    assert_eq!(
+        source_of(&net, "v3"),
+        &SourceSpec::Am {
+            va: 1.5,
+            vo: 0.4,
+            mf: 1e3,
+            fc: 10e3,
+            td: 0.2e-3,
+            phasec: 0.0,
+            phases: 45.0
+        }
+    );
+    assert!(matches!(
+        source_of(&net, "v4"),
+        &SourceSpec::Am { mf, fc, td, .. } if mf == 500.0 && fc == 0.0 && td == 0.0
+    ));
+    assert_err("t\nV1 a 0 SFFM(0 1 -1k)\n", ErrorKind::BadValue, 2, 17);
+    assert_err("t\nV1 a 0 AM(1 2 3 4 5 6 7 8)\n", ErrorKind::Syntax, 2, 8);
+}
+
 #[test]
 fn unsupported_features_inside_cards() {
     let e = assert_err(
-        "t\nV1 a 0 SFFM(0 1 1k 5 100)\n",
+        "t\nV1 a 0 TRNOISE(0 1n 0 0)\n",
         ErrorKind::Unsupported,
         2,
         8,
     );
     assert!(e.message.contains("not supported"), "{e}");
-    assert!(e.message.contains("SFFM"), "{e}");
+    assert!(e.message.contains("TRNOISE"), "{e}");
     let e = assert_err("t\nR1 a 0 1k tc1=0.01\n", ErrorKind::Unsupported, 2, 11);
     assert!(e.message.contains("parameter `tc1`") && e.message.contains("not supported"));
     assert_err("t\n.model q1 NPN(BF=100)\n", ErrorKind::Unsupported, 2, 11);

@@ -168,6 +168,41 @@ fn waveform(spec: &SourceSpec) -> String {
             number(*td2),
             number(*tau2)
         ),
+        SourceSpec::Sffm {
+            vo,
+            va,
+            fc,
+            mdi,
+            fs,
+            phasec,
+            phases,
+        } => format!(
+            "{{ shape = \"sffm\", offset = {}, amplitude = {}, carrier = {}, index = {}, signal = {}, carrier_phase = {}, signal_phase = {} }}",
+            number(*vo),
+            number(*va),
+            number(*fc),
+            number(*mdi),
+            number(*fs),
+            number(*phasec),
+            number(*phases)
+        ),
+        SourceSpec::Am {
+            va,
+            vo,
+            mf,
+            fc,
+            td,
+            phases,
+            ..
+        } => format!(
+            "{{ shape = \"am\", amplitude = {}, offset = {}, modulation = {}, carrier = {}, delay = {}, phase = {} }}",
+            number(*va),
+            number(*vo),
+            number(*mf),
+            number(*fc),
+            number(*td),
+            number(*phases)
+        ),
         SourceSpec::Pwl { points, td, r } => {
             let list: Vec<String> = points
                 .iter()

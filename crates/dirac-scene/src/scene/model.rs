@@ -312,6 +312,42 @@ pub enum WaveformSpec {
         /// Number of periods after which the value stays `v1` (`None`: no end).
         pulses: Option<f64>,
     },
+    /// `{ shape = "sffm", offset = 0, amplitude = 1, carrier = 10e3, index = 3, signal = 1e3,
+    /// carrier_phase = 0, signal_phase = 0 }` (SPICE's `SFFM(VO VA FC MDI FS PHASEC PHASES)`):
+    /// `offset`, `index` and the phases (degrees) default to 0.
+    Sffm {
+        /// Offset.
+        offset: f64,
+        /// Amplitude.
+        amplitude: f64,
+        /// Carrier frequency in Hz.
+        carrier: f64,
+        /// Modulation index.
+        index: f64,
+        /// Signal frequency in Hz.
+        signal: f64,
+        /// Carrier phase in degrees.
+        carrier_phase: f64,
+        /// Signal phase in degrees.
+        signal_phase: f64,
+    },
+    /// `{ shape = "am", amplitude = 1, offset = 0.5, modulation = 1e3, carrier = 10e3, delay = 0,
+    /// phase = 0 }` (ngspice's `AM(VA VO MF FC TD PHASEC PHASES)`, `phase` its `PHASES`, applied to
+    /// both sines as ngspice-39 does): `offset`, `delay` and `phase` default to 0.
+    Am {
+        /// Amplitude.
+        amplitude: f64,
+        /// Offset of the modulating sine.
+        offset: f64,
+        /// Modulating frequency in Hz.
+        modulation: f64,
+        /// Carrier frequency in Hz.
+        carrier: f64,
+        /// Delay.
+        delay: f64,
+        /// Phase of both sines in degrees.
+        phase: f64,
+    },
     /// `{ shape = "exp", v1 = 0, v2 = 5, rise_delay = 1e-3, rise_tau = 1e-4, fall_delay = 2e-3,
     /// fall_tau = 1e-4 }` (SPICE's `EXP(V1 V2 TD1 TAU1 TD2 TAU2)`): every key needed.
     Exp {
@@ -367,11 +403,17 @@ struct WaveformTable {
     rise_tau: Option<f64>,
     fall_delay: Option<f64>,
     fall_tau: Option<f64>,
+    carrier: Option<f64>,
+    index: Option<f64>,
+    signal: Option<f64>,
+    carrier_phase: Option<f64>,
+    signal_phase: Option<f64>,
+    modulation: Option<f64>,
 }
 
 impl WaveformTable {
     fn into_spec<E: de::Error>(self) -> Result<WaveformSpec, E> {
-        let given: [(&str, bool); 20] = [
+        let given: [(&str, bool); 26] = [
             ("value", self.value.is_some()),
             ("offset", self.offset.is_some()),
             ("amplitude", self.amplitude.is_some()),
@@ -392,6 +434,12 @@ impl WaveformTable {
             ("rise_tau", self.rise_tau.is_some()),
             ("fall_delay", self.fall_delay.is_some()),
             ("fall_tau", self.fall_tau.is_some()),
+            ("carrier", self.carrier.is_some()),
+            ("index", self.index.is_some()),
+            ("signal", self.signal.is_some()),
+            ("carrier_phase", self.carrier_phase.is_some()),
+            ("signal_phase", self.signal_phase.is_some()),
+            ("modulation", self.modulation.is_some()),
         ];
         let allowed: &[&str] = match self.shape.as_str() {
             "dc" => &["value"],
@@ -414,10 +462,28 @@ impl WaveformTable {
                 "fall_delay",
                 "fall_tau",
             ],
+            "sffm" => &[
+                "offset",
+                "amplitude",
+                "carrier",
+                "index",
+                "signal",
+                "carrier_phase",
+                "signal_phase",
+            ],
+            "am" => &[
+                "amplitude",
+                "offset",
+                "modulation",
+                "carrier",
+                "delay",
+                "phase",
+            ],
             "pwl" => &["points", "delay", "repeat"],
             other => {
                 return Err(E::custom(format!(
-                    "unknown waveform shape `{other}`, expected one of `dc`, `sin`, `pulse`, `exp`, `pwl`"
+                    "unknown waveform shape `{other}`, expected one of `dc`, `sin`, `pulse`, `exp`, \
+                     `sffm`, `am`, `pwl`"
                 )));
             }
         };
@@ -461,6 +527,23 @@ impl WaveformTable {
                 rise_tau: need(self.rise_tau, "rise_tau")?,
                 fall_delay: need(self.fall_delay, "fall_delay")?,
                 fall_tau: need(self.fall_tau, "fall_tau")?,
+            },
+            "sffm" => WaveformSpec::Sffm {
+                offset: self.offset.unwrap_or(0.0),
+                amplitude: need(self.amplitude, "amplitude")?,
+                carrier: need(self.carrier, "carrier")?,
+                index: self.index.unwrap_or(0.0),
+                signal: need(self.signal, "signal")?,
+                carrier_phase: self.carrier_phase.unwrap_or(0.0),
+                signal_phase: self.signal_phase.unwrap_or(0.0),
+            },
+            "am" => WaveformSpec::Am {
+                amplitude: need(self.amplitude, "amplitude")?,
+                offset: self.offset.unwrap_or(0.0),
+                modulation: need(self.modulation, "modulation")?,
+                carrier: need(self.carrier, "carrier")?,
+                delay: self.delay.unwrap_or(0.0),
+                phase: self.phase.unwrap_or(0.0),
             },
             _ => WaveformSpec::Pwl {
                 points: self.points.ok_or_else(|| {
@@ -537,6 +620,44 @@ impl Serialize for WaveformSpec {
                 m.serialize_entry("rise_tau", rise_tau)?;
                 m.serialize_entry("fall_delay", fall_delay)?;
                 m.serialize_entry("fall_tau", fall_tau)?;
+                m.end()
+            }
+            Self::Sffm {
+                offset,
+                amplitude,
+                carrier,
+                index,
+                signal,
+                carrier_phase,
+                signal_phase,
+            } => {
+                let mut m = s.serialize_map(Some(8))?;
+                m.serialize_entry("shape", "sffm")?;
+                m.serialize_entry("offset", offset)?;
+                m.serialize_entry("amplitude", amplitude)?;
+                m.serialize_entry("carrier", carrier)?;
+                m.serialize_entry("index", index)?;
+                m.serialize_entry("signal", signal)?;
+                m.serialize_entry("carrier_phase", carrier_phase)?;
+                m.serialize_entry("signal_phase", signal_phase)?;
+                m.end()
+            }
+            Self::Am {
+                amplitude,
+                offset,
+                modulation,
+                carrier,
+                delay,
+                phase,
+            } => {
+                let mut m = s.serialize_map(Some(7))?;
+                m.serialize_entry("shape", "am")?;
+                m.serialize_entry("amplitude", amplitude)?;
+                m.serialize_entry("offset", offset)?;
+                m.serialize_entry("modulation", modulation)?;
+                m.serialize_entry("carrier", carrier)?;
+                m.serialize_entry("delay", delay)?;
+                m.serialize_entry("phase", phase)?;
                 m.end()
             }
             Self::Pwl {
