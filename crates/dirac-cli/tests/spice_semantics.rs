@@ -215,6 +215,41 @@ fn operating_point_of_tables() {
     }
 }
 
+/// Temperature coefficients and the other instance parameters of R, L and C at `.temp 75`,
+/// against ngspice-39's `.op` on the same deck: `tc1`/`tc2`, the exponential `tce`, an instance
+/// `temp=` and `dtemp=`, `scale=` with `m=` (`ac=` ignored with a warning), and an inductor's
+/// `tc1` (its series resistance R7 sets the current). ngspice prints `b = 5.315422e-01`,
+/// `c = 4.610850e-03`, `d = 6.666667e-01`, `v1#branch = -1.55086e-03`, `l1#branch = 4.610850e-04`.
+#[test]
+fn operating_point_with_temperature_coefficients() {
+    let file = deck(
+        "tc_op.cir",
+        "t\n.temp 75\nV1 a 0 1\nR1 a b 1k tc1=2m tc2=1e-5\nR2 b 0 1k tce=0.5\n\
+         R3 a c 2k temp=50 tc1=3m\nR4 c 0 1k dtemp=-20 tc1=1m\nR5 a d 1k scale=2 m=4 ac=5k\n\
+         R6 d 0 1k\nC1 b 0 1u tc1=1m\nL1 c e 1m tc1=-2m\nR7 e 0 10\n.op\n.end\n",
+    );
+    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
+    assert!(
+        json.status.success(),
+        "{}",
+        String::from_utf8_lossy(&json.stderr)
+    );
+    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
+    for (signal, printed) in [
+        ("v(b)", 5.315422e-1),
+        ("v(c)", 4.610850e-3),
+        ("v(d)", 6.666667e-1),
+        ("i(v1)", -1.55086e-3),
+        ("i(l1)", 4.610850e-4),
+    ] {
+        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
+        assert!(
+            (value - printed).abs() <= 5e-6 * printed.abs(),
+            "{signal}: {value} (ngspice {printed}); {parsed}"
+        );
+    }
+}
+
 /// Instance parameters as ngspice reads them, at the operating point: `R2 … 1k m=2` is 500 Ω (so
 /// `v(b)` = 1·1k/1.5k = 2/3 V), and `D1 … dm area=2 m=3` a junction six times the model's (ngspice-39
 /// prints `d = 4.133852e-01` and `v1#branch = -3.08005e-03` on this deck).

@@ -201,7 +201,10 @@ struct Out {
     /// Hierarchical name → element index (`None` for subcircuit instances).
     names: HashMap<String, Option<usize>>,
     krefs: Vec<KRef>,
-    /// Inductors written with `m=` (hierarchical names): a K card may not couple them.
+    /// The circuit's temperature and `TNOM` in °C.
+    temperatures: (f64, f64),
+    /// Inductors written with `m=`, `scale=` or a temperature factor other than 1 (hierarchical
+    /// names): a K card may not couple them.
     multiplied_inductors: HashSet<String>,
     /// `F`/`H` sources' controlling voltage sources: (element index, hierarchical name, as written).
     vrefs: Vec<(usize, String, Name)>,
@@ -546,7 +549,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
         let index = out.elements.len();
         out.claim(&full, &el.name, &orig, Some(index))?;
         let element = match &el.kind {
-            ElemKind::R(v, m) => {
+            ElemKind::R(v, instance) => {
                 let value = scope.eval(v)?;
                 if value == 0.0 {
                     return Err(NetlistError::bad_value(
@@ -555,30 +558,35 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                         format!("resistance of `{}` must not be zero", el.name.orig),
                     ));
                 }
+                let factor = instance_factor(instance, scope, &el.name, out.temperatures)?;
                 Element::R {
                     name: full,
                     n1: n(0),
                     n2: n(1),
-                    value: value / multiplicity(m.as_ref(), scope, &el.name)?,
+                    value: value * factor / multiplicity(instance.m.as_ref(), scope, &el.name)?,
                 }
             }
-            ElemKind::L(v, ic, m) => {
-                if m.is_some() {
+            ElemKind::L(v, ic, instance) => {
+                let factor = instance_factor(instance, scope, &el.name, out.temperatures)?;
+                if instance.m.is_some() || factor != 1.0 {
                     out.multiplied_inductors.insert(full.clone());
                 }
                 Element::L {
                     name: full,
                     n1: n(0),
                     n2: n(1),
-                    value: scope.eval(v)? / multiplicity(m.as_ref(), scope, &el.name)?,
+                    value: scope.eval(v)? * factor
+                        / multiplicity(instance.m.as_ref(), scope, &el.name)?,
                     ic: ic.as_ref().map(|e| scope.eval(e)).transpose()?,
                 }
             }
-            ElemKind::C(v, ic, m) => Element::C {
+            ElemKind::C(v, ic, instance) => Element::C {
                 name: full,
                 n1: n(0),
                 n2: n(1),
-                value: scope.eval(v)? * multiplicity(m.as_ref(), scope, &el.name)?,
+                value: scope.eval(v)?
+                    * instance_factor(instance, scope, &el.name, out.temperatures)?
+                    * multiplicity(instance.m.as_ref(), scope, &el.name)?,
                 ic: ic.as_ref().map(|e| scope.eval(e)).transpose()?,
             },
             ElemKind::V(f) => Element::V {
@@ -1010,6 +1018,66 @@ fn multiplicity(
     })
 }
 
+/// The factor an R, L or C card's instance parameters put on its value (besides `m`): `scale`
+/// times ngspice's temperature factor at the instance temperature `T` (`temp=`, else the
+/// circuit's plus `dtemp=`; ngspice ignores `dtemp` when `temp` is given) against `TNOM`:
+/// `1.01^(tce·ΔT)` with `tce`, else `1 + tc1·ΔT + tc2·ΔT²` (`restemp.c`, `captemp.c`,
+/// `indtemp.c`). `temperatures` is the circuit's `(temp, tnom)` in °C.
+fn instance_factor(
+    instance: &super::parser::Instance,
+    scope: &Scope<'_>,
+    element: &Name,
+    temperatures: (f64, f64),
+) -> Result<f64, NetlistError> {
+    let value = |e: &Option<ExprTok>| e.as_ref().map(|e| scope.eval(e)).transpose();
+    let scale = instance
+        .scale
+        .as_ref()
+        .map_or(Ok(1.0), |e| positive_factor(e, "scale", scope, element))?;
+    let (circuit, tnom) = temperatures;
+    let temperature = match value(&instance.temp)? {
+        Some(t) => t,
+        None => circuit + value(&instance.dtemp)?.unwrap_or(0.0),
+    };
+    let difference = temperature - tnom;
+    let factor = match value(&instance.tce)? {
+        Some(tce) => 1.01_f64.powf(tce * difference),
+        None => {
+            let (tc1, tc2) = (value(&instance.tc1)?, value(&instance.tc2)?);
+            1.0 + (tc2.unwrap_or(0.0) * difference + tc1.unwrap_or(0.0)) * difference
+        }
+    };
+    if factor > 0.0 && factor.is_finite() {
+        Ok(scale * factor)
+    } else {
+        Err(NetlistError::bad_value(
+            element.pos,
+            element.orig.clone(),
+            format!(
+                "`{}`: its temperature coefficients give the factor {factor} at {temperature} °C \
+                 (TNOM {tnom} °C); it must be positive",
+                element.orig
+            ),
+        ))
+    }
+}
+
+/// The circuit's temperature and `TNOM` in °C from the options (a `.temp` card is the option
+/// `temp`; the last value counts), 27 °C each by default. A value that is not a number is left
+/// at its default here: the circuit builder reports it at its card.
+fn temperatures(options: &[super::OptionCard]) -> (f64, f64) {
+    let mut out = (27.0, 27.0);
+    for option in options {
+        let value = option.value.as_deref().and_then(super::parse_spice_number);
+        match (option.key.as_str(), value) {
+            ("temp", Some(t)) => out.0 = t,
+            ("tnom", Some(t)) => out.1 = t,
+            _ => {}
+        }
+    }
+    out
+}
+
 /// The value of `e`, a scale factor (`what`) of `element` that must be positive and finite.
 fn positive_factor(
     e: &ExprTok,
@@ -1121,6 +1189,7 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
     }
     let mut out = Out {
         warnings: parsed.warnings.clone(),
+        temperatures: temperatures(&parsed.options),
         ..Out::default()
     };
     let globals: HashSet<String> = parsed.globals.iter().cloned().collect();
@@ -1168,11 +1237,16 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
             }
             if out.multiplied_inductors.contains(full) {
                 // ngspice divides the self-inductance by `m` but not the `L` in M = k√(L₁L₂):
-                // a mutual inductance no physical winding has. Refused rather than guessed.
+                // a mutual inductance no physical winding has. Refused rather than guessed, and
+                // so is a scale or temperature factor on a coupled winding.
                 return Err(NetlistError::unsupported_in(
                     name.pos,
                     &name.orig,
-                    &format!("a coupled inductor written with `m=` (`{}`)", name.orig),
+                    &format!(
+                        "a coupled inductor written with `m=`, `scale=` or a temperature factor \
+                         (`{}`)",
+                        name.orig
+                    ),
                     &format!("{kname} {} {}", k.l1.1.orig, k.l2.1.orig),
                 ));
             }

@@ -62,11 +62,11 @@ pub(crate) enum SourceFn {
 /// What kind of element a card is, with its element-specific fields.
 #[derive(Debug, Clone)]
 pub(crate) enum ElemKind {
-    /// Value, `m=`.
-    R(ExprTok, Option<ExprTok>),
-    /// Value, `IC=`, `m=`.
-    L(ExprTok, Option<ExprTok>, Option<ExprTok>),
-    C(ExprTok, Option<ExprTok>, Option<ExprTok>),
+    /// Value and instance parameters.
+    R(ExprTok, Instance),
+    /// Value, `IC=` and instance parameters.
+    L(ExprTok, Option<ExprTok>, Instance),
+    C(ExprTok, Option<ExprTok>, Instance),
     V(SourceFn),
     I(SourceFn),
     K(Name, Name, ExprTok),
@@ -99,6 +99,20 @@ pub(crate) enum PolyControls {
     Nodes(usize),
     /// `n` controlling voltage sources.
     Sources(Vec<Name>),
+}
+
+/// The instance parameters ngspice reads on R, L and C cards besides the value (and `IC=`): the
+/// multiplicity `m` (that many in parallel), `scale`, the temperature coefficients `tc1`, `tc2`
+/// (and a resistor's exponential `tce`) and the instance temperature `temp` or offset `dtemp`.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Instance {
+    pub m: Option<ExprTok>,
+    pub scale: Option<ExprTok>,
+    pub tc1: Option<ExprTok>,
+    pub tc2: Option<ExprTok>,
+    pub tce: Option<ExprTok>,
+    pub temp: Option<ExprTok>,
+    pub dtemp: Option<ExprTok>,
 }
 
 /// An element card.
@@ -376,23 +390,45 @@ impl<'a> CardParser<'a> {
         Ok(out)
     }
 
-    /// The trailing `m=` (multiplicity: that many elements in parallel) and one other allowed
-    /// parameter (`ic=`) of an R, L or C card.
-    fn multiplicity(
+    /// The trailing instance parameters of an R (`letter`), L or C card, and an L's or C's `IC=`.
+    /// A resistor's `ac=` (its AC resistance) and `noisy=` are read and ignored with a warning.
+    fn instance(
         &mut self,
-        other: &[&str],
-    ) -> Result<(Option<ExprTok>, Option<ExprTok>), NetlistError> {
-        let mut allowed = vec!["m"];
-        allowed.extend_from_slice(other);
-        let (mut m, mut value) = (None, None);
+        letter: char,
+        warnings: &mut Vec<Warning>,
+    ) -> Result<(Instance, Option<ExprTok>), NetlistError> {
+        let mut allowed = vec!["m", "scale", "tc1", "tc2", "temp", "dtemp"];
+        allowed.extend_from_slice(if letter == 'r' {
+            &["tce", "ac", "noisy"]
+        } else {
+            &["ic"]
+        });
+        let (mut instance, mut ic) = (Instance::default(), None);
         for (name, v) in self.trailing_params(&allowed)? {
-            if name.norm == "m" {
-                m = Some(v);
-            } else {
-                value = Some(v);
-            }
+            let slot = match name.norm.as_str() {
+                "m" => &mut instance.m,
+                "scale" => &mut instance.scale,
+                "tc1" => &mut instance.tc1,
+                "tc2" => &mut instance.tc2,
+                "tce" => &mut instance.tce,
+                "temp" => &mut instance.temp,
+                "dtemp" => &mut instance.dtemp,
+                "ic" => &mut ic,
+                _ => {
+                    warnings.push(Warning::new(
+                        name.pos,
+                        name.orig.clone(),
+                        format!(
+                            "`{}` ignored in card `{}` (it matters to AC and noise analyses only)",
+                            name.orig, self.text
+                        ),
+                    ));
+                    continue;
+                }
+            };
+            *slot = Some(v);
         }
-        Ok((m, value))
+        Ok((instance, ic))
     }
 
     fn finish(&mut self) -> Result<(), NetlistError> {
@@ -791,11 +827,11 @@ impl<'a> CardParser<'a> {
         let (nodes, kind) = match letter {
             'r' => {
                 let nodes = two_nodes(self)?;
-                // ngspice also reads the value as `r=…` and a multiplicity `m` (m in parallel).
+                // ngspice also reads the value as `r=…`, then instance parameters.
                 self.cur.eat_assignment_of("r");
                 let value = self.value("resistance")?;
-                let m = self.multiplicity(&[])?.0;
-                (nodes, ElemKind::R(value, m))
+                let (instance, _) = self.instance(letter, warnings)?;
+                (nodes, ElemKind::R(value, instance))
             }
             'l' | 'c' => {
                 let nodes = two_nodes(self)?;
@@ -806,11 +842,11 @@ impl<'a> CardParser<'a> {
                 } else {
                     "capacitance"
                 })?;
-                let (m, ic) = self.multiplicity(&["ic"])?;
+                let (instance, ic) = self.instance(letter, warnings)?;
                 if letter == 'l' {
-                    (nodes, ElemKind::L(value, ic, m))
+                    (nodes, ElemKind::L(value, ic, instance))
                 } else {
-                    (nodes, ElemKind::C(value, ic, m))
+                    (nodes, ElemKind::C(value, ic, instance))
                 }
             }
             'v' | 'i' => {

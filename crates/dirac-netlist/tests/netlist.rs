@@ -1023,7 +1023,7 @@ fn instance_parameters_as_ngspice_reads_them() {
     assert!(net.warnings[0].message.contains("`off` ignored"));
     assert_err("t\nR1 a 0 1k m=0\n", ErrorKind::BadValue, 2, 13);
     assert_err("t\nD1 a 0 dm -1\n.model dm d\n", ErrorKind::BadValue, 2, 11);
-    assert_err("t\nR1 a 0 1k tc1=1m\n", ErrorKind::Unsupported, 2, 11);
+    assert_err("t\nR1 a 0 1k nt=2\n", ErrorKind::Unsupported, 2, 11);
     // A model's AREA is the default of its instances' area, which an instance area replaces
     // (ngspice-39: v(b) = 0.67507 for D2 and v(c) = 0.66464 for D1 fed from 5 V through 1k).
     let areas = parse("t\nD2 b 0 dm\nD1 c 0 dm 3 m=2\n.model dm D(IS=1e-14 AREA=2)\n");
@@ -1220,8 +1220,10 @@ fn unsupported_features_inside_cards() {
     );
     assert!(e.message.contains("not supported"), "{e}");
     assert!(e.message.contains("TRNOISE"), "{e}");
-    let e = assert_err("t\nR1 a 0 1k tc1=0.01\n", ErrorKind::Unsupported, 2, 11);
-    assert!(e.message.contains("parameter `tc1`") && e.message.contains("not supported"));
+    let e = assert_err("t\nR1 a 0 1k w=1u\n", ErrorKind::Unsupported, 2, 11);
+    assert!(e.message.contains("parameter `w`") && e.message.contains("not supported"));
+    let e = assert_err("t\nR1 a 0 1k tc1=-1\n.temp 30\n", ErrorKind::BadValue, 2, 1);
+    assert!(e.message.contains("must be positive"), "{e}");
     assert_err("t\n.model q1 NPN(BF=100)\n", ErrorKind::Unsupported, 2, 11);
     assert_err(
         "t\nD1 a 0 dm pj=2\n.model dm D\n",
