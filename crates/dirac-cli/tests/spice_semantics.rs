@@ -39,6 +39,28 @@ fn dirac(args: &[&str]) -> Output {
         .expect("dirac runs")
 }
 
+/// `dirac op --json` of the netlist `text` (written as `name`), each signal's value.
+fn operating_point(name: &str, text: &str) -> serde_json::Value {
+    let json = dirac(&["op", deck(name, text).to_str().unwrap(), "--json"]);
+    assert!(
+        json.status.success(),
+        "{}",
+        String::from_utf8_lossy(&json.stderr)
+    );
+    serde_json::from_slice(&json.stdout).expect("json")
+}
+
+/// Asserts each `(signal, expected)` of `parsed` within `relative` of the expected value.
+fn assert_values(parsed: &serde_json::Value, expected: &[(&str, f64)], relative: f64) {
+    for &(signal, want) in expected {
+        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
+        assert!(
+            (value - want).abs() <= relative * want.abs(),
+            "{signal}: {value} (expected {want}); {parsed}"
+        );
+    }
+}
+
 fn rows(csv: &str) -> (Vec<String>, Vec<Vec<f64>>) {
     let mut lines = csv.lines();
     let header = lines
@@ -93,36 +115,27 @@ fn operating_point_of_a_current_divider() {
 /// as ngspice allows for an `E` or `H` output: −2.5 V each on 1k.
 #[test]
 fn operating_point_through_controlled_sources() {
-    let file = deck(
+    let parsed = operating_point(
         "controlled_op.cir",
         "controlled sources at the operating point\nv1 a 0 3\nr1 a b 1k\nvs b c 0\nr2 c 0 2k\n\
          e1 d 0 a c 2.5\nrd d 0 1k\ng1 0 e d 0 1m\nre e 0 3k\nf1 f 0 vs -4\nrf f 0 500\n\
          h1 g 0 vs 2k\nrg g 0 1k\nf2 0 u e1 1\nru u 0 1k\nh2 w 0 e1 1k\nrw w 0 1k\n.op\n.end\n",
     );
-    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
-    assert!(
-        json.status.success(),
-        "{}",
-        String::from_utf8_lossy(&json.stderr)
+    assert_values(
+        &parsed,
+        &[
+            ("v(b)", 2.0),
+            ("v(c)", 2.0),
+            ("v(d)", 2.5),
+            ("v(e)", 7.5),
+            ("v(f)", 2.0),
+            ("v(g)", 2.0),
+            ("v(u)", -2.5),
+            ("v(w)", -2.5),
+            ("i(vs)", 1e-3),
+        ],
+        1e-14,
     );
-    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
-    for (signal, exact) in [
-        ("v(b)", 2.0),
-        ("v(c)", 2.0),
-        ("v(d)", 2.5),
-        ("v(e)", 7.5),
-        ("v(f)", 2.0),
-        ("v(g)", 2.0),
-        ("v(u)", -2.5),
-        ("v(w)", -2.5),
-        ("i(vs)", 1e-3),
-    ] {
-        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
-        assert!(
-            (value - exact).abs() <= 1e-14 * exact.abs().max(1.0),
-            "{signal}: {value} (exact {exact}); {parsed}"
-        );
-    }
 }
 
 /// Behavioural sources at the operating point, against what ngspice-39's `.op` prints for the
@@ -132,7 +145,7 @@ fn operating_point_through_controlled_sources() {
 /// `H POLY(1)` −3; `b1#branch` −8 (B1 drives 1 Ω).
 #[test]
 fn operating_point_of_behavioural_sources() {
-    let file = deck(
+    let parsed = operating_point(
         "behavioural_op.cir",
         "b\nv1 a 0 -2\nb1 b 0 v = v(a)^3\nr1 b 0 1\nb2 c 0 v = pow(v(a),3)\nb3 d 0 v = pwr(v(a),3)\n\
          b4 e 0 v = v(a)**3\nb5 f 0 v = -2^2\nb6 g 0 v = 2^3^2\nb7 h 0 v = v(a) > -3 ? 5 : 6\n\
@@ -141,36 +154,27 @@ fn operating_point_of_behavioural_sources() {
          f1 0 p poly(2) v2 v3 1 2 3 4\nrp p 0 1\ng1 0 s poly(1) x 0 0 0 1\nrs s 0 1\n\
          h1 u 0 poly(1) v2 0 1\n.op\n.end\n",
     );
-    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
-    assert!(
-        json.status.success(),
-        "{}",
-        String::from_utf8_lossy(&json.stderr)
+    assert_values(
+        &parsed,
+        &[
+            ("v(b)", 8.0),
+            ("v(c)", 8.0),
+            ("v(d)", -8.0),
+            ("v(e)", 8.0),
+            ("v(f)", -4.0),
+            ("v(g)", 64.0),
+            ("v(h)", 5.0),
+            ("v(j)", 1.098612),
+            ("v(k)", -3.0),
+            ("v(l)", 9.0),
+            ("v(o)", 220.0),
+            ("v(p)", 34.0),
+            ("v(s)", 9.0),
+            ("v(u)", -3.0),
+            ("i(b1)", -8.0),
+        ],
+        5e-7,
     );
-    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
-    for (signal, printed) in [
-        ("v(b)", 8.0),
-        ("v(c)", 8.0),
-        ("v(d)", -8.0),
-        ("v(e)", 8.0),
-        ("v(f)", -4.0),
-        ("v(g)", 64.0),
-        ("v(h)", 5.0),
-        ("v(j)", 1.098612),
-        ("v(k)", -3.0),
-        ("v(l)", 9.0),
-        ("v(o)", 220.0),
-        ("v(p)", 34.0),
-        ("v(s)", 9.0),
-        ("v(u)", -3.0),
-        ("i(b1)", -8.0),
-    ] {
-        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
-        assert!(
-            (value - printed).abs() <= 5e-7 * printed.abs(),
-            "{signal}: {value} (ngspice {printed}); {parsed}"
-        );
-    }
 }
 
 /// `E`/`G` `TABLE`s at the operating point, as ngspice-39's `.op` prints them for this deck (it
@@ -179,7 +183,7 @@ fn operating_point_of_behavioural_sources() {
 /// −0.42, a `G` table 0.3 mA into 1k, and a single pair its y, 7.
 #[test]
 fn operating_point_of_tables() {
-    let file = deck(
+    let parsed = operating_point(
         "table_op.cir",
         "t\nv1 a 0 0.3\n\
          e1 b 0 table {v(a)*2} = (-1, -0.5) (-0.5, 0) (0, 2) (0.5, 2) (1, 1)\n\
@@ -190,29 +194,20 @@ fn operating_point_of_tables() {
          e8 k 0 table {v(a)*2-1.52} = (-1, -0.5) (-0.5, 0) (0, 2) (0.5, 2) (1, 1)\n\
          g1 0 h table {v(a)} = (0,0) (1,1m)\nr1 h 0 1k\ne7 j 0 table {v(a)} = (0, 7)\n.op\n.end\n",
     );
-    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
-    assert!(
-        json.status.success(),
-        "{}",
-        String::from_utf8_lossy(&json.stderr)
+    assert_values(
+        &parsed,
+        &[
+            ("v(b)", 1.8),
+            ("v(c)", 1.86),
+            ("v(d)", 1.838),
+            ("v(e)", 1.0),
+            ("v(f)", -0.5),
+            ("v(k)", -0.42),
+            ("v(h)", 0.3),
+            ("v(j)", 7.0),
+        ],
+        5e-7,
     );
-    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
-    for (signal, printed) in [
-        ("v(b)", 1.8),
-        ("v(c)", 1.86),
-        ("v(d)", 1.838),
-        ("v(e)", 1.0),
-        ("v(f)", -0.5),
-        ("v(k)", -0.42),
-        ("v(h)", 0.3),
-        ("v(j)", 7.0),
-    ] {
-        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
-        assert!(
-            (value - printed).abs() <= 5e-7 * printed.abs(),
-            "{signal}: {value} (ngspice {printed}); {parsed}"
-        );
-    }
 }
 
 /// Temperature coefficients and the other instance parameters of R, L and C at `.temp 75`,
@@ -222,32 +217,23 @@ fn operating_point_of_tables() {
 /// `c = 4.610850e-03`, `d = 6.666667e-01`, `v1#branch = -1.55086e-03`, `l1#branch = 4.610850e-04`.
 #[test]
 fn operating_point_with_temperature_coefficients() {
-    let file = deck(
+    let parsed = operating_point(
         "tc_op.cir",
         "t\n.temp 75\nV1 a 0 1\nR1 a b 1k tc1=2m tc2=1e-5\nR2 b 0 1k tce=0.5\n\
          R3 a c 2k temp=50 tc1=3m\nR4 c 0 1k dtemp=-20 tc1=1m\nR5 a d 1k scale=2 m=4 ac=5k\n\
          R6 d 0 1k\nC1 b 0 1u tc1=1m\nL1 c e 1m tc1=-2m\nR7 e 0 10\n.op\n.end\n",
     );
-    let json = dirac(&["op", file.to_str().unwrap(), "--json"]);
-    assert!(
-        json.status.success(),
-        "{}",
-        String::from_utf8_lossy(&json.stderr)
+    assert_values(
+        &parsed,
+        &[
+            ("v(b)", 5.315422e-1),
+            ("v(c)", 4.610850e-3),
+            ("v(d)", 6.666667e-1),
+            ("i(v1)", -1.55086e-3),
+            ("i(l1)", 4.610850e-4),
+        ],
+        5e-6,
     );
-    let parsed: serde_json::Value = serde_json::from_slice(&json.stdout).expect("json");
-    for (signal, printed) in [
-        ("v(b)", 5.315422e-1),
-        ("v(c)", 4.610850e-3),
-        ("v(d)", 6.666667e-1),
-        ("i(v1)", -1.55086e-3),
-        ("i(l1)", 4.610850e-4),
-    ] {
-        let value = parsed[signal].as_f64().unwrap_or(f64::NAN);
-        assert!(
-            (value - printed).abs() <= 5e-6 * printed.abs(),
-            "{signal}: {value} (ngspice {printed}); {parsed}"
-        );
-    }
 }
 
 /// Instance parameters as ngspice reads them, at the operating point: `R2 … 1k m=2` is 500 Ω (so

@@ -18,7 +18,7 @@
 //! and logarithms of negative numbers are not defined (ngspice stops with "out of range"): they
 //! evaluate to NaN, which Newton reports as a non-finite residual at the step it occurs.
 
-use dirac_core::{ForceJacobian, LagrangianHessian, Model};
+use dirac_core::{ForceJacobian, Model};
 use dirac_graph::{PartError, Subsystem};
 
 /// A one-argument function of an [`Expression`] (ngspice's names in brackets).
@@ -647,14 +647,7 @@ impl Model for BehaviouralSource {
     fn dim(&self) -> usize {
         output_dim(self.output) + self.controls.iter().map(|c| c.dim()).sum::<usize>()
     }
-    fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-        0.0
-    }
-    fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        lq.fill(0.0);
-        lv.fill(0.0);
-    }
-    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+    zero_lagrangian!();
     fn has_force(&self) -> bool {
         true
     }

@@ -18,7 +18,7 @@
 //! output of a step is `k` times the step's mean controlling voltage (or current). The parts are
 //! not passive and do no work of their own beyond what their output branch delivers.
 
-use dirac_core::{ForceJacobian, LagrangianHessian, Model};
+use dirac_core::{ForceJacobian, Model};
 use dirac_graph::{Check, PartError, Subsystem};
 use serde::{Deserialize, Serialize};
 
@@ -28,14 +28,7 @@ macro_rules! no_lagrangian {
         fn dim(&self) -> usize {
             $n
         }
-        fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-            0.0
-        }
-        fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-            lq.fill(0.0);
-            lv.fill(0.0);
-        }
-        fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+        zero_lagrangian!();
         fn has_force(&self) -> bool {
             true
         }

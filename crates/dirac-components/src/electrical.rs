@@ -255,14 +255,7 @@ impl Model for VoltageSource {
     fn dim(&self) -> usize {
         1
     }
-    fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-        0.0
-    }
-    fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        lq[0] = 0.0;
-        lv[0] = 0.0;
-    }
-    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+    zero_lagrangian!();
     fn has_force(&self) -> bool {
         true
     }
@@ -342,14 +335,7 @@ impl Model for CurrentSource {
     fn dim(&self) -> usize {
         2
     }
-    fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-        0.0
-    }
-    fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        lq.fill(0.0);
-        lv.fill(0.0);
-    }
-    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+    zero_lagrangian!();
     fn has_force(&self) -> bool {
         true
     }

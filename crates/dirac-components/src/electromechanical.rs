@@ -153,14 +153,7 @@ impl Model for IdealTransformer {
     fn dim(&self) -> usize {
         2
     }
-    fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-        0.0
-    }
-    fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        lq.fill(0.0);
-        lv.fill(0.0);
-    }
-    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+    zero_lagrangian!();
     fn is_linear(&self) -> bool {
         true
     }
@@ -233,14 +226,7 @@ impl Model for IdealGear {
     fn dim(&self) -> usize {
         2
     }
-    fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-        0.0
-    }
-    fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        lq.fill(0.0);
-        lv.fill(0.0);
-    }
-    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+    zero_lagrangian!();
     fn is_linear(&self) -> bool {
         true
     }

@@ -81,6 +81,27 @@
 //! The crate's tests run such a part (a driven Duffing oscillator) beside stock parts and match
 //! the hand-written equivalent to 1e-12.
 
+/// The `Model` methods of a part whose Lagrangian is zero (every coordinate degenerate: sources,
+/// resistors, constraints): its dynamics are its forces and constraints alone.
+macro_rules! zero_lagrangian {
+    () => {
+        fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
+            0.0
+        }
+        fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
+            lq.fill(0.0);
+            lv.fill(0.0);
+        }
+        fn lagrangian_hessian(
+            &self,
+            _q: &[f64],
+            _v: &[f64],
+            _h: &mut dirac_core::LagrangianHessian,
+        ) {
+        }
+    };
+}
+
 mod behavioural;
 mod checked;
 mod circuit;

@@ -316,14 +316,7 @@ impl Model for Damper {
     fn dim(&self) -> usize {
         1
     }
-    fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-        0.0
-    }
-    fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        lq[0] = 0.0;
-        lv[0] = 0.0;
-    }
-    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+    zero_lagrangian!();
     fn has_force(&self) -> bool {
         true
     }
@@ -411,14 +404,7 @@ impl Model for ForceSource {
     fn dim(&self) -> usize {
         1
     }
-    fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-        0.0
-    }
-    fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        lq[0] = 0.0;
-        lv[0] = 0.0;
-    }
-    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+    zero_lagrangian!();
     fn has_force(&self) -> bool {
         true
     }
@@ -495,14 +481,7 @@ impl Model for Ground {
     fn dim(&self) -> usize {
         1
     }
-    fn lagrangian(&self, _q: &[f64], _v: &[f64]) -> f64 {
-        0.0
-    }
-    fn lagrangian_gradient(&self, _q: &[f64], _v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
-        lq[0] = 0.0;
-        lv[0] = 0.0;
-    }
-    fn lagrangian_hessian(&self, _q: &[f64], _v: &[f64], _h: &mut LagrangianHessian) {}
+    zero_lagrangian!();
     fn is_linear(&self) -> bool {
         true
     }
