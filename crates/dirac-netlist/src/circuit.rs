@@ -140,7 +140,7 @@ impl DeviceConditions {
             if !matches!(key, "temp" | "tnom" | "gmin") {
                 continue;
             }
-            let fail = |message| bad_option(file, option, message);
+            let fail = |message| bad_option(netlist.file_of(option.pos, file), option, message);
             let text = option.value.as_deref().unwrap_or("");
             let value = crate::parse_spice_number(text)
                 .ok_or_else(|| fail(format!("`{key}` needs a number, got `{text}`")))?;
@@ -161,9 +161,9 @@ impl DeviceConditions {
 }
 
 /// The error for an `.options` value, at the card's position.
-fn bad_option(file: &str, option: &OptionCard, message: String) -> CircuitError {
+fn bad_option(file: String, option: &OptionCard, message: String) -> CircuitError {
     CircuitError::BadOption {
-        file: file.to_string(),
+        file,
         line: option.pos.line,
         column: option.pos.column,
         message,
@@ -534,7 +534,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 if coupled.insert(l.as_str(), (e, winding)).is_some() {
                     let origin = &netlist.origins[e];
                     return Err(CircuitError::MultipleCoupling {
-                        file: file.to_string(),
+                        file: origin.file.clone(),
                         line: origin.line,
                         column: origin.column,
                         inductor: l.clone(),
@@ -557,7 +557,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     let located = |e: usize, source: PartError| {
         let origin = &netlist.origins[e];
         CircuitError::Part {
-            file: file.to_string(),
+            file: origin.file.clone(),
             line: origin.line,
             column: origin.column,
             element: origin.name.clone(),
@@ -614,7 +614,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             if !CircuitBuilder::is_ground(node) && !connected.contains(node) {
                 let origin = &netlist.origins[e];
                 return Err(CircuitError::SensedOnly {
-                    file: file.to_string(),
+                    file: origin.file.clone(),
                     line: origin.line,
                     column: origin.column,
                     element: origin.name.clone(),
@@ -902,7 +902,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             let signal = circuit
                 .signal(&request.signal)
                 .map_err(|e| CircuitError::BadOutput {
-                    file: file.to_string(),
+                    file: netlist.file_of(request.pos, file),
                     line: request.pos.line,
                     column: request.pos.column,
                     message: e.to_string(),
@@ -926,7 +926,12 @@ impl Circuit {
     fn read_options(&mut self, netlist: &Netlist, file: &str) -> Result<(), CircuitError> {
         let mut control = TruncationControl::default();
         for option in &netlist.options {
-            let at = format!("{file}:{}:{}", option.pos.line, option.pos.column);
+            let at = format!(
+                "{}:{}:{}",
+                netlist.file_of(option.pos, file),
+                option.pos.line,
+                option.pos.column
+            );
             let key = option.key.as_str();
             if let Some(slot) = match key {
                 "reltol" => Some(&mut control.reltol),
@@ -940,7 +945,7 @@ impl Circuit {
                     .filter(|v| *v > 0.0 && v.is_finite())
                     .ok_or_else(|| {
                         bad_option(
-                            file,
+                            netlist.file_of(option.pos, file),
                             option,
                             format!("`{key}` needs a positive number, got `{text}`"),
                         )

@@ -5,19 +5,30 @@ use std::fmt;
 use thiserror::Error;
 
 /// A position in the netlist source: 1-based line and 1-based column (in characters; a tab counts
-/// as one column).
+/// as one column) of one of its files (0: the netlist itself, `k`: the `k`-th file it includes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct Pos {
     /// 1-based line number.
     pub line: usize,
     /// 1-based column number, counted in characters.
     pub column: usize,
+    /// Which file (see [`Netlist::files`](super::Netlist::files)).
+    pub file: usize,
 }
 
 impl Pos {
-    /// A position from a line and a column.
+    /// A position from a line and a column of the netlist itself.
     pub const fn new(line: usize, column: usize) -> Self {
-        Self { line, column }
+        Self {
+            line,
+            column,
+            file: 0,
+        }
+    }
+
+    /// A position in file `file`.
+    pub(crate) const fn in_source(file: usize, line: usize, column: usize) -> Self {
+        Self { line, column, file }
     }
 }
 
@@ -63,6 +74,9 @@ pub enum ErrorKind {
     UnknownElement,
     /// A `.ic` names a node that no element connects to (or the ground node).
     UnknownNode,
+    /// An `.include` or `.lib` file that cannot be read, a `.lib` section it does not have, or a
+    /// file that includes itself.
+    Include,
 }
 
 /// A netlist error: where it is, the offending text, what kind it is and a message.
@@ -72,7 +86,8 @@ pub enum ErrorKind {
 #[derive(Debug, Clone, PartialEq, Eq, Error)]
 #[error("{file}:{line}:{column}: {message}")]
 pub struct NetlistError {
-    /// The file name the caller gave to [`parse_netlist`](super::parse_netlist).
+    /// The file: the name the caller gave to [`parse_netlist`](super::parse_netlist), or the
+    /// path of an included file the error is in.
     pub file: String,
     /// 1-based line of the offending text.
     pub line: usize,
@@ -84,6 +99,8 @@ pub struct NetlistError {
     pub kind: ErrorKind,
     /// Human-readable description (without the position prefix).
     pub message: String,
+    /// Which file of the netlist's sources `file` names.
+    file_index: usize,
 }
 
 impl NetlistError {
@@ -101,6 +118,7 @@ impl NetlistError {
             text: text.into(),
             kind,
             message: message.into(),
+            file_index: pos.file,
         }
     }
 
@@ -136,11 +154,12 @@ impl NetlistError {
 
     /// The position of the error.
     pub fn pos(&self) -> Pos {
-        Pos::new(self.line, self.column)
+        Pos::in_source(self.file_index, self.line, self.column)
     }
 
-    pub(crate) fn in_file(mut self, file: &str) -> Self {
-        self.file = file.to_owned();
+    /// Names the error's file among `files` (the netlist's, then the included ones).
+    pub(crate) fn in_files(mut self, files: &[String]) -> Self {
+        self.file = files.get(self.file_index).cloned().unwrap_or_default();
         self
     }
 }
@@ -149,6 +168,8 @@ impl NetlistError {
 /// `.control` blocks; `AC` specifications; unused diode model parameters; redefined parameters).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Warning {
+    /// The file it is in: the netlist's name as given, or an included file's path.
+    pub file: String,
     /// 1-based line of the card.
     pub line: usize,
     /// 1-based column of the card or token.
@@ -157,16 +178,26 @@ pub struct Warning {
     pub text: String,
     /// Human-readable description.
     pub message: String,
+    /// Which file of the netlist's sources `file` names.
+    pub(crate) file_index: usize,
 }
 
 impl Warning {
     pub(crate) fn new(pos: Pos, text: impl Into<String>, message: impl Into<String>) -> Self {
         Self {
+            file: String::new(),
             line: pos.line,
             column: pos.column,
             text: text.into(),
             message: message.into(),
+            file_index: pos.file,
         }
+    }
+
+    /// Names the warning's file among `files`.
+    pub(crate) fn in_files(mut self, files: &[String]) -> Self {
+        self.file = files.get(self.file_index).cloned().unwrap_or_default();
+        self
     }
 }
 
@@ -174,8 +205,8 @@ impl fmt::Display for Warning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{}:{}: warning: {}",
-            self.line, self.column, self.message
+            "{}:{}:{}: warning: {}",
+            self.file, self.line, self.column, self.message
         )
     }
 }

@@ -813,6 +813,8 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
             name: orig,
             line: el.name.pos.line,
             column: el.name.pos.column,
+            file: String::new(),
+            file_index: el.name.pos.file,
         });
     }
     for (node, e) in &ctx.block.ics {
@@ -1338,9 +1340,9 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
     let mut warnings: Vec<Warning> = out
         .warnings
         .into_iter()
-        .filter(|w| seen.insert((w.line, w.column, w.message.clone())))
+        .filter(|w| seen.insert((w.file_index, w.line, w.column, w.message.clone())))
         .collect();
-    warnings.sort_by_key(|w| (w.line, w.column));
+    warnings.sort_by_key(|w| (w.file_index, w.line, w.column));
 
     Ok(Netlist {
         title: parsed.title,
@@ -1352,5 +1354,6 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         options: parsed.options,
         outputs: parsed.outputs,
         warnings,
+        files: Vec::new(),
     })
 }

@@ -89,31 +89,67 @@ pub(crate) struct Lexed {
     pub title: String,
     pub cards: Vec<Card>,
     pub warnings: Vec<Warning>,
+    /// The netlist's name, then each included file's path, as positions number them.
+    pub files: Vec<String>,
 }
+
+/// Deepest nesting of `.include` and `.lib` files.
+const MAX_INCLUDE_DEPTH: usize = 20;
+
+/// Largest file an `.include` or `.lib` reads (a model library is far smaller).
+const MAX_INCLUDE_BYTES: u64 = 64 << 20;
 
 /// First word of a line, lowercased.
 fn first_word_of(line: &str) -> String {
     line.split_whitespace().next().unwrap_or("").to_lowercase()
 }
 
-/// Splits `source` into the title and cards.
-pub(crate) fn lex(source: &str) -> Result<Lexed, NetlistError> {
+/// Splits `source` (the netlist `name`) into the title and cards, reading the files its
+/// `.include FILE` and `.lib FILE SECTION` cards name (relative to the directory of the file that
+/// names them) in their place, as ngspice does.
+pub(crate) fn lex(source: &str, name: &str) -> Result<Lexed, NetlistError> {
     let source = source.strip_prefix('\u{feff}').unwrap_or(source);
     let mut lines = source
         .split('\n')
         .map(|l| l.strip_suffix('\r').unwrap_or(l));
     let title = lines.next().unwrap_or("").trim().to_owned();
-    let mut cards: Vec<Card> = Vec::new();
-    let mut warnings = Vec::new();
-    let mut control: Option<Pos> = None;
+    let mut out = Lexed {
+        title,
+        cards: Vec::new(),
+        warnings: Vec::new(),
+        files: vec![name.to_owned()],
+    };
+    let numbered: Vec<(usize, &str)> = lines.enumerate().map(|(i, l)| (i + 2, l)).collect();
+    let mut stack = vec![std::path::PathBuf::from(name)];
+    read_lines(&numbered, 0, &mut stack, &mut out).map_err(|e| e.in_files(&out.files))?;
+    Ok(out)
+}
 
-    for (index, raw) in lines.enumerate() {
-        let line_no = index + 2;
+/// Appends the cards of `lines` (numbered as in file `file`) to `out`, following includes;
+/// `stack` holds the paths being read, innermost last.
+fn read_lines(
+    lines: &[(usize, &str)],
+    file: usize,
+    stack: &mut Vec<std::path::PathBuf>,
+    out: &mut Lexed,
+) -> Result<(), NetlistError> {
+    let mut control: Option<Pos> = None;
+    // Inside a `.lib NAME` … `.endl` section definition (read only through `.lib FILE NAME`).
+    let mut section: Option<Pos> = None;
+    for &(line_no, raw) in lines {
+        let at = |column: usize| Pos::in_source(file, line_no, column);
         let line = &raw[..inline_comment(raw)];
         let trimmed = line.trim_start();
+        let word = first_word_of(trimmed);
         if control.is_some() {
-            if first_word_of(trimmed) == ".endc" {
+            if word == ".endc" {
                 control = None;
+            }
+            continue;
+        }
+        if section.is_some() {
+            if word == ".endl" {
+                section = None;
             }
             continue;
         }
@@ -122,8 +158,8 @@ pub(crate) fn lex(source: &str) -> Result<Lexed, NetlistError> {
         }
         let lead = line.chars().count() - trimmed.chars().count();
         if let Some(rest) = trimmed.strip_prefix('+') {
-            let plus = Pos::new(line_no, lead + 1);
-            let Some(card) = cards.last_mut() else {
+            let plus = at(lead + 1);
+            let Some(card) = out.cards.last_mut() else {
                 return Err(NetlistError::syntax(
                     plus,
                     "+",
@@ -134,23 +170,49 @@ pub(crate) fn lex(source: &str) -> Result<Lexed, NetlistError> {
             card.positions.push(plus);
             for (k, c) in rest.chars().enumerate() {
                 card.chars.push(c);
-                card.positions.push(Pos::new(line_no, lead + 2 + k));
+                card.positions.push(at(lead + 2 + k));
             }
             continue;
         }
-        let word = first_word_of(trimmed);
-        let start = Pos::new(line_no, lead + 1);
-        if word == ".end" {
-            break;
-        }
-        if word == ".control" {
-            warnings.push(Warning::new(
-                start,
-                ".control",
-                "`.control` ... `.endc` block ignored",
-            ));
-            control = Some(start);
-            continue;
+        let start = at(lead + 1);
+        match word.as_str() {
+            ".end" => break,
+            ".control" => {
+                out.warnings.push(Warning::new(
+                    start,
+                    ".control",
+                    "`.control` ... `.endc` block ignored",
+                ));
+                control = Some(start);
+                continue;
+            }
+            ".include" | ".inc" | ".lib" => {
+                let words: Vec<&str> = trimmed.split_whitespace().skip(1).collect();
+                match (word.as_str(), words.as_slice()) {
+                    (".lib", [_section]) => section = Some(start),
+                    (".lib", [path, name]) => {
+                        include(path, Some(name), start, stack, out)?;
+                    }
+                    (".include" | ".inc", [path]) => include(path, None, start, stack, out)?,
+                    _ => {
+                        return Err(NetlistError::syntax(
+                            start,
+                            trimmed.trim_end(),
+                            format!(
+                                "expected `{word} {}` in `{}`",
+                                if word == ".lib" {
+                                    "FILE SECTION"
+                                } else {
+                                    "FILE"
+                                },
+                                trimmed.trim_end()
+                            ),
+                        ));
+                    }
+                }
+                continue;
+            }
+            _ => {}
         }
         let mut card = Card {
             chars: Vec::new(),
@@ -158,9 +220,9 @@ pub(crate) fn lex(source: &str) -> Result<Lexed, NetlistError> {
         };
         for (k, c) in trimmed.trim_end().chars().enumerate() {
             card.chars.push(c);
-            card.positions.push(Pos::new(line_no, lead + 1 + k));
+            card.positions.push(at(lead + 1 + k));
         }
-        cards.push(card);
+        out.cards.push(card);
     }
     if let Some(start) = control {
         return Err(NetlistError::new(
@@ -170,11 +232,94 @@ pub(crate) fn lex(source: &str) -> Result<Lexed, NetlistError> {
             "`.control` block without `.endc`",
         ));
     }
-    Ok(Lexed {
-        title,
-        cards,
-        warnings,
-    })
+    if let Some(start) = section {
+        return Err(NetlistError::new(
+            ErrorKind::Syntax,
+            start,
+            ".lib",
+            "`.lib` section without `.endl`",
+        ));
+    }
+    Ok(())
+}
+
+/// Reads the file `path` named at `at` (quotes removed; relative to the directory of the file
+/// being read, the last of `stack`) and appends its cards, or, with `section`, those between its
+/// `.lib SECTION` and the next `.endl`.
+fn include(
+    path: &str,
+    section: Option<&str>,
+    at: Pos,
+    stack: &mut Vec<std::path::PathBuf>,
+    out: &mut Lexed,
+) -> Result<(), NetlistError> {
+    let fail = |message: String| NetlistError::new(ErrorKind::Include, at, path, message);
+    let unquoted = path.trim_matches(|c| c == '"' || c == '\'');
+    let base = stack
+        .last()
+        .and_then(|p| p.parent())
+        .map(std::path::Path::to_path_buf)
+        .unwrap_or_default();
+    let resolved = base.join(unquoted);
+    if stack.len() > MAX_INCLUDE_DEPTH {
+        return Err(fail(format!(
+            "`{unquoted}`: includes nested more than {MAX_INCLUDE_DEPTH} deep"
+        )));
+    }
+    let canonical = resolved.canonicalize().unwrap_or_else(|_| resolved.clone());
+    if section.is_none()
+        && stack
+            .iter()
+            .any(|p| p.canonicalize().unwrap_or_else(|_| p.clone()) == canonical)
+    {
+        return Err(fail(format!("`{unquoted}` includes itself")));
+    }
+    // A regular file of reasonable size only (not a device or pipe that never ends).
+    let metadata = std::fs::metadata(&resolved)
+        .map_err(|e| fail(format!("cannot read `{}`: {e}", resolved.display())))?;
+    if !metadata.is_file() || metadata.len() > MAX_INCLUDE_BYTES {
+        return Err(fail(format!(
+            "`{}` is not a regular file of at most {MAX_INCLUDE_BYTES} bytes",
+            resolved.display()
+        )));
+    }
+    let text = std::fs::read_to_string(&resolved)
+        .map_err(|e| fail(format!("cannot read `{}`: {e}", resolved.display())))?;
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let numbered: Vec<(usize, &str)> = text
+        .split('\n')
+        .map(|l| l.strip_suffix('\r').unwrap_or(l))
+        .enumerate()
+        .map(|(i, l)| (i + 1, l))
+        .collect();
+    let lines: Vec<(usize, &str)> = match section {
+        None => numbered,
+        Some(name) => {
+            let opens = |l: &str| {
+                let mut words = l.split_whitespace();
+                words.next().is_some_and(|w| w.eq_ignore_ascii_case(".lib"))
+                    && words.next().is_some_and(|w| w.eq_ignore_ascii_case(name))
+                    && words.next().is_none()
+            };
+            let Some(first) = numbered.iter().position(|(_, l)| opens(l)) else {
+                return Err(fail(format!(
+                    "`{}` has no `.lib {name}` section",
+                    resolved.display()
+                )));
+            };
+            numbered[first + 1..]
+                .iter()
+                .take_while(|(_, l)| first_word_of(l.trim_start()) != ".endl")
+                .copied()
+                .collect()
+        }
+    };
+    out.files.push(resolved.display().to_string());
+    let index = out.files.len() - 1;
+    stack.push(resolved);
+    let read = read_lines(&lines, index, stack, out);
+    stack.pop();
+    read
 }
 
 /// A cursor over one card's characters.
@@ -454,7 +599,7 @@ mod tests {
     #[test]
     fn end_of_line_comments_in_three_styles() {
         let src = "t\nR1 a b 1k $ hspice\nR2 b c 2k // c++\nR3 c 0 3k ; spice\nV$1 a 0 1\n";
-        let lexed = lex(src).expect("lexes");
+        let lexed = lex(src, "t.cir").expect("lexes");
         let texts: Vec<String> = lexed
             .cards
             .iter()
@@ -466,7 +611,7 @@ mod tests {
     #[test]
     fn continuation_comments_and_positions() {
         let src = "title\n* comment\nR1 a b ; trailing\n\n  + 1k\nC1 a 0 1u\n.end\nM1 junk";
-        let lexed = lex(src).expect("lexes");
+        let lexed = lex(src, "t.cir").expect("lexes");
         assert_eq!(lexed.title, "title");
         assert_eq!(lexed.cards.len(), 2);
         assert_eq!(lexed.cards[0].text(), "R1 a b  1k");
@@ -481,7 +626,7 @@ mod tests {
 
     #[test]
     fn assigned_values_stop_at_next_name() {
-        let card = lex("t\n.param a = 2 * b c=3 d={x y}")
+        let card = lex("t\n.param a = 2 * b c=3 d={x y}", "t.cir")
             .expect("lexes")
             .cards
             .remove(0);

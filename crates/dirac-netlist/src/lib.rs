@@ -461,6 +461,10 @@ pub struct Origin {
     pub line: usize,
     /// 1-based column of the element's name.
     pub column: usize,
+    /// The file of the card: the netlist's name, or the path of the included file it is in.
+    pub file: String,
+    /// Which of [`Netlist::files`] `file` is.
+    pub(crate) file_index: usize,
 }
 
 /// A flat netlist: subcircuits expanded, parameters evaluated.
@@ -486,6 +490,9 @@ pub struct Netlist {
     pub outputs: Vec<OutputRequest>,
     /// Things accepted but ignored.
     pub warnings: Vec<Warning>,
+    /// The netlist's name as given to [`parse_netlist`], then the path of each file its `.include`
+    /// and `.lib` cards read, in the order they were read ([`Pos::file`] indexes it).
+    pub files: Vec<String>,
 }
 
 /// The branches of a source (named `source`, from node `a` to node `b`) whose current controls
@@ -555,6 +562,20 @@ impl Netlist {
         out
     }
 
+    /// The name of the file `pos` is in: one of [`Netlist::files`], or `file` (the name the
+    /// netlist was read as) for a netlist built without them.
+    #[must_use]
+    pub fn file_of(&self, pos: Pos, file: &str) -> String {
+        match pos.file {
+            0 => file.to_owned(),
+            k => self
+                .files
+                .get(k)
+                .cloned()
+                .unwrap_or_else(|| file.to_owned()),
+        }
+    }
+
     /// The element with the given (case-insensitive, hierarchical) name.
     pub fn element(&self, name: &str) -> Option<&Element> {
         let name = name.to_lowercase();
@@ -594,10 +615,18 @@ impl Netlist {
 ///
 /// The first problem found, as a [`NetlistError`]; see [`ErrorKind`] for the kinds.
 pub fn parse_netlist(source: &str, file_name: &str) -> Result<Netlist, NetlistError> {
-    let run = || -> Result<Netlist, NetlistError> {
-        let lexed = lexer::lex(source)?;
-        let parsed = parser::parse(lexed)?;
-        flatten::flatten(parsed)
-    };
-    run().map_err(|e| e.in_file(file_name))
+    let lexed = lexer::lex(source, file_name)?;
+    let files = lexed.files.clone();
+    let in_files = |e: NetlistError| e.in_files(&files);
+    let parsed = parser::parse(lexed).map_err(in_files)?;
+    let mut netlist = flatten::flatten(parsed).map_err(in_files)?;
+    netlist.warnings = std::mem::take(&mut netlist.warnings)
+        .into_iter()
+        .map(|w| w.in_files(&files))
+        .collect();
+    for origin in &mut netlist.origins {
+        origin.file = files.get(origin.file_index).cloned().unwrap_or_default();
+    }
+    netlist.files = files;
+    Ok(netlist)
 }

@@ -665,8 +665,6 @@ fn unsupported_cards() {
         "J1 d g s jmod",
         ".ac dec 10 1 1meg",
         ".dc V1 0 1 0.1",
-        ".include models.lib",
-        ".lib models.lib tt",
     ] {
         let e = assert_err(
             &format!("t\nR1 a 0 1\n{card}\n"),
@@ -995,6 +993,64 @@ fn functions_and_tables_in_cards() {
         9,
     );
     assert_err("t\n.func f(x, x) {x}\n", ErrorKind::Syntax, 2, 12);
+}
+
+/// `.include FILE` and `.lib FILE SECTION` read their files in place, relative to the including
+/// file's directory (quotes allowed), a `.lib NAME` … `.endl` section definition outside such a
+/// read is skipped, and errors and origins name the file they are in.
+#[test]
+fn includes_and_library_sections() {
+    let dir = std::env::temp_dir().join(format!("dirac-include-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("models")).unwrap();
+    let write = |name: &str, text: &str| std::fs::write(dir.join(name), text).unwrap();
+    write(
+        "models/lib.lib",
+        "* sections\n.lib fast\n.model dfast d(is=1e-12)\n.endl\n.lib slow\n\
+         .model dslow d(is=1e-15)\n.subckt clamp a b\nD1 a b dslow\n.ends\n.endl\n",
+    );
+    write(
+        "models/rc.inc",
+        "* RC\n.param rval=2k\nR9 n9 0 {rval}\n.include ../more.inc\n",
+    );
+    write("more.inc", "Rmore n9 n8 1k\nR8 n8 0 1k bogus=3\n");
+    let main = dir.join("main.cir");
+    let main_name = main.display().to_string();
+    let text = "t\nV1 in 0 1\nR1 in n9 1k\n.include models/rc.inc\n\
+                .lib 'models/lib.lib' slow\nX1 n9 0 clamp\n.lib unused\nR99 x 0 1\n.endl\n.op\n";
+    // The error in the twice-included file names that file and its own line and column.
+    let e = parse_netlist(text, &main_name).expect_err("bogus parameter");
+    assert!(e.file.ends_with("more.inc"), "{e}");
+    assert_eq!((e.line, e.column), (2, 12), "{e}");
+    write("more.inc", "Rmore n9 n8 1k\nR8 n8 0 1k\n");
+    let net = parse_netlist(text, &main_name).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(value_of(&net, "r9"), 2e3);
+    assert!(net.element("x1.d1").is_some());
+    assert!(
+        net.element("r99").is_none(),
+        "a section definition is not read by itself"
+    );
+    let origin = |name: &str| {
+        let k = net.elements.iter().position(|e| e.name() == name).unwrap();
+        net.origins[k].clone()
+    };
+    assert_eq!(origin("r1").file, main_name);
+    assert!(origin("r9").file.ends_with("rc.inc"));
+    assert_eq!((origin("r8").line, origin("r8").column), (2, 1));
+    assert!(origin("x1.d1").file.ends_with("lib.lib"));
+    assert_eq!(net.files.len(), 4, "{:?}", net.files);
+    let fails = |text: &str| parse_netlist(text, &main_name).expect_err("fails");
+    let e = fails("t\n.include nowhere.inc\n");
+    assert_eq!((e.kind, e.line, e.column), (ErrorKind::Include, 2, 1));
+    let e = fails("t\n.lib models/lib.lib medium\n");
+    assert!(e.message.contains("no `.lib medium` section"), "{e}");
+    write("loop.inc", ".include loop.inc\n");
+    let e = fails("t\n.include loop.inc\n");
+    assert_eq!(e.kind, ErrorKind::Include);
+    assert!(e.message.contains("includes itself"), "{e}");
+    assert!(e.file.ends_with("loop.inc"), "{e}");
+    let e = fails("t\n.include\n");
+    assert_eq!((e.kind, e.line), (ErrorKind::Syntax, 2));
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// ngspice's other spellings of R, L, C and D cards: the value as `r=`/`l=`/`c=`, a multiplicity

@@ -336,7 +336,7 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
                 ControlledSource::Ccvs { r, .. } => format!("type = \"ccvs\"\nr = {}", number(*r)),
                 ControlledSource::Behavioural { .. } => {
                     return Err(ConvertError::Behavioural {
-                        file: file.to_owned(),
+                        file: origin.file.clone(),
                         line: origin.line,
                         column: origin.column,
                         element: origin.name.clone(),

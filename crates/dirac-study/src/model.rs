@@ -165,7 +165,7 @@ impl Model {
                 let warnings: Vec<String> = netlist
                     .warnings
                     .iter()
-                    .map(|w| format!("{name}:{}:{}: {}", w.line, w.column, w.message))
+                    .map(|w| format!("{}:{}:{}: {}", w.file, w.line, w.column, w.message))
                     .collect();
                 for w in &warnings {
                     report(w);
