@@ -129,8 +129,9 @@ fn unsupported_card_is_exit_2_with_position_and_no_output() {
     assert!(!scratch("bad.csv.partial").exists());
 }
 
-/// Two voltage sources in parallel with different values fix one node potential twice: an
-/// inconsistent model, found before the first step (bad input, exit 2), with no output file.
+/// Two voltage sources in parallel with different values fix one node potential twice: a loop of
+/// voltage sources, refused at the card that closes it before the first step (bad input, exit 2),
+/// with no output file.
 #[test]
 fn contradictory_sources_are_exit_2_and_leave_no_output() {
     let netlist = scratch("parallel_sources.cir");
@@ -151,7 +152,10 @@ fn contradictory_sources_are_exit_2_and_leave_no_output() {
         .expect("runs");
     let stderr = String::from_utf8(output.stderr).unwrap();
     assert_eq!(output.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("inconsistent model"), "{stderr}");
+    assert!(
+        stderr.contains("parallel_sources.cir:3:1: `V2` closes a loop of voltage sources (V1, V2)"),
+        "{stderr}"
+    );
     assert!(!out.exists());
 }
 

@@ -193,12 +193,13 @@ fn newton_failures_name_step_time_equation_and_cause() {
     assert!(!out.exists());
 }
 
-/// Two voltage sources in parallel (`V1`, `V2` from `a` to ground, equal, so the start is
-/// consistent), started from given values: the loop current splits between them in any ratio.
-/// Each source's momentum balance holds only the node multipliers and its charge appears only in
-/// the KCL rows, so the step's Newton matrix has no perfect matching whatever the values.
-const PARALLEL_SOURCES: &str =
-    "two equal sources in parallel\nV1 a 0 1\nV2 a 0 1\nR1 a 0 1k\n.tran 1m 10m uic\n.end\n";
+/// Two current sources in series (`I1` into `a`, `I2` from `a` on), started from given values:
+/// nothing fixes the potential of `a` between them. Each source's flux balance holds only its own
+/// rates and the node's multiplier, so the step's Newton matrix has no perfect matching whatever
+/// the values. (Two voltage sources in parallel, the earlier case here, are now refused by the
+/// netlist reader as a loop of voltage sources before the structural check runs.)
+const SERIES_CURRENT_SOURCES: &str = "two current sources in series\nI1 0 a 1m\nI2 a b 1m\n\
+                                      R1 b 0 1k\nC1 b 0 1u\n.tran 1m 10m uic\n.end\n";
 
 /// A mass on a spring and a force source of zero force attached to nothing: the source's
 /// coordinate `F.x` has no inertia, potential, dissipation or constraint, so it appears in no
@@ -223,22 +224,22 @@ fn run_text(name: &str, text: &str) -> (Option<i32>, String, bool) {
 }
 
 /// Structural singularity (docs/audit.md item 18), netlist reader: the step matrix of two
-/// voltage sources in parallel matches only 3 of its 4 equations to unknowns (Dulmage–Mendelsohn:
-/// the sources' charges are under-determined, their momentum balances over-determined). The
-/// model is refused at set-up with exit 2 (a bad model), naming both sources' charges, and no
-/// output is written. Mutation: replacing the `integrator.check_structure()` finding in
-/// `Simulation::build_assembled` by `None` lets the run start; it fails in step 0 (t = 0) on a numerically
-/// singular pivot after cutting the step 10 times, exit 1 ("singular model: the Newton matrix
-/// is singular near coordinate `v2.q`").
+/// current sources in series matches only 7 of its 8 equations to unknowns (Dulmage–Mendelsohn:
+/// the sources' fluxes and the node's multiplier are under-determined, their flux balances and
+/// the node's KCL over-determined). The model is refused at set-up with exit 2 (a bad model),
+/// naming both sources' fluxes, and no output is written. Mutation (2026-11-29): filtering out
+/// the `integrator.check_structure()` finding in `Simulation::build_assembled` lets the run
+/// start; it fails in step 0 (t = 0), exit 1 ("matrix is structurally singular near unknown 6 …
+/// singular model: the Newton matrix is singular near multiplier of constraint `node `a` (KCL)`").
 #[test]
 fn a_structurally_singular_netlist_is_refused_before_the_run() {
-    let (code, stderr, written) = run_text("parallel_sources.cir", PARALLEL_SOURCES);
+    let (code, stderr, written) = run_text("series_current_sources.cir", SERIES_CURRENT_SOURCES);
     assert_eq!(code, Some(2), "{stderr}");
     for expected in [
         "structurally singular model",
-        "nothing determines coordinate `v1.q`, coordinate `v2.q`",
-        "no unknown is left to momentum balance of coordinate `v1.q`",
-        "structural rank 3 of 4",
+        "nothing determines coordinate `i1.phi`, coordinate `i2.phi`",
+        "no unknown is left to momentum balance of coordinate `i1.phi`",
+        "structural rank 7 of 8",
     ] {
         assert!(stderr.contains(expected), "`{expected}` missing: {stderr}");
     }

@@ -236,6 +236,38 @@ fn operating_point_with_temperature_coefficients() {
     );
 }
 
+/// A loop of voltage sources (ngspice-39: "singular matrix: check node v1#branch") is refused
+/// before any solve, naming the card that closes it and the loop, with exit code 2 and no output;
+/// a 0 V ammeter in series and an F source reading it are no loop.
+#[test]
+fn a_loop_of_voltage_sources_is_refused_at_its_card() {
+    let file = deck(
+        "voltage_loop.cir",
+        "loop\nV1 a 0 1\nV2 a b 1\nE1 b c a 0 1\nH1 c 0 V1 3\nR1 a 0 1\n.tran 1u 10u\n.end\n",
+    );
+    let out = scratch("voltage_loop.csv");
+    let run = dirac(&[
+        "run",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(run.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains(
+            "voltage_loop.cir:5:1: `H1` closes a loop of voltage sources (V1, V2, E1, H1)"
+        ),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "no partial output");
+    let parsed = operating_point(
+        "ammeter_op.cir",
+        "t\nV1 a 0 1\nV2 a b 1\nR1 b 0 1\nV3 b c 0\nR2 c 0 1\nF1 0 d V3 2\nR3 d 0 1\n.op\n.end\n",
+    );
+    assert_values(&parsed, &[("v(b)", 0.0), ("i(v3)", 0.0)], 0.0);
+}
+
 /// Instance parameters as ngspice reads them, at the operating point: `R2 … 1k m=2` is 500 Ω (so
 /// `v(b)` = 1·1k/1.5k = 2/3 V), and `D1 … dm area=2 m=3` a junction six times the model's (ngspice-39
 /// prints `d = 4.133852e-01` and `v1#branch = -3.08005e-03` on this deck).

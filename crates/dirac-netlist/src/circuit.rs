@@ -86,6 +86,25 @@ pub enum CircuitError {
         /// The node.
         node: String,
     },
+    /// Voltage sources (`V`, and `E`, `H` and `B … V=` outputs) in a loop: their voltages around
+    /// it are fixed twice and their currents by nothing (ngspice: "singular matrix").
+    #[error(
+        "{file}:{line}:{column}: `{element}` closes a loop of voltage sources ({members}): their \
+         currents are not determined (the voltages around the loop are fixed twice); put a \
+         resistor in the loop or remove one of them"
+    )]
+    VoltageLoop {
+        /// File name.
+        file: String,
+        /// Line of the card that closes the loop.
+        line: usize,
+        /// Column.
+        column: usize,
+        /// That element as written.
+        element: String,
+        /// The loop's elements as written, in order around it.
+        members: String,
+    },
     /// A diode's model parameters cannot be used.
     #[error("diode `{element}`: {source}")]
     Diode {
@@ -158,6 +177,71 @@ impl DeviceConditions {
         }
         Ok(out)
     }
+}
+
+/// Refuses a loop of voltage-defined branches (`V`, and `E`, `H`, `B … V=` outputs), naming the
+/// card that closes it and the loop: the branches are joined one by one, and one whose nodes
+/// are already joined through earlier ones closes a loop along that path.
+fn voltage_loops(netlist: &Netlist) -> Result<(), CircuitError> {
+    // Adjacency of the voltage branches kept so far: node → (neighbour, element index).
+    let mut joined: HashMap<&str, Vec<(&str, usize)>> = HashMap::new();
+    for (e, element) in netlist.elements.iter().enumerate() {
+        let voltage = match element {
+            Element::V { .. } => true,
+            Element::Controlled { source, .. } => source.drives_voltage(),
+            _ => false,
+        };
+        let Some((a, b)) = element.terminals().filter(|_| voltage) else {
+            continue;
+        };
+        if let Some(path) = voltage_path(&joined, a, b) {
+            let origin = &netlist.origins[e];
+            let members: Vec<&str> = path
+                .iter()
+                .chain(std::iter::once(&e))
+                .map(|&k| netlist.origins[k].name.as_str())
+                .collect();
+            return Err(CircuitError::VoltageLoop {
+                file: origin.file.clone(),
+                line: origin.line,
+                column: origin.column,
+                element: origin.name.clone(),
+                members: members.join(", "),
+            });
+        }
+        joined.entry(a).or_default().push((b, e));
+        joined.entry(b).or_default().push((a, e));
+    }
+    Ok(())
+}
+
+/// The elements along a path of `joined` branches from `from` to `to` (breadth first), if any
+/// (empty when the nodes are the same).
+fn voltage_path(
+    joined: &HashMap<&str, Vec<(&str, usize)>>,
+    from: &str,
+    to: &str,
+) -> Option<Vec<usize>> {
+    let mut came: HashMap<&str, Option<(&str, usize)>> = HashMap::from([(from, None)]);
+    let mut queue = std::collections::VecDeque::from([from]);
+    while let Some(node) = queue.pop_front() {
+        if node == to {
+            let mut path = Vec::new();
+            let mut at = node;
+            while let Some(Some((previous, e))) = came.get(at).copied() {
+                path.push(e);
+                at = previous;
+            }
+            return Some(path);
+        }
+        for &(next, e) in joined.get(node).map_or(&[][..], Vec::as_slice) {
+            if !came.contains_key(next) {
+                came.insert(next, Some((node, e)));
+                queue.push_back(next);
+            }
+        }
+    }
+    None
 }
 
 /// The error for an `.options` value, at the card's position.
@@ -623,6 +707,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             }
         }
     }
+    voltage_loops(netlist)?;
     // Voltage sources whose current controls an F or H source: each of those gets a sensing
     // branch (a short) in series, wired once every part exists.
     let sensors = netlist.sensing_shorts();
