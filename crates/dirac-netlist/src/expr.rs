@@ -22,8 +22,8 @@
 //! so `-2^2` is -4 and `2^-1` is 0.5. `a ^ b` is `|a|^b`, as ngspice-39 computes it in both
 //! places (`.param p = {(-2)^3}` is 8); `pow(a, b)` is the real power in a parameter (−8) and
 //! `|a|^b` in a B source, as there. Comparisons and `!`, `&&`, `||` give 1 or 0. Numbers take
-//! SPICE suffixes (`1k`, `10uF`). Names are case-insensitive parameter references (`time` in a
-//! B source). Functions: [`FUNCTIONS`], `min max pow pwr` and `ternary_fcn`. `v(…)` and `i(…)`
+//! SPICE suffixes (`1k`, `10uF`). Names are case-insensitive parameter references (in a B
+//! source `time`, `temper`, `hertz`, `pi` and `e` come first, as in ngspice). Functions: [`FUNCTIONS`], `min max pow pwr` and `ternary_fcn`. `v(…)` and `i(…)`
 //! (node voltages and element currents) are read by B sources only.
 
 use super::error::{ErrorKind, NetlistError, Pos};
@@ -112,6 +112,8 @@ pub(crate) trait Env {
     fn param(&self, name: &str, pos: Pos) -> Result<f64, NetlistError>;
     /// The `.func` named `name` (lowercased), if one is in scope.
     fn function(&self, name: &str) -> Option<std::rc::Rc<FuncDef>>;
+    /// The circuit's temperature in °C (a B source's `temper`).
+    fn temperature(&self) -> f64;
 }
 
 /// Deepest nesting of `.func` calls (a function calling itself ends here).
@@ -832,8 +834,17 @@ fn convert(
                 }
                 bound.values[k].clone()
             }
-            None if name == "time" => Expression::Time,
-            None => Expression::Constant(env.param(name, *pos)?),
+            // ngspice's B-source names (`inpptree.c`): `time`, `temper`, `hertz` (0 outside an
+            // AC analysis) and the constants `pi` and `e`, ahead of parameters (ngspice-39 reads
+            // `e` as 2.718282 in a B source beside `.param e=5`).
+            None => match name.as_str() {
+                "time" => Expression::Time,
+                "temper" => Expression::Constant(env.temperature()),
+                "hertz" => Expression::Constant(0.0),
+                "pi" => Expression::Constant(std::f64::consts::PI),
+                "e" => Expression::Constant(std::f64::consts::E),
+                _ => Expression::Constant(env.param(name, *pos)?),
+            },
         },
         Expr::Probe(p, pos) => Expression::Control(probe(p, *pos)?),
         Expr::Call1(f, a) => Expression::Unary(*f, go(a)?),
@@ -895,6 +906,9 @@ mod tests {
                     "unknown",
                 )),
             }
+        }
+        fn temperature(&self) -> f64 {
+            27.0
         }
         fn function(&self, name: &str) -> Option<std::rc::Rc<FuncDef>> {
             let (params, body) = match name {

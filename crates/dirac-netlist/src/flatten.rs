@@ -31,6 +31,8 @@ struct Scope<'p> {
     slots: RefCell<HashMap<String, Slot>>,
     /// The `.func`s defined at this level.
     funcs: RefCell<HashMap<String, Rc<FuncDef>>>,
+    /// The circuit's temperature in °C (set on the top-level scope, read through the parents).
+    temperature: Cell<f64>,
     /// How many parameter evaluations are in progress, shared by all scopes.
     depth: Rc<Cell<usize>>,
 }
@@ -56,6 +58,7 @@ impl<'p> Scope<'p> {
             parent,
             slots: RefCell::new(HashMap::new()),
             funcs: RefCell::new(HashMap::new()),
+            temperature: Cell::new(parent.map_or(27.0, |p| p.temperature.get())),
             depth: parent.map_or_else(|| Rc::new(Cell::new(0)), |p| Rc::clone(&p.depth)),
         }
     }
@@ -132,6 +135,9 @@ impl<'p> Scope<'p> {
 impl Env for Scope<'_> {
     fn param(&self, name: &str, pos: Pos) -> Result<f64, NetlistError> {
         self.lookup(name, pos)
+    }
+    fn temperature(&self) -> f64 {
+        self.temperature.get()
     }
     fn function(&self, name: &str) -> Option<Rc<FuncDef>> {
         match self.funcs.borrow().get(name) {
@@ -1185,6 +1191,7 @@ fn tran(parsed: &Parsed, scope: &Scope<'_>) -> Result<Option<Tran>, NetlistError
 /// Expands subcircuits and evaluates parameters.
 pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
     let global = Scope::new(None);
+    global.temperature.set(temperatures(&parsed.options).0);
     global.define_functions(&parsed.top.funcs);
     for (name, e) in &parsed.top.params {
         global.define(&name.norm, Slot::Pending(e.clone()));

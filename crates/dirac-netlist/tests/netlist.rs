@@ -993,6 +993,28 @@ fn functions_and_tables_in_cards() {
         9,
     );
     assert_err("t\n.func f(x, x) {x}\n", ErrorKind::Syntax, 2, 12);
+    // A B source's own names, as ngspice-39 reads them at `.temp 50` beside `.param e=5`:
+    // `pi + temper + hertz + e` is 55.85987 and `e` 2.718282 (the constant comes first).
+    let net = parse("t\n.temp 50\nB1 d 0 V = pi + temper + hertz + e\n.param e=5\nB2 f 0 V = e\n");
+    let constant = |name: &str| match net.element(name) {
+        Some(Element::Controlled {
+            source: ControlledSource::Behavioural { expression, .. },
+            ..
+        }) => expression.value(&[], 0.0),
+        other => panic!("{name}: {other:?}"),
+    };
+    let expected = std::f64::consts::PI + 50.0 + std::f64::consts::E;
+    assert!((constant("b1") - expected).abs() < 1e-13);
+    assert_eq!(constant("b2"), std::f64::consts::E);
+    let net = parse("t\n.param k=3\nB1 d 0 V = k*e\n");
+    let Some(Element::Controlled {
+        source: ControlledSource::Behavioural { expression, .. },
+        ..
+    }) = net.element("b1")
+    else {
+        panic!("b1");
+    };
+    assert_eq!(expression.value(&[], 0.0), 3.0 * std::f64::consts::E);
 }
 
 /// `.include FILE` and `.lib FILE SECTION` read their files in place, relative to the including
