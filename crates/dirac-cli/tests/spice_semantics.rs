@@ -268,6 +268,32 @@ fn a_loop_of_voltage_sources_is_refused_at_its_card() {
     assert_values(&parsed, &[("v(b)", 0.0), ("i(v3)", 0.0)], 0.0);
 }
 
+/// Expressions singular at 0 V (`ln`, `log10`, `sqrt`, `1/x`, `x^0.5`) in B sources whose node
+/// a source holds at 2 V: the operating point's Newton start (0 V) passes through the singular
+/// point, which is finite as ngspice-39 makes it (`ln 0` = −1e99, a divisor moved 1e-32 off zero;
+/// an infinite slope taken as 1e12), and the solution is exact. ngspice-39 prints 6.931472e-01,
+/// 3.010300e-01, 1.414214e+00 and 5.000000e-01 for the first four (it fails on `v(a)^0.5`).
+#[test]
+fn expressions_singular_at_the_newton_start() {
+    let parsed = operating_point(
+        "singular_op.cir",
+        "t\nV1 a 0 2\nR1 a 0 1k\nB1 b 0 V=ln(v(a))\nR2 b 0 1k\nB2 c 0 V=log10(v(a))\n\
+         R3 c 0 1k\nB3 d 0 V=sqrt(v(a))\nR4 d 0 1k\nB4 e 0 V=1/v(a)\nR5 e 0 1k\n\
+         B5 f 0 V=v(a)^0.5\nR6 f 0 1k\n.op\n.end\n",
+    );
+    assert_values(
+        &parsed,
+        &[
+            ("v(b)", std::f64::consts::LN_2),
+            ("v(c)", std::f64::consts::LOG10_2),
+            ("v(d)", std::f64::consts::SQRT_2),
+            ("v(e)", 0.5),
+            ("v(f)", std::f64::consts::SQRT_2),
+        ],
+        1e-12,
+    );
+}
+
 /// Instance parameters as ngspice reads them, at the operating point: `R2 … 1k m=2` is 500 Ω (so
 /// `v(b)` = 1·1k/1.5k = 2/3 V), and `D1 … dm area=2 m=3` a junction six times the model's (ngspice-39
 /// prints `d = 4.133852e-01` and `v1#branch = -3.08005e-03` on this deck).

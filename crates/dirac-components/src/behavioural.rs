@@ -16,7 +16,10 @@
 //! ngspice-39): `a ^ b` and `pow(a, b)` are `|a|^b`, `pwr(a, b)` is `sgn(a)·|a|^b`, comparisons
 //! are 1 or 0, `u`, `u2`, `uramp` are the unit step, the clipped ramp and the ramp. Square roots
 //! and logarithms of negative numbers are not defined (ngspice stops with "out of range"): they
-//! evaluate to NaN, which Newton reports as a non-finite residual at the step it occurs.
+//! evaluate to NaN, which Newton reports as a non-finite residual at the step it occurs. As in
+//! ngspice, `ln 0` is −1e99 and a divisor is moved 1e-32 away from zero, so an iterate passing
+//! through such a point (a Newton start at 0 V) is finite; an infinite slope there counts as
+//! ±1e12.
 
 use dirac_core::{ForceJacobian, Model};
 use dirac_graph::{PartError, Subsystem};
@@ -320,9 +323,9 @@ fn unary(f: Function, a: Dual) -> Dual {
             let e = v.exp();
             (e, e)
         }
-        Function::Ln => (if v < 0.0 { f64::NAN } else { v.ln() }, 1.0 / v),
+        Function::Ln => (logarithm(v, f64::ln), 1.0 / v),
         Function::Log10 => (
-            if v < 0.0 { f64::NAN } else { v.log10() },
+            logarithm(v, f64::log10),
             1.0 / (v * std::f64::consts::LN_10),
         ),
         Function::Sin => (v.sin(), v.cos()),
@@ -367,10 +370,40 @@ fn unary(f: Function, a: Dual) -> Dual {
         | Function::IsNonNegative
         | Function::IsNonPositive => (piecewise_constant(f, v), 0.0),
     };
+    // At a singular point with a finite value (√0, ln 0 as ngspice reads it) the slope is taken
+    // as ±STEEP, so a Newton iterate that passes there (a start at 0 V) gets a finite step.
+    let slope = if value.is_finite() && !slope.is_finite() && !slope.is_nan() {
+        STEEP.copysign(slope)
+    } else {
+        slope
+    };
     Dual {
         v: value,
         // A flat argument keeps a flat result even where the slope is infinite (√0, ln 0).
         d: if d == 0.0 { 0.0 } else { slope * d },
+    }
+}
+
+/// The magnitude ngspice-39 gives `ln 0` (`PTlog`: −1e99).
+const SINGULAR: f64 = 1e99;
+
+/// The slope taken where a function's is infinite at a finite value: steep, yet within the range
+/// the sparse LU's pivot checks accept beside the circuit's unit-sized entries.
+const STEEP: f64 = 1e12;
+
+/// What ngspice-39 adds to a divisor away from zero before dividing (`PTfudge_factor`: GMIN·1e-20
+/// with its default GMIN), so that `1/v(a)` at a Newton start of 0 V is large, not infinite.
+const DIVISION_FUDGE: f64 = 1e-32;
+
+/// A logarithm as ngspice-39 evaluates it: not defined below 0 (NaN, which Newton reports), −1e99
+/// at 0.
+fn logarithm(v: f64, log: fn(f64) -> f64) -> f64 {
+    if v < 0.0 {
+        f64::NAN
+    } else if v == 0.0 {
+        -SINGULAR
+    } else {
+        log(v)
     }
 }
 
@@ -408,8 +441,18 @@ fn piecewise_constant(f: Function, v: f64) -> f64 {
     }
 }
 
-/// `a op b` with its derivative.
+/// `a op b` with its derivative; an infinite slope at a finite value (`√`-like powers at 0, a
+/// divisor at 0) taken as ±STEEP, as [`unary`] does.
 fn binary(op: Operator, a: Dual, b: Dual) -> Dual {
+    let mut r = binary_exact(op, a, b);
+    let at_zero_divisor = op == Operator::Div && b.v == 0.0;
+    if r.v.is_finite() && (r.d.is_infinite() || (at_zero_divisor && r.d.abs() > STEEP)) {
+        r.d = STEEP.copysign(r.d);
+    }
+    r
+}
+
+fn binary_exact(op: Operator, a: Dual, b: Dual) -> Dual {
     match op {
         Operator::Add => Dual {
             v: a.v + b.v,
@@ -423,10 +466,13 @@ fn binary(op: Operator, a: Dual, b: Dual) -> Dual {
             v: a.v * b.v,
             d: a.d * b.v + a.v * b.d,
         },
-        Operator::Div => Dual {
-            v: a.v / b.v,
-            d: (a.d * b.v - a.v * b.d) / (b.v * b.v),
-        },
+        Operator::Div => {
+            let divisor = b.v + DIVISION_FUDGE.copysign(if b.v >= 0.0 { 1.0 } else { -1.0 });
+            Dual {
+                v: a.v / divisor,
+                d: (a.d * divisor - a.v * b.d) / (divisor * divisor),
+            }
+        }
         Operator::Pow | Operator::Pwr => {
             let magnitude = a.v.abs().powf(b.v);
             let v = if op == Operator::Pwr && a.v < 0.0 {

@@ -21,7 +21,8 @@
 //!
 //! so `-2^2` is -4 and `2^-1` is 0.5. `a ^ b` is `|a|^b`, as ngspice-39 computes it in both
 //! places (`.param p = {(-2)^3}` is 8); `pow(a, b)` is the real power in a parameter (−8) and
-//! `|a|^b` in a B source, as there. Comparisons and `!`, `&&`, `||` give 1 or 0. Numbers take
+//! `|a|^b` in a B source, `pwr(a, b)` is `|a|^b` in a parameter (8) and `sgn(a)·|a|^b` in a B
+//! source (−8), as there. Comparisons and `!`, `&&`, `||` give 1 or 0. Numbers take
 //! SPICE suffixes (`1k`, `10uF`). Names are case-insensitive parameter references (in a B
 //! source `time`, `temper`, `hertz`, `pi` and `e` come first, as in ngspice). Functions: [`FUNCTIONS`], `min max pow pwr` and `ternary_fcn`. `v(…)` and `i(…)`
 //! (node voltages and element currents) are read by B sources only.
@@ -90,8 +91,8 @@ pub(crate) enum Expr {
     /// `pow(a, b)`, whose meaning depends on where it is read (see the module's doc).
     PowCall(Box<Expr>, Box<Expr>),
     Ternary(Box<Expr>, Box<Expr>, Box<Expr>),
-    /// `pwl(a, x₀, y₀, …)`: the argument and the points' coordinates (constants).
-    Pwl(Box<Expr>, Vec<Expr>),
+    /// `pwl(a, x₀, y₀, …)`: the argument, the points' coordinates (constants) and where it is.
+    Pwl(Box<Expr>, Vec<Expr>, Pos),
     /// A call of a function no built-in has this name of: a `.func` resolved where it is
     /// evaluated (lowercased name, arguments, position).
     UserCall(String, Vec<Expr>, Pos),
@@ -146,16 +147,29 @@ impl ExprTok {
     }
 }
 
-/// The nesting depth of an expression tree.
+/// The nesting depth of an expression tree, counted without recursion (a long sum is a tree as
+/// deep as it has terms).
 fn nesting(e: &Expr) -> usize {
-    match e {
-        Expr::Num(_) | Expr::Param(..) | Expr::Probe(..) => 1,
-        Expr::Call1(_, a) => 1 + nesting(a),
-        Expr::Bin(_, a, b) | Expr::PowCall(a, b) => 1 + nesting(a).max(nesting(b)),
-        Expr::Ternary(c, a, b) => 1 + nesting(c).max(nesting(a)).max(nesting(b)),
-        Expr::Pwl(a, rest) => 1 + rest.iter().map(nesting).fold(nesting(a), usize::max),
-        Expr::UserCall(_, args, _) => 1 + args.iter().map(nesting).max().unwrap_or(0),
+    let mut deepest = 0;
+    let mut stack = vec![(e, 1)];
+    while let Some((e, depth)) = stack.pop() {
+        deepest = deepest.max(depth);
+        let below = depth + 1;
+        match e {
+            Expr::Num(_) | Expr::Param(..) | Expr::Probe(..) => {}
+            Expr::Call1(_, a) => stack.push((a, below)),
+            Expr::Bin(_, a, b) | Expr::PowCall(a, b) => {
+                stack.extend([(&**a, below), (&**b, below)]);
+            }
+            Expr::Ternary(c, a, b) => stack.extend([(&**c, below), (&**a, below), (&**b, below)]),
+            Expr::Pwl(a, rest, _) => {
+                stack.push((a, below));
+                stack.extend(rest.iter().map(|r| (r, below)));
+            }
+            Expr::UserCall(_, args, _) => stack.extend(args.iter().map(|a| (a, below))),
+        }
     }
+    deepest
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -334,9 +348,27 @@ fn tokenize(span: &Spanned) -> Result<Vec<(Tok, usize)>, NetlistError> {
             tok
         };
         toks.push((tok, start));
+        if toks.len() > MAX_TOKENS {
+            return Err(NetlistError::syntax(
+                span.pos_at(start),
+                span.text.chars().take(40).collect::<String>(),
+                format!("expression longer than {MAX_TOKENS} tokens"),
+            ));
+        }
     }
     Ok(toks)
 }
+
+/// Longest expression read, in tokens (a bound on the time and memory of reading one).
+const MAX_TOKENS: usize = 100_000;
+
+/// Deepest expression tree accepted: evaluating walks it recursively (a sum of 15 000 terms, a
+/// tree that deep, overflowed the stack).
+const MAX_TREE_DEPTH: usize = 1000;
+
+/// Deepest an expression may reach once its `.func` calls are expanded (its own depth plus the
+/// depths of the bodies it calls into), so evaluating it stays far from the stack's end.
+const MAX_REACH: usize = 4000;
 
 /// Deepest nesting of parentheses and unary operators accepted in one expression.
 const MAX_DEPTH: usize = 100;
@@ -407,9 +439,10 @@ impl Parser<'_> {
             return Ok(c);
         }
         self.k += 1;
-        let a = self.cond()?;
+        // Each branch is a level of nesting, as a parenthesis is.
+        let a = self.nested(Self::cond)?;
         self.expect(&Tok::Colon, "`:`")?;
-        let b = self.cond()?;
+        let b = self.nested(Self::cond)?;
         Ok(Expr::Ternary(Box::new(c), Box::new(a), Box::new(b)))
     }
 
@@ -570,6 +603,15 @@ impl Parser<'_> {
     }
 }
 
+/// Whether `name` is a built-in function (or `v`, `i`), which a `.func` may not redefine.
+pub(crate) fn built_in(name: &str) -> bool {
+    FUNCTIONS.iter().any(|(n, _)| *n == name)
+        || matches!(
+            name,
+            "min" | "max" | "pow" | "pwr" | "ternary_fcn" | "pwl" | "v" | "i"
+        )
+}
+
 fn call(name: &str, args: Vec<Expr>, pos: Pos, span: &Spanned) -> Result<Expr, NetlistError> {
     let arity = if FUNCTIONS.iter().any(|(n, _)| *n == name) {
         1
@@ -616,7 +658,7 @@ fn call(name: &str, args: Vec<Expr>, pos: Pos, span: &Spanned) -> Result<Expr, N
         "ternary_fcn" => Expr::Ternary(arg(), arg(), arg()),
         "pwl" => {
             let a = arg();
-            Expr::Pwl(a, args.collect())
+            Expr::Pwl(a, args.collect(), pos)
         }
         _ => {
             let f = FUNCTIONS
@@ -640,6 +682,17 @@ pub(crate) fn parse(span: &Spanned) -> Result<Expr, NetlistError> {
     let e = p.cond()?;
     if p.k < p.toks.len() {
         return Err(p.unexpected("an operator or the end of the expression"));
+    }
+    let depth = nesting(&e);
+    if depth > MAX_TREE_DEPTH {
+        return Err(NetlistError::syntax(
+            span.start(),
+            span.text.chars().take(40).collect::<String>(),
+            format!(
+                "expression nested {depth} levels deep (a sum or product of that many terms \
+                 counts as that deep); at most {MAX_TREE_DEPTH} are read"
+            ),
+        ));
     }
     Ok(e)
 }
@@ -683,6 +736,14 @@ fn user_function<T>(
             ),
         ));
     }
+    if bound.reach + nesting(&def.body) > MAX_REACH {
+        return Err(NetlistError::new(
+            ErrorKind::Unsupported,
+            pos,
+            name,
+            format!("function `{name}`: its calls, expanded, nest deeper than {MAX_REACH} levels"),
+        ));
+    }
     bound.calls.set(bound.calls.get() + 1);
     if bound.calls.get() > MAX_CALLS {
         return Err(NetlistError::new(
@@ -702,6 +763,8 @@ struct Bound<'a, T> {
     values: &'a [T],
     /// Calls expanded (and, in a B source, argument terms copied) so far in this evaluation.
     calls: &'a std::cell::Cell<usize>,
+    /// The depth of the function bodies entered to get here.
+    reach: usize,
 }
 
 /// Evaluates a parameter expression in `env`. `v(…)` and `i(…)` are refused: only B sources
@@ -713,6 +776,7 @@ pub(crate) fn eval(expr: &Expr, env: &dyn Env) -> Result<f64, NetlistError> {
         names: &[],
         values: &[],
         calls: &calls,
+        reach: 0,
     };
     evaluate(expr, env, &top, 0)
 }
@@ -746,6 +810,9 @@ fn evaluate(
             ));
         }
         Expr::Call1(f, a) => f.apply(go(a)?),
+        // ngspice-39's parameter `pwr(x, y)` is |x|^y (`.param p = {pwr(-2,3)}` is 8), where a
+        // B source's is sgn(x)·|x|^y.
+        Expr::Bin(Operator::Pwr, a, b) => Operator::Pow.apply(go(a)?, go(b)?),
         Expr::Bin(op, a, b) => op.apply(go(a)?, go(b)?),
         Expr::PowCall(a, b) => go(a)?.powf(go(b)?),
         Expr::Ternary(c, a, b) => {
@@ -755,8 +822,9 @@ fn evaluate(
                 go(b)?
             }
         }
-        Expr::Pwl(a, rest) => {
+        Expr::Pwl(a, rest, pos) => {
             let points = rest.iter().map(go).collect::<Result<Vec<f64>, _>>()?;
+            increasing(&points, *pos)?;
             let table = pairs(&points);
             Expression::Piecewise(Box::new(Expression::Constant(go(a)?)), table).value(&[], 0.0)
         }
@@ -768,6 +836,7 @@ fn evaluate(
                 names: &def.params,
                 values: &values,
                 calls: bound.calls,
+                reach: bound.reach + nesting(&def.body),
             };
             evaluate(&def.body, env, &inner, depth + 1)?
         }
@@ -781,6 +850,25 @@ fn size(e: &Expression) -> usize {
         Expression::Unary(_, a) | Expression::Piecewise(a, _) | Expression::Table(a, _) => size(a),
         Expression::Binary(_, a, b) => size(a) + size(b),
         Expression::Conditional(c, a, b) => size(c) + size(a) + size(b),
+    }
+}
+
+/// Checks that the x of the points `x₀, y₀, x₁, y₁, …` of a `pwl` (at `pos`) or a `TABLE` rise
+/// strictly, as the bisection for a point's segment needs.
+pub(crate) fn increasing(points: &[f64], pos: Pos) -> Result<(), NetlistError> {
+    let xs: Vec<f64> = points.iter().step_by(2).copied().collect();
+    match xs.windows(2).position(|w| w[1] <= w[0]) {
+        Some(k) => Err(NetlistError::bad_value(
+            pos,
+            "pwl",
+            format!(
+                "table points must rise strictly in x: point {} has x = {} after x = {}",
+                k + 2,
+                xs[k + 1],
+                xs[k]
+            ),
+        )),
+        None => Ok(()),
     }
 }
 
@@ -802,6 +890,7 @@ pub(crate) fn behavioural(
         names: &[],
         values: &[],
         calls: &calls,
+        reach: 0,
     };
     convert(expr, env, &top, probe, 0)
 }
@@ -851,11 +940,12 @@ fn convert(
         Expr::Bin(op, a, b) => Expression::Binary(*op, go(a)?, go(b)?),
         Expr::PowCall(a, b) => Expression::Binary(Operator::Pow, go(a)?, go(b)?),
         Expr::Ternary(c, a, b) => Expression::Conditional(go(c)?, go(a)?, go(b)?),
-        Expr::Pwl(a, rest) => {
+        Expr::Pwl(a, rest, pos) => {
             let points = rest
                 .iter()
                 .map(|e| eval(e, env))
                 .collect::<Result<Vec<f64>, _>>()?;
+            increasing(&points, *pos)?;
             Expression::Piecewise(go(a)?, pairs(&points))
         }
         Expr::UserCall(name, args, pos) => {
@@ -869,6 +959,7 @@ fn convert(
                 names: &def.params,
                 values: &values,
                 calls: bound.calls,
+                reach: bound.reach + nesting(&def.body),
             };
             convert(&def.body, env, &inner, probe, depth + 1)?
         }

@@ -754,11 +754,12 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                 })?;
                 let expression = match &el.kind {
                     ElemKind::Table(_, _, coordinates) => {
-                        let values = coordinates.iter().map(|c| scope.eval(c)).collect::<Result<
-                            Vec<f64>,
-                            _,
-                        >>(
-                        )?;
+                        let values: Vec<f64> = coordinates
+                            .iter()
+                            .map(|c| scope.eval(c))
+                            .collect::<Result<_, _>>()?;
+                        let at = coordinates.first().map_or(el.name.pos, |c| c.pos);
+                        expr::increasing(&values, at)?;
                         let points: Vec<(f64, f64)> =
                             values.chunks_exact(2).map(|p| (p[0], p[1])).collect();
                         match points.as_slice() {

@@ -572,6 +572,17 @@ impl<'a> CardParser<'a> {
     /// card): the function's name and definition.
     fn func(&mut self) -> Result<(Name, FuncDef), NetlistError> {
         let name = Name::plain(&self.word("function name")?);
+        if crate::expr::built_in(&name.norm) {
+            return Err(NetlistError::syntax(
+                name.pos,
+                name.orig.clone(),
+                format!(
+                    "`{}` is a built-in function: a .func cannot redefine it (ngspice refuses \
+                     it too)",
+                    name.orig
+                ),
+            ));
+        }
         if !self.cur.eat('(') {
             return Err(self.syntax("expected `(` and the function's parameters"));
         }
