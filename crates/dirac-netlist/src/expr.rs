@@ -809,10 +809,18 @@ fn evaluate(
                 ),
             ));
         }
+        // A parameter's logarithm of 0 is −∞ (refused as not finite), not a B source's −1e99.
+        Expr::Call1(f @ (Function::Ln | Function::Log10), a) => match go(a)? {
+            0.0 => f64::NEG_INFINITY,
+            x => f.apply(x),
+        },
         Expr::Call1(f, a) => f.apply(go(a)?),
         // ngspice-39's parameter `pwr(x, y)` is |x|^y (`.param p = {pwr(-2,3)}` is 8), where a
         // B source's is sgn(x)·|x|^y.
         Expr::Bin(Operator::Pwr, a, b) => Operator::Pow.apply(go(a)?, go(b)?),
+        // A parameter's division is exact (1/0 is refused as not finite); only a B source moves
+        // its divisor off zero, as ngspice's `PTdivide` does.
+        Expr::Bin(Operator::Div, a, b) => go(a)? / go(b)?,
         Expr::Bin(op, a, b) => op.apply(go(a)?, go(b)?),
         Expr::PowCall(a, b) => go(a)?.powf(go(b)?),
         Expr::Ternary(c, a, b) => {
