@@ -447,33 +447,27 @@ impl Parser<'_> {
     }
 
     fn or(&mut self) -> Result<Expr, NetlistError> {
-        let mut lhs = self.and()?;
-        while self.peek() == Some(&Tok::Or) {
-            self.k += 1;
-            let rhs = self.and()?;
-            // ngspice: ne0(ne0(a) + ne0(b)).
-            let sum = bin(
-                Operator::Add,
-                call1(Function::IsNonZero, lhs),
-                call1(Function::IsNonZero, rhs),
-            );
-            lhs = call1(Function::IsNonZero, sum);
-        }
-        Ok(lhs)
+        // ngspice: a || b is ne0(ne0(a) + ne0(b)).
+        self.logical(&Tok::Or, Function::IsNonZero, Self::and)
     }
 
     fn and(&mut self) -> Result<Expr, NetlistError> {
-        let mut lhs = self.comparison(true)?;
-        while self.peek() == Some(&Tok::And) {
+        // ngspice: a && b is eq0(eq0(a) + eq0(b)).
+        self.logical(&Tok::And, Function::IsZero, |p| p.comparison(true))
+    }
+
+    /// Operands of `inner` joined by `tok`, each pair as `f(f(a) + f(b))`.
+    fn logical(
+        &mut self,
+        tok: &Tok,
+        f: Function,
+        inner: impl Fn(&mut Self) -> Result<Expr, NetlistError>,
+    ) -> Result<Expr, NetlistError> {
+        let mut lhs = inner(self)?;
+        while self.peek() == Some(tok) {
             self.k += 1;
-            let rhs = self.comparison(true)?;
-            // ngspice: eq0(eq0(a) + eq0(b)).
-            let sum = bin(
-                Operator::Add,
-                call1(Function::IsZero, lhs),
-                call1(Function::IsZero, rhs),
-            );
-            lhs = call1(Function::IsZero, sum);
+            let rhs = inner(self)?;
+            lhs = call1(f, bin(Operator::Add, call1(f, lhs), call1(f, rhs)));
         }
         Ok(lhs)
     }
