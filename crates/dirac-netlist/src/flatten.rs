@@ -675,6 +675,17 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                         ),
                     ));
                 };
+                if found_model.kind.norm != "d" {
+                    return Err(NetlistError::new(
+                        ErrorKind::MissingModel,
+                        model.pos,
+                        model.orig.clone(),
+                        format!(
+                            "diode `{}` uses model `{}`, which is a `{}` model, not a diode's",
+                            el.name.orig, model.orig, found_model.kind.orig
+                        ),
+                    ));
+                }
                 let mut model = diode_model(found_model, mscope, out)?;
                 // The instance's area replaces the model's AREA; `m` multiplies either.
                 let area = match area {

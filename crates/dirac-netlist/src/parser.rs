@@ -127,6 +127,9 @@ pub(crate) struct ElemCard {
 #[derive(Debug, Clone)]
 pub(crate) struct ModelDef {
     pub name: Name,
+    /// The model type as written (`D`, or a type no element dirac reads uses: `NPN`, `NMOS`, …).
+    pub kind: Name,
+    /// The parameters (of a `D` model; other types' are not read).
     pub params: Vec<(Name, ExprTok)>,
 }
 
@@ -1044,16 +1047,26 @@ impl<'a> CardParser<'a> {
         Ok(out)
     }
 
-    fn model(&mut self) -> Result<ModelDef, NetlistError> {
+    fn model(&mut self, warnings: &mut Vec<Warning>) -> Result<ModelDef, NetlistError> {
         let name = Name::plain(&self.word("model name")?);
         let ty = self.word("model type")?;
-        if ty.lower() != "d" {
-            return Err(NetlistError::unsupported_in(
+        let kind = Name::plain(&ty);
+        if kind.norm != "d" {
+            // A model library (an `.include`d one most often) holds models of devices dirac does
+            // not read; an element that uses one is refused at its own card.
+            warnings.push(Warning::new(
                 ty.start(),
                 &ty.text,
-                &format!("model type `{}`", ty.text),
-                &self.text,
+                format!(
+                    "model `{}` of type `{}` ignored: dirac reads no device of that type",
+                    name.orig, ty.text
+                ),
             ));
+            return Ok(ModelDef {
+                name,
+                kind,
+                params: Vec::new(),
+            });
         }
         let open = self.cur.pos();
         let paren = self.cur.eat('(');
@@ -1081,7 +1094,7 @@ impl<'a> CardParser<'a> {
             params.push((pname, v));
         }
         self.finish()?;
-        Ok(ModelDef { name, params })
+        Ok(ModelDef { name, kind, params })
     }
 
     fn subckt(&mut self) -> Result<SubcktDef, NetlistError> {
@@ -1242,7 +1255,7 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
                     block.funcs.push((name, def));
                 }
                 ".model" => {
-                    let model = p.model()?;
+                    let model = p.model(&mut warnings)?;
                     if block.models.iter().any(|m| m.name.norm == model.name.norm) {
                         return Err(NetlistError::new(
                             ErrorKind::DuplicateDefinition,

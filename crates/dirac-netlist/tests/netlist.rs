@@ -1302,7 +1302,29 @@ fn unsupported_features_inside_cards() {
     assert!(e.message.contains("parameter `w`") && e.message.contains("not supported"));
     let e = assert_err("t\nR1 a 0 1k tc1=-1\n.temp 30\n", ErrorKind::BadValue, 2, 1);
     assert!(e.message.contains("must be positive"), "{e}");
-    assert_err("t\n.model q1 NPN(BF=100)\n", ErrorKind::Unsupported, 2, 11);
+    // A model of a device dirac does not read is ignored with a warning (a model library holds
+    // them); a diode that names one is refused, and so is the element that would use it.
+    let net =
+        parse("t\nR1 a 0 1\n.model q1 NPN(BF=100 VAF=50)\n+ IKF=0.1\n.model m1 nmos level=1\n");
+    assert_eq!(net.warnings.len(), 2, "{:?}", net.warnings);
+    assert!(
+        net.warnings[0].message.contains("type `NPN` ignored"),
+        "{:?}",
+        net.warnings
+    );
+    let e = assert_err(
+        "t\nD1 a 0 q1\n.model q1 NPN(BF=100)\n",
+        ErrorKind::MissingModel,
+        2,
+        8,
+    );
+    assert!(e.message.contains("a `NPN` model, not a diode's"), "{e}");
+    assert_err(
+        "t\nQ1 c b 0 q1\n.model q1 NPN(BF=100)\n",
+        ErrorKind::Unsupported,
+        2,
+        1,
+    );
     assert_err(
         "t\nD1 a 0 dm pj=2\n.model dm D\n",
         ErrorKind::Unsupported,
