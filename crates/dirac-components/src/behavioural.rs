@@ -558,6 +558,8 @@ pub struct BehaviouralSource {
     pub expression: Expression,
     /// Per control, the coordinate of its rate `x_k` (`φ_c` or `q_c`).
     rates: Vec<usize>,
+    /// The times at which the expression stops being smooth in time, ascending.
+    corners: Vec<f64>,
 }
 
 impl BehaviouralSource {
@@ -601,11 +603,17 @@ impl BehaviouralSource {
             rates.push(at + c.dim() - 1);
             at += c.dim();
         }
+        let mut corners = Vec::new();
+        time_corners(&expression, &mut corners);
+        corners.retain(|c| c.is_finite());
+        corners.sort_by(f64::total_cmp);
+        corners.dedup();
         Ok(Self {
             output,
             controls,
             expression,
             rates,
+            corners,
         })
     }
 
@@ -645,6 +653,73 @@ fn output_dim(output: Output) -> usize {
     match output {
         Output::Voltage => 1,
         Output::Current => 2,
+    }
+}
+
+/// `(a, b)` when `e` is `a·t + b` in time alone (no control), checked on three times.
+fn affine_in_time(e: &Expression) -> Option<(f64, f64)> {
+    if e.controls() > 0 || !e.reads_time() {
+        return None;
+    }
+    let at = |t: f64| e.value(&[], t);
+    let (b, slope) = (at(0.0), at(1.0) - at(0.0));
+    let check = at(2.0);
+    let affine = (check - (b + 2.0 * slope)).abs() <= 1e-12 * (1.0 + check.abs());
+    (affine && slope != 0.0 && slope.is_finite() && b.is_finite()).then_some((slope, b))
+}
+
+/// Collects the times at which `e` stops being smooth in time: where the argument of a step, a
+/// sign, a comparison, an absolute value or a ramp that is affine in time crosses its corner
+/// (0, and 1 for `u2`), where two such arguments of `min`/`max` cross, and the points of a `pwl`
+/// of time; as a `PULSE`'s corners, the integrator lands a step on each.
+fn time_corners(e: &Expression, out: &mut Vec<f64>) {
+    let root = |a: &Expression, level: f64, out: &mut Vec<f64>| {
+        if let Some((slope, b)) = affine_in_time(a) {
+            out.push((level - b) / slope);
+        }
+    };
+    match e {
+        Expression::Constant(_) | Expression::Control(_) | Expression::Time => {}
+        Expression::Unary(f, a) => {
+            match f {
+                Function::Step
+                | Function::Sgn
+                | Function::Abs
+                | Function::Ramp
+                | Function::IsZero
+                | Function::IsNonZero
+                | Function::IsPositive
+                | Function::IsNegative
+                | Function::IsNonNegative
+                | Function::IsNonPositive => root(a, 0.0, out),
+                Function::ClippedRamp => {
+                    root(a, 0.0, out);
+                    root(a, 1.0, out);
+                }
+                _ => {}
+            }
+            time_corners(a, out);
+        }
+        Expression::Binary(op, a, b) => {
+            if matches!(op, Operator::Min | Operator::Max) {
+                let difference = Expression::Binary(Operator::Sub, a.clone(), b.clone());
+                root(&difference, 0.0, out);
+            }
+            time_corners(a, out);
+            time_corners(b, out);
+        }
+        Expression::Conditional(c, a, b) => {
+            time_corners(c, out);
+            time_corners(a, out);
+            time_corners(b, out);
+        }
+        Expression::Piecewise(a, points) => {
+            for &(x, _) in points {
+                root(a, x, out);
+            }
+            time_corners(a, out);
+        }
+        Expression::Table(a, _) => time_corners(a, out),
     }
 }
 
@@ -699,6 +774,9 @@ impl Model for BehaviouralSource {
     }
     fn is_autonomous(&self) -> bool {
         !self.expression.reads_time()
+    }
+    fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        self.corners.iter().copied().find(|&c| c > t)
     }
     fn force(&self, _q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
         let y = self.expression.value(&self.gather(v), t);
@@ -915,6 +993,54 @@ mod tests {
         part.force(&[0.0; 3], &v, 0.0, &mut f);
         linear.force(&[0.0; 3], &v, 0.0, &mut g);
         assert_eq!(f, g);
+    }
+
+    /// Corners in time: `u(time − 1m)`, `time > 2m ? …`, `min(time, 3m)`, a `pwl` of time with
+    /// points at 4m and 5m (time scaled by 1k), `u2` of an affine argument at both ends; none for a
+    /// smooth `sin(time)` or an expression of controls.
+    #[test]
+    fn time_corners_are_breakpoints() {
+        let t = || Box::new(Expression::Time);
+        let e = Expression::Binary(
+            Operator::Add,
+            bin(
+                Operator::Add,
+                un(Function::Step, bin(Operator::Sub, t(), c(1e-3))),
+                un(Function::IsPositive, bin(Operator::Sub, t(), c(2e-3))),
+            ),
+            bin(
+                Operator::Add,
+                bin(Operator::Min, t(), c(3e-3)),
+                bin(
+                    Operator::Add,
+                    Box::new(Expression::Piecewise(
+                        bin(Operator::Mul, t(), c(1e3)),
+                        vec![(4.0, 0.0), (5.0, 1.0)],
+                    )),
+                    bin(
+                        Operator::Add,
+                        un(Function::ClippedRamp, bin(Operator::Mul, t(), c(100.0))),
+                        bin(
+                            Operator::Mul,
+                            un(Function::Sin, t()),
+                            un(Function::Step, x(0)),
+                        ),
+                    ),
+                ),
+            ),
+        );
+        let part = BehaviouralSource::new(Output::Voltage, vec![Control::Voltage], e).unwrap();
+        let mut at = 0.0;
+        let mut corners = Vec::new();
+        while let Some(next) = part.next_breakpoint(at) {
+            corners.push(next);
+            at = next;
+        }
+        let expected = [1e-3, 2e-3, 3e-3, 4e-3, 5e-3, 1e-2];
+        assert_eq!(corners.len(), expected.len(), "{corners:?}");
+        for (got, want) in corners.iter().zip(expected) {
+            assert!((got - want).abs() <= 1e-15, "{corners:?}");
+        }
     }
 
     #[test]
