@@ -384,6 +384,9 @@ fn unary(f: Function, a: Dual) -> Dual {
     }
 }
 
+/// Controls whose rates a force evaluation gathers on the stack.
+const INLINE_CONTROLS: usize = 8;
+
 /// The magnitude ngspice-39 gives `ln 0` (`PTlog`: −1e99).
 const SINGULAR: f64 = 1e99;
 
@@ -644,8 +647,20 @@ impl BehaviouralSource {
         subsystem
     }
 
-    fn gather(&self, v: &[f64]) -> Vec<f64> {
-        self.rates.iter().map(|&i| v[i]).collect()
+    /// Calls `f` with the controlling rates read from `v`: on the stack for up to
+    /// [`INLINE_CONTROLS`] controls (the force is evaluated at every quadrature node of every
+    /// Newton iteration), in a vector beyond.
+    fn with_rates<R>(&self, v: &[f64], f: impl FnOnce(&[f64]) -> R) -> R {
+        let n = self.rates.len();
+        if n <= INLINE_CONTROLS {
+            let mut x = [0.0; INLINE_CONTROLS];
+            for (slot, &i) in x.iter_mut().zip(&self.rates) {
+                *slot = v[i];
+            }
+            f(&x[..n])
+        } else {
+            f(&self.rates.iter().map(|&i| v[i]).collect::<Vec<f64>>())
+        }
     }
 }
 
@@ -779,7 +794,7 @@ impl Model for BehaviouralSource {
         self.corners.iter().copied().find(|&c| c > t)
     }
     fn force(&self, _q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
-        let y = self.expression.value(&self.gather(v), t);
+        let y = self.with_rates(v, |x| self.expression.value(x, t));
         match self.output {
             Output::Voltage => f[0] = -y,
             Output::Current => {
@@ -800,7 +815,6 @@ impl Model for BehaviouralSource {
         }
     }
     fn force_jacobian(&self, _q: &[f64], v: &[f64], t: f64, j: &mut ForceJacobian) {
-        let x = self.gather(v);
         let (row, sign) = match self.output {
             Output::Voltage => (0, -1.0),
             Output::Current => {
@@ -809,10 +823,12 @@ impl Model for BehaviouralSource {
                 (1, 1.0)
             }
         };
-        for (k, &rate) in self.rates.iter().enumerate() {
-            let (_, slope) = self.expression.value_and_derivative(&x, t, k);
-            j.v.add(row, rate, sign * slope);
-        }
+        self.with_rates(v, |x| {
+            for (k, &rate) in self.rates.iter().enumerate() {
+                let (_, slope) = self.expression.value_and_derivative(x, t, k);
+                j.v.add(row, rate, sign * slope);
+            }
+        });
         let mut at = output_dim(self.output);
         for c in &self.controls {
             if *c == Control::Voltage {
@@ -976,6 +992,16 @@ mod tests {
             let v: Vec<f64> = (0..n).map(|i| 0.3 - 0.17 * i as f64).collect();
             check_model(&part, &q, &v, 0.7);
         }
+        // More controls than are gathered on the stack: the same derivatives from a vector.
+        let many = (1..10).fold(Expression::Control(0), |e, k| {
+            Expression::Binary(Operator::Mul, Box::new(e), x(k))
+        });
+        let part =
+            BehaviouralSource::new(Output::Current, vec![Control::Current; 10], many).unwrap();
+        let n = part.dim();
+        let q: Vec<f64> = (0..n).map(|i| 0.05 * i as f64).collect();
+        let v: Vec<f64> = (0..n).map(|i| 1.0 - 0.03 * i as f64).collect();
+        check_model(&part, &q, &v, 0.0);
     }
 
     /// A source of `k·x` behaves as the linear controlled source of the same gain: same forces.

@@ -697,10 +697,8 @@ fn user_function<T>(
     name: &str,
     args: usize,
     pos: Pos,
-    depth: usize,
 ) -> Result<std::rc::Rc<FuncDef>, NetlistError> {
-    let env = bound.env;
-    let Some(def) = env.function(name) else {
+    let Some(def) = bound.env.function(name) else {
         return Err(NetlistError::new(
             ErrorKind::UnknownFunction,
             pos,
@@ -719,7 +717,7 @@ fn user_function<T>(
             ),
         ));
     }
-    if depth >= MAX_CALL_DEPTH {
+    if bound.depth >= MAX_CALL_DEPTH {
         return Err(NetlistError::new(
             ErrorKind::RecursiveParam,
             pos,
@@ -759,29 +757,45 @@ struct Bound<'a, T> {
     calls: &'a std::cell::Cell<usize>,
     /// The depth of the function bodies entered to get here.
     reach: usize,
+    /// How many calls are open.
+    depth: usize,
+}
+
+impl<'a, T> Bound<'a, T> {
+    /// No call open yet: names resolve in `env`.
+    fn top(env: &'a dyn Env, calls: &'a std::cell::Cell<usize>) -> Self {
+        Self {
+            env,
+            names: &[],
+            values: &[],
+            calls,
+            reach: 0,
+            depth: 0,
+        }
+    }
+
+    /// Inside a call of `def` with the arguments `values`.
+    fn enter<'b, U>(&'b self, def: &'b FuncDef, values: &'b [U]) -> Bound<'b, U> {
+        Bound {
+            env: self.env,
+            names: &def.params,
+            values,
+            calls: self.calls,
+            reach: self.reach + nesting(&def.body),
+            depth: self.depth + 1,
+        }
+    }
 }
 
 /// Evaluates a parameter expression in `env`. `v(…)` and `i(…)` are refused: only B sources
 /// read them.
 pub(crate) fn eval(expr: &Expr, env: &dyn Env) -> Result<f64, NetlistError> {
     let calls = std::cell::Cell::new(0);
-    let top = Bound {
-        env,
-        names: &[],
-        values: &[],
-        calls: &calls,
-        reach: 0,
-    };
-    evaluate(expr, env, &top, 0)
+    evaluate(expr, &Bound::top(env, &calls))
 }
 
-fn evaluate(
-    expr: &Expr,
-    env: &dyn Env,
-    bound: &Bound<'_, f64>,
-    depth: usize,
-) -> Result<f64, NetlistError> {
-    let go = |e: &Expr| evaluate(e, env, bound, depth);
+fn evaluate(expr: &Expr, bound: &Bound<'_, f64>) -> Result<f64, NetlistError> {
+    let go = |e: &Expr| evaluate(e, bound);
     Ok(match expr {
         Expr::Num(v) => *v,
         Expr::Param(name, pos) => match bound.names.iter().position(|n| n == name) {
@@ -831,16 +845,9 @@ fn evaluate(
             Expression::Piecewise(Box::new(Expression::Constant(go(a)?)), table).value(&[], 0.0)
         }
         Expr::UserCall(name, args, pos) => {
-            let def = user_function(bound, name, args.len(), *pos, depth)?;
+            let def = user_function(bound, name, args.len(), *pos)?;
             let values = args.iter().map(go).collect::<Result<Vec<f64>, _>>()?;
-            let inner = Bound {
-                env,
-                names: &def.params,
-                values: &values,
-                calls: bound.calls,
-                reach: bound.reach + nesting(&def.body),
-            };
-            evaluate(&def.body, env, &inner, depth + 1)?
+            evaluate(&def.body, &bound.enter(&def, &values))?
         }
     })
 }
@@ -887,24 +894,16 @@ pub(crate) fn behavioural(
     probe: &mut dyn FnMut(&Probe, Pos) -> Result<usize, NetlistError>,
 ) -> Result<Expression, NetlistError> {
     let calls = std::cell::Cell::new(0);
-    let top = Bound {
-        env,
-        names: &[],
-        values: &[],
-        calls: &calls,
-        reach: 0,
-    };
-    convert(expr, env, &top, probe, 0)
+    convert(expr, &Bound::top(env, &calls), probe)
 }
 
 fn convert(
     expr: &Expr,
-    env: &dyn Env,
     bound: &Bound<'_, Expression>,
     probe: &mut dyn FnMut(&Probe, Pos) -> Result<usize, NetlistError>,
-    depth: usize,
 ) -> Result<Expression, NetlistError> {
-    let mut go = |e: &Expr| convert(e, env, bound, probe, depth).map(Box::new);
+    let env = bound.env;
+    let mut go = |e: &Expr| convert(e, bound, probe).map(Box::new);
     Ok(match expr {
         Expr::Num(v) => Expression::Constant(*v),
         Expr::Param(name, pos) => match bound.names.iter().position(|n| n == name) {
@@ -943,27 +942,30 @@ fn convert(
         Expr::PowCall(a, b) => Expression::Binary(Operator::Pow, go(a)?, go(b)?),
         Expr::Ternary(c, a, b) => Expression::Conditional(go(c)?, go(a)?, go(b)?),
         Expr::Pwl(a, rest, pos) => {
-            let points = rest
-                .iter()
-                .map(|e| eval(e, env))
-                .collect::<Result<Vec<f64>, _>>()?;
+            // The points are constants, read through the call's own parameters too (a `.func`
+            // whose table takes its corners as arguments).
+            let mut points = Vec::with_capacity(rest.len());
+            for point in rest {
+                let point = go(point)?;
+                if point.controls() > 0 || point.reads_time() {
+                    return Err(NetlistError::bad_value(
+                        *pos,
+                        "pwl",
+                        "a pwl point must be a constant: it reads the circuit or time",
+                    ));
+                }
+                points.push(point.value(&[], 0.0));
+            }
             increasing(&points, *pos)?;
             Expression::Piecewise(go(a)?, pairs(&points))
         }
         Expr::UserCall(name, args, pos) => {
-            let def = user_function(bound, name, args.len(), *pos, depth)?;
+            let def = user_function(bound, name, args.len(), *pos)?;
             let values = args
                 .iter()
                 .map(|a| go(a).map(|b| *b))
                 .collect::<Result<Vec<Expression>, _>>()?;
-            let inner = Bound {
-                env,
-                names: &def.params,
-                values: &values,
-                calls: bound.calls,
-                reach: bound.reach + nesting(&def.body),
-            };
-            convert(&def.body, env, &inner, probe, depth + 1)?
+            convert(&def.body, &bound.enter(&def, &values), probe)?
         }
     })
 }

@@ -1015,6 +1015,23 @@ fn functions_and_tables_in_cards() {
         panic!("b1");
     };
     assert_eq!(expression.value(&[], 0.0), 3.0 * std::f64::consts::E);
+    // A `pwl` whose corner is a `.func` argument (ngspice-39: `f(v(a), 4)` at v(a) = 1 is 0.25;
+    // the points were read without the call's parameters: "unknown parameter `y`").
+    let net = parse("t\n.func f(x,y) {pwl(x, 0,0, y,1)}\nV1 a 0 1\nB1 b 0 V=f(v(a),4)\n");
+    let Some(Element::Controlled {
+        source: ControlledSource::Behavioural { expression, .. },
+        ..
+    }) = net.element("b1")
+    else {
+        panic!("b1");
+    };
+    assert_eq!(expression.value(&[1.0], 0.0), 0.25);
+    assert_err(
+        "t\nV1 a 0 1\nB1 b 0 V=pwl(v(a), 0,0, v(a),1)\n",
+        ErrorKind::BadValue,
+        3,
+        10,
+    );
 }
 
 /// `.include FILE` and `.lib FILE SECTION` read their files in place, relative to the including
