@@ -10,15 +10,15 @@ use dirac_graph::Subsystem;
 use thiserror::Error;
 
 /// Boltzmann's constant as ngspice 39 uses it (J/K).
-const BOLTZMANN: f64 = 1.380_648_52e-23;
+pub(crate) const BOLTZMANN: f64 = 1.380_648_52e-23;
 /// The elementary charge as ngspice 39 uses it (C).
-const CHARGE: f64 = 1.602_176_620_8e-19;
+pub(crate) const CHARGE: f64 = 1.602_176_620_8e-19;
 /// `k/q` (V/K).
-const K_OVER_Q: f64 = BOLTZMANN / CHARGE;
+pub(crate) const K_OVER_Q: f64 = BOLTZMANN / CHARGE;
 /// 0 °C in kelvin.
-const ZERO_CELSIUS: f64 = 273.15;
+pub(crate) const ZERO_CELSIUS: f64 = 273.15;
 /// SPICE's reference temperature, 27 °C (K).
-const REFTEMP: f64 = 27.0 + ZERO_CELSIUS;
+pub(crate) const REFTEMP: f64 = 27.0 + ZERO_CELSIUS;
 /// ngspice's `CKTepsmin`: the smallest saturation current it accepts (A).
 const IS_MIN: f64 = 1e-28;
 /// ngspice's limit on the temperature-adjusted grading coefficient (`DIOgradingCoeffMax`).

@@ -110,6 +110,7 @@ mod diode;
 mod electrical;
 mod electromechanical;
 mod mechanical;
+mod mosfet;
 mod nonlinear;
 mod planar;
 mod rolling;
@@ -130,6 +131,7 @@ pub use electrical::{
 };
 pub use electromechanical::{DcMotor, IdealGear, IdealTransformer};
 pub use mechanical::{Damper, ForceSource, Ground, Inertia, Mass, Spring};
+pub use mosfet::{Mosfet, MosfetChannel, MosfetError, MosfetGeometry, MosfetParameters, Polarity};
 pub use nonlinear::SaturatingInductor;
 pub use planar::{Anchor, Pendulum, Pin, PlanarBody, PlanarLinkage};
 pub use rolling::{RollingConstraint, RollingDisk};
