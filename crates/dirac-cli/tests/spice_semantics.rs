@@ -1003,3 +1003,40 @@ fn a_fast_mode_gauss2_leaves_lingering_after_a_corner_is_ramped() {
     assert!(worst <= 1e-4, "{worst:e} V");
     assert!(stderr.contains("\"ramp_substeps\""), "{stderr}");
 }
+
+/// Level-1 MOSFETs at the operating point, as ngspice-39's `.op` prints them for this deck: a
+/// CMOS inverter at mid-rail (both devices in saturation, channel-length modulation), a
+/// common-source stage with source degeneration (body effect, `V_BS < 0`), an n-channel device
+/// in inverse mode (drain below source), a p-channel source follower, and drain and source
+/// series resistances from `RD` and from `RSH·NRS`.
+#[test]
+fn operating_point_of_mosfets() {
+    let parsed = operating_point(
+        "mosfet_op.cir",
+        "mos op\n\
+         .model nch nmos (level=1 vto=0.7 kp=110u gamma=0.4 phi=0.7 lambda=0.04)\n\
+         .model pch pmos (level=1 vto=-0.7 kp=50u gamma=0.57 phi=0.8 lambda=0.05)\n\
+         vdd vdd 0 3.3\nvin in 0 1.4\n\
+         mp1 out in vdd vdd pch l=1u w=4u\nmn1 out in 0 0 nch l=1u w=2u\n\
+         vg g 0 2\nrd1 vdd d1 10k\nmn2 d1 g s1 0 nch l=2u w=10u\nrs1 s1 0 1k\n\
+         vx x 0 0.3\nmn3 x g y 0 nch l=1u w=1u\nry y vdd 20k\n\
+         vpg pg 0 1\nmp2 0 pg sp vdd pch l=1u w=5u\nrsp vdd sp 50k\n\
+         .model nrs nmos (level=1 vto=0.5 kp=80u rd=100 rsh=20 lambda=0.02)\n\
+         mn4 d4 g 0 0 nrs l=1u w=20u nrs=2\nr4 vdd d4 2k\n.op\n.end\n",
+    );
+    assert_values(
+        &parsed,
+        &[
+            ("v(out)", 3.018851),
+            ("v(d1)", 8.678830e-1),
+            ("v(s1)", 2.432117e-1),
+            ("v(y)", 2.263567),
+            ("v(sp)", 2.323882),
+            ("v(d4)", 8.509040e-1),
+            ("i(vx)", 5.182163e-5),
+        ],
+        5e-7,
+    );
+    // Printed to six digits: half a unit of the last one.
+    assert_values(&parsed, &[("i(vdd)", -1.59951e-3)], 3.2e-6);
+}

@@ -201,11 +201,13 @@ pub enum MosfetError {
 pub struct Mosfet {
     /// The drain current from the (inner) drain to the (inner) source.
     pub channel: MosfetChannel,
-    /// The bulk–drain junction, anode at the bulk for an n-channel device and at the drain for
-    /// a p-channel one; `None` when it has neither current nor charge.
-    pub drain_junction: Option<Diode>,
-    /// The bulk–source junction, oriented as [`Mosfet::drain_junction`].
-    pub source_junction: Option<Diode>,
+    /// The bulk–drain junction's diode card (anode at the bulk for an n-channel device, at the
+    /// drain for a p-channel one), already at the temperature: its `TNOM` is the temperature,
+    /// so [`Diode::at_temperature`] there builds it unchanged. `None` when it has neither
+    /// current nor charge.
+    pub drain_junction: Option<DiodeParameters>,
+    /// The bulk–source junction, as [`Mosfet::drain_junction`].
+    pub source_junction: Option<DiodeParameters>,
     /// Gate–source, gate–drain and gate–bulk overlap capacitances (F); zero ones are absent.
     pub overlap: [f64; 3],
     /// Drain and source series resistances (Ω); zero when absent (the inner node is the
@@ -283,7 +285,7 @@ impl Mosfet {
             (None, Some(cj)) => cj * capfact * area * g.m,
             (None, None) => 0.0,
         };
-        let junction = |is: f64, cjo: f64| -> Result<Option<Diode>, MosfetError> {
+        let junction = |is: f64, cjo: f64| -> Result<Option<DiodeParameters>, MosfetError> {
             if is == 0.0 && cjo == 0.0 {
                 return Ok(None);
             }
@@ -297,7 +299,8 @@ impl Mosfet {
                 tnom: celsius,
                 ..DiodeParameters::new(is, 1.0)
             };
-            Ok(Some(Diode::at_temperature(&card, celsius)?.diode))
+            Diode::at_temperature(&card, celsius)?;
+            Ok(Some(card))
         };
         let series = |given: Option<f64>, squares: f64| match (given, p.rsh) {
             (Some(r), _) => r / g.m,
@@ -694,7 +697,8 @@ mod tests {
         assert_eq!(d.overlap[1], 0.0);
         assert!((d.overlap[2] - 1e-10 * 2.0 * 0.8e-6).abs() < 1e-25);
         assert_eq!(d.series, [30.0, 2.5]);
-        assert!(d.drain_junction.is_some_and(|j| j.has_charge()));
-        assert!(d.source_junction.is_some_and(|j| !j.has_charge()));
+        let cj = |j: Option<DiodeParameters>| j.map(|j| j.cjo);
+        assert!(cj(d.drain_junction).is_some_and(|c| (c - 1e-4 * 2e-11 * 2.0).abs() < 1e-27));
+        assert_eq!(cj(d.source_junction), Some(0.0));
     }
 }

@@ -715,10 +715,8 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     // inductor is a winding of its K part. The builder sets the port signs from terminal order.
     // Resistors, inductors and capacitors of equal value share one model object.
     let mut shared = SharedParts::default();
-    // Connections that wait for a part added later (a sensing short), and the nodes between a
-    // controlling source and its shorts (no netlist node: no signal, no `v(…)`).
+    // Connections that wait for a part added later (a sensing short).
     let mut pending: Vec<(String, String, String, String)> = Vec::new();
-    let mut internal: Vec<String> = Vec::new();
     for (e, element) in netlist.elements.iter().enumerate() {
         let check = |part: Result<Subsystem, PartError>| part.map_err(|err| located(e, err));
         let mut device = None;
@@ -847,6 +845,9 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                         let dim = part.as_ref().map_or(0, Model::dim);
                         (part.map(|p| p.subsystem(name.clone())), dim)
                     }
+                    ControlledSource::Mosfet { channel, .. } => {
+                        (Ok(channel.subsystem(name.clone())), channel.dim())
+                    }
                 };
                 (name, check(part)?, none(dim), none(dim))
             }
@@ -860,9 +861,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             match sensors.get(name.as_str()) {
                 // Through nodes no netlist can name (they get no signal).
                 Some(shorts) => pending.extend(crate::sensed_chain(name, a, b, shorts, |k| {
-                    let node = format!("{name} sense {k}");
-                    internal.push(node.clone());
-                    node
+                    crate::inner_name(name, &format!("sense {k}"))
                 })),
                 None => {
                     circuit.connect(name, "i", a, b)?;
@@ -932,7 +931,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
     for (i, node) in graph.connections().iter().enumerate() {
         let connection = ConnectionId(i);
         let node = node.name().to_string();
-        if internal.contains(&node) {
+        if crate::is_inner_name(&node) {
             continue;
         }
         signals.push(Signal::new(format!("v({node})"), Probe::Effort(connection)));
@@ -974,7 +973,9 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         signals.push(circuit.signal(&format!("i({name})"))?);
     }
     for element in &netlist.elements {
-        if let Element::C { name, .. } = element {
+        if let Element::C { name, .. } = element
+            && !crate::is_inner_name(name)
+        {
             signals.push(circuit.signal(&format!("q({name})"))?);
         }
     }

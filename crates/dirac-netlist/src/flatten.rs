@@ -17,7 +17,10 @@ use super::parser::PolyControls;
 use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef, TranCard};
 use super::source::SourceSpec;
 use super::{ControlledSource, DiodeModel, Element, Netlist, Origin, Sensing, Tran};
-use dirac_components::{Diode, DiodeParameters, Expression, Operator, Waveform};
+use dirac_components::{
+    Diode, DiodeParameters, Expression, Mosfet, MosfetGeometry, MosfetParameters, Operator,
+    Polarity, Waveform,
+};
 
 enum Slot {
     Value(f64),
@@ -173,7 +176,19 @@ struct Ctx<'a, 'p> {
     globals: &'a HashSet<String>,
 }
 
-impl Ctx<'_, '_> {
+impl<'a, 'p> Ctx<'a, 'p> {
+    /// The `.model` named `model` and the scope it is evaluated in, innermost first.
+    fn model(&self, model: &Name) -> Option<(&'a ModelDef, &'p Scope<'p>)> {
+        let mut c = Some(self);
+        while let Some(cx) = c {
+            if let Some(def) = cx.block.models.iter().find(|d| d.name.norm == model.norm) {
+                return Some((def, cx.scope));
+            }
+            c = cx.parent;
+        }
+        None
+    }
+
     fn join(prefix: &str, name: &str) -> String {
         if prefix.is_empty() {
             name.to_owned()
@@ -495,6 +510,142 @@ fn diode_model(
     Ok(m)
 }
 
+/// A `.model NMOS|PMOS` card as a level-1 MOSFET's parameters (`TNOM` from `.options` unless
+/// given). A card of another level is refused at the element using it (a model library may hold
+/// BSIM cards for devices a netlist does not use); parameters that only matter with `TOX` or
+/// for noise are ignored with a warning.
+fn mosfet_model(
+    model: &ModelDef,
+    scope: &Scope<'_>,
+    element: &Name,
+    used_as: &Name,
+    out: &mut Out,
+) -> Result<MosfetParameters, NetlistError> {
+    let polarity = match model.kind.norm.as_str() {
+        "nmos" => Polarity::N,
+        "pmos" => Polarity::P,
+        _ => {
+            return Err(NetlistError::new(
+                ErrorKind::MissingModel,
+                used_as.pos,
+                used_as.orig.clone(),
+                format!(
+                    "MOSFET `{}` uses model `{}`, which is a `{}` model, not a MOSFET's",
+                    element.orig, used_as.orig, model.kind.orig
+                ),
+            ));
+        }
+    };
+    let mut c = MosfetParameters::new(polarity);
+    c.tnom = out.temperatures.1;
+    for (name, e) in &model.params {
+        let v = scope.eval(e)?;
+        match name.norm.as_str() {
+            "level" if v == 1.0 => {}
+            "level" => {
+                return Err(NetlistError::unsupported_in(
+                    e.pos,
+                    &e.text,
+                    &format!(
+                        "MOSFET level {v} (model `{}`; only level 1, Shichman–Hodges, is modelled)",
+                        model.name.orig
+                    ),
+                    &format!("level={}", e.text),
+                ));
+            }
+            "vto" | "vt0" => c.vto = v,
+            "kp" => c.kp = v,
+            "gamma" => c.gamma = v,
+            "phi" => c.phi = v,
+            "lambda" => c.lambda = v,
+            "rd" => c.rd = Some(v),
+            "rs" => c.rs = Some(v),
+            "rsh" => c.rsh = Some(v),
+            "cbd" => c.cbd = Some(v),
+            "cbs" => c.cbs = Some(v),
+            "is" => c.is = v,
+            "js" => c.js = v,
+            "pb" => c.pb = v,
+            "cj" => c.cj = Some(v),
+            "mj" => c.mj = v,
+            "cjsw" => c.cjsw = Some(v),
+            "mjsw" => c.mjsw = v,
+            "fc" => c.fc = v,
+            "cgso" => c.cgso = v,
+            "cgdo" => c.cgdo = v,
+            "cgbo" => c.cgbo = v,
+            "ld" => c.ld = v,
+            "tox" => c.tox = Some(v),
+            "tnom" => c.tnom = v,
+            other => {
+                let why = match other {
+                    "u0" | "uo" | "nsub" | "nss" | "tpg" => {
+                        "used only to derive KP, GAMMA, PHI or VTO from TOX, which is not given"
+                    }
+                    "kf" | "af" => "flicker noise: no effect on a transient or an operating point",
+                    _ => "not a level-1 MOSFET parameter; the simulation does not use it",
+                };
+                out.warnings.push(Warning::new(
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "MOSFET model `{}`: parameter `{}` ignored: {why}",
+                        model.name.orig, name.orig
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(c)
+}
+
+/// An `M` card's instance parameters as a geometry (ngspice's defaults for the rest).
+fn mosfet_geometry(
+    params: &[(Name, ExprTok)],
+    scope: &Scope<'_>,
+    element: &Name,
+    warnings: &mut Vec<Warning>,
+) -> Result<MosfetGeometry, NetlistError> {
+    let mut g = MosfetGeometry::default();
+    for (name, e) in params {
+        let slot = match name.norm.as_str() {
+            "l" => &mut g.l,
+            "w" => &mut g.w,
+            "ad" => &mut g.ad,
+            "as" => &mut g.as_,
+            "pd" => &mut g.pd,
+            "ps" => &mut g.ps,
+            "nrd" => &mut g.nrd,
+            "nrs" => &mut g.nrs,
+            "m" => &mut g.m,
+            "icvds" | "icvgs" | "icvbs" | "ic" => {
+                warnings.push(Warning::new(
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "`{}` of `{}` ignored: initial conditions are set with `.ic` on nodes",
+                        name.orig, element.orig
+                    ),
+                ));
+                continue;
+            }
+            _ => {
+                return Err(NetlistError::unsupported_in(
+                    name.pos,
+                    &name.orig,
+                    &format!(
+                        "MOSFET instance parameter `{}` of `{}` (read: L, W, AD, AS, PD, PS,                          NRD, NRS, M)",
+                        name.orig, element.orig
+                    ),
+                    &name.orig,
+                ));
+            }
+        };
+        *slot = scope.eval(e)?;
+    }
+    Ok(g)
+}
+
 /// What an ignored `.model D` parameter would change (ngspice's level-1 diode and its
 /// extensions).
 fn unsupported_diode_parameter(name: &str) -> &'static str {
@@ -554,6 +705,9 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
         let scope = ctx.scope;
         let index = out.elements.len();
         out.claim(&full, &el.name, &orig, Some(index))?;
+        // The elements a device card places besides its main one (a MOSFET's junctions,
+        // overlap capacitances and series resistances), named `"<card> <what>"`.
+        let mut parts: Vec<Element> = Vec::new();
         let element = match &el.kind {
             ElemKind::R(v, instance) => {
                 let value = scope.eval(v)?;
@@ -655,16 +809,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                 }
             }
             ElemKind::D(model, area, m) => {
-                let mut found = None;
-                let mut c = Some(ctx);
-                while let Some(cx) = c {
-                    if let Some(def) = cx.block.models.iter().find(|d| d.name.norm == model.norm) {
-                        found = Some((def, cx.scope));
-                        break;
-                    }
-                    c = cx.parent;
-                }
-                let Some((found_model, mscope)) = found else {
+                let Some((found_model, mscope)) = ctx.model(model) else {
                     return Err(NetlistError::new(
                         ErrorKind::MissingModel,
                         model.pos,
@@ -698,6 +843,99 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     anode: n(0),
                     cathode: n(1),
                     model,
+                }
+            }
+            ElemKind::M(model, params) => {
+                let Some((def, mscope)) = ctx.model(model) else {
+                    return Err(NetlistError::new(
+                        ErrorKind::MissingModel,
+                        model.pos,
+                        model.orig.clone(),
+                        format!(
+                            "MOSFET `{}` uses undefined model `{}`",
+                            el.name.orig, model.orig
+                        ),
+                    ));
+                };
+                let card = mosfet_model(def, mscope, &el.name, model, out)?;
+                let geometry = mosfet_geometry(params, scope, &el.name, &mut out.warnings)?;
+                let device =
+                    Mosfet::at_temperature(&card, &geometry, out.temperatures.0).map_err(|e| {
+                        NetlistError::bad_value(
+                            el.name.pos,
+                            el.name.orig.clone(),
+                            format!("MOSFET `{}` (model `{}`): {e}", el.name.orig, model.orig),
+                        )
+                    })?;
+                let (drain, gate, source, bulk) = (n(0), n(1), n(2), n(3));
+                let inner = |node: String, r: f64, which: &str| {
+                    if r > 0.0 {
+                        crate::inner_name(&full, which)
+                    } else {
+                        node
+                    }
+                };
+                let d = inner(drain.clone(), device.series[0], "drain");
+                let s = inner(source.clone(), device.series[1], "source");
+                for (which, outer, r, inner) in [
+                    ("rd", &drain, device.series[0], &d),
+                    ("rs", &source, device.series[1], &s),
+                ] {
+                    if r > 0.0 {
+                        parts.push(Element::R {
+                            name: crate::inner_name(&full, which),
+                            n1: outer.clone(),
+                            n2: inner.clone(),
+                            value: r,
+                        });
+                    }
+                }
+                for (which, junction, node) in [
+                    ("bd", device.drain_junction, &d),
+                    ("bs", device.source_junction, &s),
+                ] {
+                    let Some(junction) = junction else { continue };
+                    let (anode, cathode) = match card.polarity {
+                        Polarity::N => (bulk.clone(), node.clone()),
+                        Polarity::P => (node.clone(), bulk.clone()),
+                    };
+                    parts.push(Element::D {
+                        name: crate::inner_name(&full, which),
+                        anode,
+                        cathode,
+                        model: DiodeModel {
+                            name: def.name.norm.clone(),
+                            card: junction,
+                            tnom_given: true,
+                            ignored: Vec::new(),
+                        },
+                    });
+                }
+                for (which, value, other) in [
+                    ("cgs", device.overlap[0], &s),
+                    ("cgd", device.overlap[1], &d),
+                    ("cgb", device.overlap[2], &bulk),
+                ] {
+                    if value > 0.0 {
+                        parts.push(Element::C {
+                            name: crate::inner_name(&full, which),
+                            n1: gate.clone(),
+                            n2: other.clone(),
+                            value,
+                            ic: None,
+                        });
+                    }
+                }
+                Element::Controlled {
+                    name: full,
+                    n_plus: d,
+                    n_minus: s.clone(),
+                    source: ControlledSource::Mosfet {
+                        gate,
+                        bulk,
+                        source: s,
+                        channel: device.channel,
+                    },
                 }
             }
             ElemKind::E(v) | ElemKind::G(v) => {
@@ -826,14 +1064,19 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
             }
             ElemKind::X(..) => continue,
         };
-        out.elements.push(element);
-        out.origins.push(Origin {
-            name: orig,
-            line: el.name.pos.line,
-            column: el.name.pos.column,
-            file: String::new(),
-            file_index: el.name.pos.file,
-        });
+        for element in std::iter::once(element).chain(parts.drain(..)) {
+            if out.elements.len() > index {
+                out.claim(element.name(), &el.name, &orig, Some(out.elements.len()))?;
+            }
+            out.elements.push(element);
+            out.origins.push(Origin {
+                name: orig.clone(),
+                line: el.name.pos.line,
+                column: el.name.pos.column,
+                file: String::new(),
+                file_index: el.name.pos.file,
+            });
+        }
     }
     for (node, e) in &ctx.block.ics {
         let v = ctx.scope.eval(e)?;

@@ -113,7 +113,7 @@ mod units;
 mod circuit;
 
 pub use circuit::{Circuit, CircuitError, DeviceConditions, build_circuit, waveform};
-use dirac_components::BehaviouralSource;
+use dirac_components::{BehaviouralSource, MosfetChannel};
 pub use dirac_components::{Expression, Output};
 pub use error::{ErrorKind, NetlistError, Pos, Warning};
 pub use parser::{OptionCard, OutputRequest};
@@ -298,6 +298,20 @@ pub enum ControlledSource {
         /// The output's value.
         expression: Expression,
     },
+    /// An `M` card's channel: the level-1 drain current flows from `n+` (the inner drain)
+    /// through the channel to `n−` (the inner source), a function of the gate–source and
+    /// bulk–source voltages. The card's junctions, overlap capacitances and series resistances
+    /// are elements of their own (`D`, `C`, `R` named `"<m> bd"`, `"<m> cgs"`, `"<m> rd"`, …).
+    Mosfet {
+        /// Gate node.
+        gate: String,
+        /// Bulk node.
+        bulk: String,
+        /// The inner source node (`n−`), which the gate and bulk voltages are taken against.
+        source: String,
+        /// The drain current.
+        channel: MosfetChannel,
+    },
 }
 
 /// What one control of a controlled source senses.
@@ -358,6 +372,18 @@ impl ControlledSource {
                 .enumerate()
                 .map(|(k, c)| (BehaviouralSource::control_port(k), c.view()))
                 .collect(),
+            Self::Mosfet {
+                gate, bulk, source, ..
+            } => vec![
+                (
+                    MosfetChannel::GATE_PORT.into(),
+                    Sensed::Voltage(gate, source),
+                ),
+                (
+                    MosfetChannel::BULK_PORT.into(),
+                    Sensed::Voltage(bulk, source),
+                ),
+            ],
         }
     }
 
@@ -379,10 +405,23 @@ impl ControlledSource {
     pub fn drives_voltage(&self) -> bool {
         match self {
             Self::Vcvs { .. } | Self::Ccvs { .. } => true,
-            Self::Vccs { .. } | Self::Cccs { .. } => false,
+            Self::Vccs { .. } | Self::Cccs { .. } | Self::Mosfet { .. } => false,
             Self::Behavioural { output, .. } => *output == Output::Voltage,
         }
     }
+}
+
+/// The name of a node or element that a card creates inside itself (a MOSFET's inner drain
+/// `"m1 drain"`, its junction `"m1 bd"`, a controlling source's sensing node `"v1 sense 0"`): the
+/// card's hierarchical name, a space, `what`. No netlist can write a name with a space, so these
+/// never collide with one and get no default output column.
+pub(crate) fn inner_name(card: &str, what: &str) -> String {
+    format!("{card} {what}")
+}
+
+/// Whether `name` was made by [`inner_name`].
+pub(crate) fn is_inner_name(name: &str) -> bool {
+    name.contains(' ')
 }
 
 impl Element {

@@ -72,6 +72,8 @@ pub(crate) enum ElemKind {
     K(Name, Name, ExprTok),
     /// Model, area factor, `m=`.
     D(Name, Option<ExprTok>, Option<ExprTok>),
+    /// `M` (drain, gate, source, bulk): model and instance parameters (`L=`, `W=`, …).
+    M(Name, Vec<(Name, ExprTok)>),
     X(Name, Vec<(Name, ExprTok)>),
     /// `E` (voltage gain) and `G` (transconductance): the card's nodes are the output pair,
     /// then the controlling pair.
@@ -123,13 +125,14 @@ pub(crate) struct ElemCard {
     pub kind: ElemKind,
 }
 
-/// A `.model NAME D(...)` card.
+/// A `.model NAME TYPE(...)` card.
 #[derive(Debug, Clone)]
 pub(crate) struct ModelDef {
     pub name: Name,
-    /// The model type as written (`D`, or a type no element dirac reads uses: `NPN`, `NMOS`, …).
+    /// The model type as written (`D`, `NMOS`, `PMOS`, or a type no element dirac reads uses:
+    /// `NPN`, `SW`, …).
     pub kind: Name,
-    /// The parameters (of a `D` model; other types' are not read).
+    /// The parameters (of a `D`, `NMOS` or `PMOS` model; other types' are not read).
     pub params: Vec<(Name, ExprTok)>,
 }
 
@@ -975,6 +978,31 @@ impl<'a> CardParser<'a> {
                 };
                 (nodes, self.behavioural(output)?)
             }
+            'm' => {
+                let nodes = vec![self.node()?, self.node()?, self.node()?, self.node()?];
+                let model = Name::plain(&self.word("model name")?);
+                // `L=`, `W=`, `AD=`, … (read when the model is known); `off` is a hint for the
+                // operating point's Newton start, which dirac's does not take.
+                let mut params = Vec::new();
+                while !self.cur.at_end() {
+                    if self.cur.eat_keyword("off") {
+                        warnings.push(Warning::new(
+                            self.card.start(),
+                            self.text.clone(),
+                            format!("`off` ignored in card `{}`", self.text),
+                        ));
+                        continue;
+                    }
+                    let w = self.word("instance parameter")?;
+                    let pname = Name::plain(&w);
+                    if !self.cur.eat('=') {
+                        return Err(self.syntax(format!("expected `=` after `{}`", pname.orig)));
+                    }
+                    let v = self.assigned_value(&pname)?;
+                    params.push((pname, v));
+                }
+                (nodes, ElemKind::M(model, params))
+            }
             'x' => {
                 let (mut words, params) =
                     self.words_then_assignments("node or subcircuit name", |_, _| Ok(()))?;
@@ -1051,7 +1079,7 @@ impl<'a> CardParser<'a> {
         let name = Name::plain(&self.word("model name")?);
         let ty = self.word("model type")?;
         let kind = Name::plain(&ty);
-        if kind.norm != "d" {
+        if !matches!(kind.norm.as_str(), "d" | "nmos" | "pmos") {
             // A model library (an `.include`d one most often) holds models of devices dirac does
             // not read; an element that uses one is refused at its own card.
             warnings.push(Warning::new(

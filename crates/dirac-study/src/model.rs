@@ -503,8 +503,8 @@ fn element_keys(element: &Element) -> Vec<&'static str> {
             ControlledSource::Vcvs { .. } | ControlledSource::Cccs { .. } => vec!["gain"],
             ControlledSource::Vccs { .. } => vec!["gm"],
             ControlledSource::Ccvs { .. } => vec!["r"],
-            // An expression has no one number to sweep.
-            ControlledSource::Behavioural { .. } => Vec::new(),
+            // An expression or a device model has no one number to sweep.
+            ControlledSource::Behavioural { .. } | ControlledSource::Mosfet { .. } => Vec::new(),
         },
         Element::V { source, .. } | Element::I { source, .. } => match source {
             SourceSpec::Dc(_) => vec!["waveform"],
