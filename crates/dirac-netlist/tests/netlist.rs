@@ -1612,3 +1612,80 @@ fn pwl_repeated_time_is_a_warned_jump() {
     assert_eq!((net.warnings[0].line, net.warnings[0].column), (2, 21));
     assert_eq!(source_of(&net, "v1").value(1.5e-3), 5.0);
 }
+
+/// An `M` card places its parts: the channel between the inner drain and source (sensing gate
+/// and bulk against the inner source), the two bulk junctions oriented by polarity, the overlap
+/// capacitances that are not zero and the series resistances with their inner nodes.
+#[test]
+fn mosfet_places_its_parts() {
+    let n = parse(
+        "t\n.model p1 pmos (vto=-0.7 kp=50u rd=10 cbd=2f cgso=1n)\n\
+         M1 d g s b p1 l=1u w=3u\n",
+    );
+    let names: Vec<&str> = n.elements.iter().map(Element::name).collect();
+    assert_eq!(names, ["m1", "m1 rd", "m1 bd", "m1 bs", "m1 cgs"]);
+    match &n.elements[0] {
+        Element::Controlled {
+            n_plus,
+            n_minus,
+            source: ControlledSource::Mosfet { gate, bulk, source, .. },
+            ..
+        } => {
+            assert_eq!((n_plus.as_str(), n_minus.as_str()), ("m1 drain", "s"));
+            assert_eq!((gate.as_str(), bulk.as_str(), source.as_str()), ("g", "b", "s"));
+        }
+        other => panic!("{other:?}"),
+    }
+    // A p-channel junction conducts from the drain into the bulk.
+    assert_eq!(n.elements[2].terminals(), Some(("m1 drain", "b")));
+    match &n.elements[4] {
+        Element::C { n1, n2, value, .. } => {
+            assert_eq!((n1.as_str(), n2.as_str()), ("g", "s"));
+            assert!((value - 3e-15).abs() < 1e-28);
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
+/// What an `M` card refuses, at its place: an undefined model, a model of another device, a
+/// level other than 1 (at the value), Meyer capacitances (`TOX`) and sidewall capacitance (at
+/// the card), an instance parameter it does not read (at the parameter).
+#[test]
+fn mosfet_refusals() {
+    assert_err("t\nM1 d g 0 0 none\n", ErrorKind::MissingModel, 2, 12);
+    assert_err(
+        "t\n.model dm D\nM1 d g 0 0 dm\n",
+        ErrorKind::MissingModel,
+        3,
+        12,
+    );
+    let e = assert_err(
+        "t\n.model n3 nmos level=3 vto=1\nM1 d g 0 0 n3\n",
+        ErrorKind::Unsupported,
+        2,
+        22,
+    );
+    assert!(e.message.contains("only level 1"), "{e}");
+    let e = assert_err(
+        "t\n.model nt nmos (tox=10n)\nM1 d g 0 0 nt\n",
+        ErrorKind::BadValue,
+        3,
+        1,
+    );
+    assert!(e.message.contains("Meyer"), "{e}");
+    let e = assert_err(
+        "t\n.model ns nmos (cjsw=1n)\nM1 d g 0 0 ns pd=10u\n",
+        ErrorKind::BadValue,
+        3,
+        1,
+    );
+    assert!(e.message.contains("sidewall"), "{e}");
+    assert_err(
+        "t\n.model n1 nmos\nM1 d g 0 0 n1 w=1u temp=50\n",
+        ErrorKind::Unsupported,
+        3,
+        20,
+    );
+    // A model library with a level-1 card beside a BSIM one that no element uses reads.
+    parse("t\n.model nb nmos level=54 version=4.5\n.model n1 nmos\nM1 d g 0 0 n1\nV1 g 0 1\n");
+}
