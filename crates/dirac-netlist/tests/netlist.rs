@@ -1628,11 +1628,16 @@ fn mosfet_places_its_parts() {
         Element::Controlled {
             n_plus,
             n_minus,
-            source: ControlledSource::Mosfet { gate, bulk, source, .. },
+            source: ControlledSource::Mosfet {
+                gate, bulk, source, ..
+            },
             ..
         } => {
             assert_eq!((n_plus.as_str(), n_minus.as_str()), ("m1 drain", "s"));
-            assert_eq!((gate.as_str(), bulk.as_str(), source.as_str()), ("g", "b", "s"));
+            assert_eq!(
+                (gate.as_str(), bulk.as_str(), source.as_str()),
+                ("g", "b", "s")
+            );
         }
         other => panic!("{other:?}"),
     }
