@@ -177,16 +177,30 @@ struct Ctx<'a, 'p> {
 }
 
 impl<'a, 'p> Ctx<'a, 'p> {
-    /// The `.model` named `model` and the scope it is evaluated in, innermost first.
-    fn model(&self, model: &Name) -> Option<(&'a ModelDef, &'p Scope<'p>)> {
+    /// The `.model` named `model` that `device` `element` uses, and the scope it is evaluated
+    /// in, innermost first; an error at the model's name when there is none.
+    fn model(
+        &self,
+        model: &Name,
+        device: &str,
+        element: &Name,
+    ) -> Result<(&'a ModelDef, &'p Scope<'p>), NetlistError> {
         let mut c = Some(self);
         while let Some(cx) = c {
             if let Some(def) = cx.block.models.iter().find(|d| d.name.norm == model.norm) {
-                return Some((def, cx.scope));
+                return Ok((def, cx.scope));
             }
             c = cx.parent;
         }
-        None
+        Err(NetlistError::new(
+            ErrorKind::MissingModel,
+            model.pos,
+            model.orig.clone(),
+            format!(
+                "{device} `{}` uses undefined model `{}`",
+                element.orig, model.orig
+            ),
+        ))
     }
 
     fn join(prefix: &str, name: &str) -> String {
@@ -809,17 +823,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                 }
             }
             ElemKind::D(model, area, m) => {
-                let Some((found_model, mscope)) = ctx.model(model) else {
-                    return Err(NetlistError::new(
-                        ErrorKind::MissingModel,
-                        model.pos,
-                        model.orig.clone(),
-                        format!(
-                            "diode `{}` uses undefined model `{}`",
-                            el.name.orig, model.orig
-                        ),
-                    ));
-                };
+                let (found_model, mscope) = ctx.model(model, "diode", &el.name)?;
                 if found_model.kind.norm != "d" {
                     return Err(NetlistError::new(
                         ErrorKind::MissingModel,
@@ -846,17 +850,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                 }
             }
             ElemKind::M(model, params) => {
-                let Some((def, mscope)) = ctx.model(model) else {
-                    return Err(NetlistError::new(
-                        ErrorKind::MissingModel,
-                        model.pos,
-                        model.orig.clone(),
-                        format!(
-                            "MOSFET `{}` uses undefined model `{}`",
-                            el.name.orig, model.orig
-                        ),
-                    ));
-                };
+                let (def, mscope) = ctx.model(model, "MOSFET", &el.name)?;
                 let card = mosfet_model(def, mscope, &el.name, model, out)?;
                 let geometry = mosfet_geometry(params, scope, &el.name, &mut out.warnings)?;
                 let device =

@@ -360,6 +360,16 @@ impl<'a> CardParser<'a> {
         }
     }
 
+    /// `name=value`, `what` naming the name in the error when it is missing.
+    fn assignment(&mut self, what: &str) -> Result<(Name, ExprTok), NetlistError> {
+        let name = Name::plain(&self.word(what)?);
+        if !self.cur.eat('=') {
+            return Err(self.syntax(format!("expected `=` after `{}`", name.orig)));
+        }
+        let value = self.assigned_value(&name)?;
+        Ok((name, value))
+    }
+
     fn assigned_value(&mut self, name: &Name) -> Result<ExprTok, NetlistError> {
         match self.cur.assigned_value()? {
             Some(v) => ExprTok::parse(&v),
@@ -993,13 +1003,7 @@ impl<'a> CardParser<'a> {
                         ));
                         continue;
                     }
-                    let w = self.word("instance parameter")?;
-                    let pname = Name::plain(&w);
-                    if !self.cur.eat('=') {
-                        return Err(self.syntax(format!("expected `=` after `{}`", pname.orig)));
-                    }
-                    let v = self.assigned_value(&pname)?;
-                    params.push((pname, v));
+                    params.push(self.assignment("instance parameter")?);
                 }
                 (nodes, ElemKind::M(model, params))
             }
@@ -1113,13 +1117,7 @@ impl<'a> CardParser<'a> {
                 }
                 break;
             }
-            let w = self.word("model parameter")?;
-            let pname = Name::plain(&w);
-            if !self.cur.eat('=') {
-                return Err(self.syntax(format!("expected `=` after `{}`", pname.orig)));
-            }
-            let v = self.assigned_value(&pname)?;
-            params.push((pname, v));
+            params.push(self.assignment("model parameter")?);
         }
         self.finish()?;
         Ok(ModelDef { name, kind, params })

@@ -649,16 +649,16 @@ V1 a 0 SIN(0 1 1k)
 #[test]
 fn unsupported_cards() {
     let e = assert_err(
-        "t\nR1 a 0 1\n    M1 d g s 0 nmos\n",
+        "t\nR1 a 0 1\n    Q1 c b e npn\n",
         ErrorKind::Unsupported,
         3,
         5,
     );
     assert_eq!(
         e.to_string(),
-        "t.cir:3:5: card `M1 d g s 0 nmos` not supported"
+        "t.cir:3:5: card `Q1 c b e npn` not supported"
     );
-    assert_eq!(e.text, "M1 d g s 0 nmos");
+    assert_eq!(e.text, "Q1 c b e npn");
     for card in [
         "Q1 c b e npn",
         "T1 a 0 b 0 Z0=50 TD=1n",
@@ -1321,8 +1321,7 @@ fn unsupported_features_inside_cards() {
     assert!(e.message.contains("must be positive"), "{e}");
     // A model of a device dirac does not read is ignored with a warning (a model library holds
     // them); a diode that names one is refused, and so is the element that would use it.
-    let net =
-        parse("t\nR1 a 0 1\n.model q1 NPN(BF=100 VAF=50)\n+ IKF=0.1\n.model m1 nmos level=1\n");
+    let net = parse("t\nR1 a 0 1\n.model q1 NPN(BF=100 VAF=50)\n+ IKF=0.1\n.model s1 sw ron=1\n");
     assert_eq!(net.warnings.len(), 2, "{:?}", net.warnings);
     assert!(
         net.warnings[0].message.contains("type `NPN` ignored"),
