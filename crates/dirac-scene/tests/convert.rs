@@ -26,13 +26,13 @@ fn converted_scenes_reproduce_their_netlists() {
             matches!(
                 e,
                 Element::Controlled {
-                    source: ControlledSource::Behavioural { .. },
+                    source: ControlledSource::Behavioural { .. } | ControlledSource::Mosfet { .. },
                     ..
                 }
             )
         });
         if let Some((_, origin)) = behavioural {
-            // A behavioural source has no scene part: convert refuses it at its card.
+            // A behavioural source or a MOSFET has no scene part: convert refuses it at its card.
             let e = netlist_to_scene(&net, &file).unwrap_err().to_string();
             let place = format!(
                 "{file}:{}:{}: `{}`",
