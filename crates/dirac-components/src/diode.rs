@@ -74,6 +74,17 @@ pub struct DiodeParameters {
     pub tm: [f64; 2],
     /// `AREA`: area factor scaling `IS` and `CJO` and dividing `RS`, default 1.
     pub area: f64,
+    /// Sidewall depletion capacitance (F), default 0: a second depletion term with its own
+    /// potential, grading and knee, added to the bottom one (a MOSFET's junction `CJSW·PD`).
+    /// A netlist's `D` card does not set it: ngspice-39's diode evaluates its sidewall charge
+    /// above the knee with the bottom term's `F1` (`dioload.c`), which is not continuous.
+    pub cjsw: f64,
+    /// Sidewall junction potential (V), default 1.
+    pub vjsw: f64,
+    /// Sidewall grading coefficient, default 0.33.
+    pub mjsw: f64,
+    /// Sidewall forward-bias depletion capacitance coefficient, default 0.5.
+    pub fcs: f64,
 }
 
 impl Default for DiodeParameters {
@@ -98,6 +109,10 @@ impl Default for DiodeParameters {
             ttt: [0.0; 2],
             tm: [0.0; 2],
             area: 1.0,
+            cjsw: 0.0,
+            vjsw: 1.0,
+            mjsw: 0.33,
+            fcs: 0.5,
         }
     }
 }
@@ -174,18 +189,103 @@ pub struct Diode {
     /// The matched breakdown voltage `BV_eff` (positive), if breakdown is modelled.
     bv: Option<f64>,
     rs: f64,
+    /// The bottom depletion charge (`CJO`, `VJ`, `M`, `FC`).
+    bottom: Depletion,
+    /// The sidewall depletion charge (zero capacitance unless given).
+    sidewall: Depletion,
+    tt: f64,
+    vcrit: f64,
+    gmin: f64,
+}
+
+/// One depletion charge term (`dioload.c`, `mos1load.c`): `CJO·VJ(1 − (1 − v/VJ)^{1−M})/(1 − M)`
+/// below the knee `FC·VJ`, continued above it by the parabola whose capacitance is linear in `v`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Depletion {
     cj0: f64,
     vj: f64,
     m: f64,
-    fc: f64,
-    tt: f64,
+    /// `VJ(1 − (1 − FC)^{1−M})/(1 − M)`.
     f1: f64,
+    /// `(1 − FC)^{1+M}`.
     f2: f64,
+    /// `1 − FC(1 + M)`.
     f3: f64,
-    /// `FC·VJ`: where the depletion charge switches to its linear-capacitance extension.
-    depletion_knee: f64,
-    vcrit: f64,
-    gmin: f64,
+    /// `FC·VJ`: where the charge switches to its linear-capacitance extension.
+    knee: f64,
+}
+
+impl Depletion {
+    fn new(cj0: f64, vj: f64, m: f64, fc: f64) -> Self {
+        let xfc = (1.0 - fc).ln();
+        Self {
+            cj0,
+            vj,
+            m,
+            f1: vj * (1.0 - ((1.0 - m) * xfc).exp()) / (1.0 - m),
+            f2: ((1.0 + m) * xfc).exp(),
+            f3: 1.0 - fc * (1.0 + m),
+            knee: fc * vj,
+        }
+    }
+
+    /// The charge `Q_d(v)` and capacitance `dQ_d/dv`.
+    fn charge(&self, v: f64) -> (f64, f64) {
+        if self.cj0 == 0.0 {
+            return (0.0, 0.0);
+        }
+        let (cj0, vj, m) = (self.cj0, self.vj, self.m);
+        if v < self.knee {
+            // Q = VJ·CJO·(1 − (1 − v/VJ)^{1−M})/(1 − M), written without cancellation.
+            let l = (-v / vj).ln_1p();
+            let q = -vj * cj0 * ((1.0 - m) * l).exp_m1() / (1.0 - m);
+            (q, cj0 * (-m * l).exp())
+        } else {
+            let d = self.knee;
+            let czof2 = cj0 / self.f2;
+            let q = cj0 * self.f1 + czof2 * (self.f3 * (v - d) + m / (2.0 * vj) * (v * v - d * d));
+            (q, czof2 * (self.f3 + m * v / vj))
+        }
+    }
+
+    /// `∫₀^v Q_d(u) du`, in closed form.
+    fn integral(&self, v: f64) -> f64 {
+        if self.cj0 == 0.0 {
+            return 0.0;
+        }
+        let (cj0, vj, m) = (self.cj0, self.vj, self.m);
+        // ∫₀^v Q_d = VJ·CJO/(1−M) · VJ · (x − (1 − (1 − x)^{2−M})/(2 − M)), x = v/VJ.
+        let below = |v: f64| {
+            let x = v / vj;
+            let k = 2.0 - m;
+            let bracket = if x.abs() < SERIES {
+                // x − (1 − (1−x)^k)/k = Σ_{j≥2} −C(k, j)(−x)^j / k.
+                let mut sum = 0.0;
+                let mut binom = k; // C(k, 1)
+                let mut power = -x;
+                for j in 2..8 {
+                    binom *= (k - f64::from(j - 1)) / f64::from(j);
+                    power *= -x;
+                    sum += binom * power / k;
+                }
+                sum
+            } else {
+                x + (k * (-x).ln_1p()).exp_m1() / k
+            };
+            vj * cj0 / (1.0 - m) * vj * bracket
+        };
+        let d = self.knee;
+        if v <= d {
+            return below(v);
+        }
+        let czof2 = cj0 / self.f2;
+        let w = v - d;
+        below(d)
+            + cj0 * self.f1 * w
+            + czof2
+                * (0.5 * self.f3 * w * w
+                    + m / (2.0 * vj) * ((v * v * v - d * d * d) / 3.0 - d * d * w))
+    }
 }
 
 /// What [`Diode::at_temperature`] built, with the adjustments ngspice would warn about.
@@ -227,7 +327,7 @@ impl Diode {
             ));
             m = GRADING_MAX;
         }
-        // Junction potential and capacitance (diotemp.c, TLEVC = 0).
+        // Junction potentials and capacitances (diotemp.c, TLEVC = 0), bottom and sidewall.
         let fact2 = temp / REFTEMP;
         let egfet = 1.16 - (7.02e-4 * temp * temp) / (temp + 1108.0);
         let arg = -egfet / (2.0 * BOLTZMANN * temp) + 1.115_087_7 / (BOLTZMANN * 2.0 * REFTEMP);
@@ -236,12 +336,17 @@ impl Diode {
         let arg1 = -egfet1 / (BOLTZMANN * 2.0 * tnom) + 1.115_087_7 / (2.0 * BOLTZMANN * REFTEMP);
         let fact1 = tnom / REFTEMP;
         let pbfact1 = -2.0 * vtnom * (1.5 * fact1.ln() + CHARGE * arg1);
-        let pbo = (p.vj - pbfact1) / fact1;
-        let gmaold = (p.vj - pbo) / pbo;
-        let mut cj0 = p.cjo * p.area / (1.0 + m * (400e-6 * (tnom - REFTEMP) - gmaold));
-        let mut vj = pbfact + fact2 * pbo;
-        let gmanew = (vj - pbo) / pbo;
-        cj0 *= 1.0 + m * (400e-6 * (temp - REFTEMP) - gmanew);
+        let adjusted = |cj: f64, vj: f64, m: f64| {
+            let pbo = (vj - pbfact1) / fact1;
+            let gmaold = (vj - pbo) / pbo;
+            let tvj = pbfact + fact2 * pbo;
+            let gmanew = (tvj - pbo) / pbo;
+            let tcj = cj / (1.0 + m * (400e-6 * (tnom - REFTEMP) - gmaold))
+                * (1.0 + m * (400e-6 * (temp - REFTEMP) - gmanew));
+            (tcj, tvj)
+        };
+        let (cj0, mut vj) = adjusted(p.cjo * p.area, p.vj, m);
+        let (cjsw, mut vjsw) = adjusted(p.cjsw, p.vjsw, p.mjsw);
         // Saturation current.
         let arg1 = (temp / tnom - 1.0) * p.eg / vte;
         let arg2 = p.xti / p.n * (temp / tnom).ln();
@@ -255,10 +360,15 @@ impl Diode {
             ));
             vj = 1.0 / p.fc;
         }
-        let xfc = (1.0 - p.fc).ln();
-        let f1 = vj * (1.0 - ((1.0 - m) * xfc).exp()) / (1.0 - m);
-        let f2 = ((1.0 + m) * xfc).exp();
-        let f3 = 1.0 - p.fc * (1.0 + m);
+        if cjsw > 0.0 && p.fcs * vjsw > 1.0 {
+            warnings.push(format!(
+                "sidewall junction potential {vjsw} too large for its FC = {}, limited to {} (as \
+                 ngspice does)",
+                p.fcs,
+                1.0 / p.fcs
+            ));
+            vjsw = 1.0 / p.fcs;
+        }
         let nbv = p.nbv.unwrap_or(p.n);
         let bv =
             p.bv.map(|bv| breakdown_knee(bv - p.tcv * dt, p.ibv, is, vt, nbv));
@@ -268,7 +378,7 @@ impl Diode {
         } else {
             p.rs * (1.0 + p.trs[0] * dt + p.trs[1] * dt * dt) / p.area
         };
-        if cj0 < 0.0 || tt < 0.0 || rs < 0.0 || vj <= 0.0 {
+        if cj0 < 0.0 || cjsw < 0.0 || tt < 0.0 || rs < 0.0 || vj <= 0.0 || vjsw <= 0.0 {
             return Err(DiodeError {
                 parameter: "TNOM/temperature coefficients",
                 value: celsius,
@@ -283,15 +393,9 @@ impl Diode {
                 vtb: nbv * vt,
                 bv,
                 rs,
-                cj0,
-                vj,
-                m,
-                fc: p.fc,
+                bottom: Depletion::new(cj0, vj, m, p.fc),
+                sidewall: Depletion::new(cjsw, vjsw, p.mjsw, p.fcs),
                 tt,
-                f1,
-                f2,
-                f3,
-                depletion_knee: p.fc * vj,
                 vcrit,
                 gmin: Self::GMIN,
             },
@@ -346,7 +450,7 @@ impl Diode {
     /// Whether the junction stores charge (`CJO > 0` or `TT > 0`): otherwise `φ` is degenerate.
     #[must_use]
     pub fn has_charge(&self) -> bool {
-        self.cj0 > 0.0 || self.tt > 0.0
+        self.bottom.cj0 > 0.0 || self.sidewall.cj0 > 0.0 || self.tt > 0.0
     }
 
     /// The junction current `i_D(v)` without `GMIN` and its derivative `di_D/dv`.
@@ -400,64 +504,19 @@ impl Diode {
         }
     }
 
-    /// The depletion charge `Q_d(v)` and capacitance `dQ_d/dv` (`dioload.c`).
+    /// The depletion charge `Q_d(v)` (bottom plus sidewall) and capacitance `dQ_d/dv`
+    /// (`dioload.c`).
     #[must_use]
     pub fn depletion_charge(&self, v: f64) -> (f64, f64) {
-        if self.cj0 == 0.0 {
-            return (0.0, 0.0);
-        }
-        let (cj0, vj, m) = (self.cj0, self.vj, self.m);
-        if v < self.depletion_knee {
-            // Q = VJ·CJO·(1 − (1 − v/VJ)^{1−M})/(1 − M), written without cancellation.
-            let l = (-v / vj).ln_1p();
-            let q = -vj * cj0 * ((1.0 - m) * l).exp_m1() / (1.0 - m);
-            (q, cj0 * (-m * l).exp())
-        } else {
-            let d = self.depletion_knee;
-            let czof2 = cj0 / self.f2;
-            let q = cj0 * self.f1 + czof2 * (self.f3 * (v - d) + m / (2.0 * vj) * (v * v - d * d));
-            (q, czof2 * (self.f3 + m * v / vj))
-        }
+        let (qb, cb) = self.bottom.charge(v);
+        let (qs, cs) = self.sidewall.charge(v);
+        (qb + qs, cb + cs)
     }
 
     /// `∫₀^v Q_d(u) du`, in closed form.
     #[must_use]
     pub fn depletion_integral(&self, v: f64) -> f64 {
-        if self.cj0 == 0.0 {
-            return 0.0;
-        }
-        let (cj0, vj, m) = (self.cj0, self.vj, self.m);
-        // ∫₀^v Q_d = VJ·CJO/(1−M) · VJ · (x − (1 − (1 − x)^{2−M})/(2 − M)), x = v/VJ.
-        let below = |v: f64| {
-            let x = v / vj;
-            let k = 2.0 - m;
-            let bracket = if x.abs() < SERIES {
-                // x − (1 − (1−x)^k)/k = Σ_{j≥2} −C(k, j)(−x)^j / k.
-                let mut sum = 0.0;
-                let mut binom = k; // C(k, 1)
-                let mut power = -x;
-                for j in 2..8 {
-                    binom *= (k - f64::from(j - 1)) / f64::from(j);
-                    power *= -x;
-                    sum += binom * power / k;
-                }
-                sum
-            } else {
-                x + (k * (-x).ln_1p()).exp_m1() / k
-            };
-            vj * cj0 / (1.0 - m) * vj * bracket
-        };
-        let d = self.depletion_knee;
-        if v <= d {
-            return below(v);
-        }
-        let czof2 = cj0 / self.f2;
-        let w = v - d;
-        below(d)
-            + cj0 * self.f1 * w
-            + czof2
-                * (0.5 * self.f3 * w * w
-                    + m / (2.0 * vj) * ((v * v * v - d * d * d) / 3.0 - d * d * w))
+        self.bottom.integral(v) + self.sidewall.integral(v)
     }
 
     /// The junction charge `Q_j(v)` (depletion plus diffusion `TT·(i_D + GMIN·v)`) and the
@@ -642,6 +701,17 @@ fn validate(p: &DiodeParameters, celsius: f64) -> Result<(), DiodeError> {
     }
     if !(0.0..1.0).contains(&p.fc) {
         return fail("FC", p.fc, "must lie in [0, 1)");
+    }
+    for (name, value) in [("MJSW", p.mjsw), ("FCS", p.fcs)] {
+        if !(0.0..1.0).contains(&value) {
+            return fail(name, value, "must lie in [0, 1)");
+        }
+    }
+    if !(p.cjsw >= 0.0 && p.cjsw.is_finite()) {
+        return fail("CJSW", p.cjsw, "must not be negative");
+    }
+    if !(p.vjsw > 0.0 && p.vjsw.is_finite()) {
+        return fail("VJSW", p.vjsw, "must be positive");
     }
     if p.tt < 0.0 {
         return fail("TT", p.tt, "must not be negative");
@@ -1023,6 +1093,41 @@ mod tests {
                 "E({v}) = {e:e} vs {e_exact:e}"
             );
         }
+        // A sidewall term of its own potential, grading and knee adds its charge and co-energy.
+        let with_sidewall = DiodeParameters {
+            cjsw: 1.5e-12,
+            vjsw: 0.6,
+            mjsw: 0.3,
+            fcs: 0.4,
+            ..card
+        };
+        let ds = at(&with_sidewall, 27.0);
+        let sidewall = |u: f64| {
+            let (c, vj, m, fc) = (1.5e-12, 0.6, 0.3, 0.4);
+            if u < fc * vj {
+                c * (1.0 - u / vj).powf(-m)
+            } else {
+                c / (1.0 - fc).powf(1.0 + m) * (1.0 - fc * (1.0 + m) + m * u / vj)
+            }
+        };
+        for v in [-20.0, -0.5, 0.1, 0.24, 0.3, 0.7] {
+            let knee = 0.4 * 0.6;
+            let q_side = if v <= knee {
+                simpson(0.0, v, 4000, sidewall)
+            } else {
+                simpson(0.0, knee, 4000, sidewall) + simpson(knee, v, 4000, sidewall)
+            };
+            let q = ds.depletion_charge(v).0 - d.depletion_charge(v).0;
+            assert!(
+                rel(q, q_side, 1e-30) < 1e-9,
+                "sidewall Q({v}) = {q:e} vs {q_side:e}"
+            );
+            let l_exact = simpson(0.0, v, 4000, |u| ds.junction_charge(u).0);
+            assert!(
+                rel(ds.co_energy(v), l_exact, 1e-30) < 1e-8,
+                "sidewall L({v})"
+            );
+        }
         // Small voltages: the series branches give ½ C₀ v² without cancellation.
         for v in [1e-9, -1e-7] {
             let e = d.stored_energy(v);
@@ -1095,7 +1200,10 @@ mod tests {
         };
         let d = at(&card, 27.0);
         assert!(rel(d.saturation_current(), card.is, 1e-300) < 1e-15);
-        assert!(rel(d.vj, card.vj, 1e-300) < 1e-15 && rel(d.cj0, card.cjo, 1e-300) < 1e-15);
+        assert!(
+            rel(d.bottom.vj, card.vj, 1e-300) < 1e-15
+                && rel(d.bottom.cj0, card.cjo, 1e-300) < 1e-15
+        );
         let hot = at(&card, 100.0);
         let (t, tn): (f64, f64) = (373.15, 300.15);
         let vt = 1.380_648_52e-23 * t / 1.602_176_620_8e-19;
@@ -1109,21 +1217,21 @@ mod tests {
         // CJO(T) by about 4e-8 relative from the textbook form.
         let ngspice_constant = 2e-7;
         assert!(
-            rel(hot.vj, vj, 1e-300) < ngspice_constant,
+            rel(hot.bottom.vj, vj, 1e-300) < ngspice_constant,
             "{} vs {vj}",
-            hot.vj
+            hot.bottom.vj
         );
         let cj = card.cjo * (1.0 + card.m * (4e-4 * (t - tn) - (vj - card.vj) / card.vj));
         assert!(
-            rel(hot.cj0, cj, 1e-300) < ngspice_constant,
+            rel(hot.bottom.cj0, cj, 1e-300) < ngspice_constant,
             "{} vs {cj}",
-            hot.cj0
+            hot.bottom.cj0
         );
         // The same card measured at 50 °C and used at 50 °C is unchanged.
         let warm = DiodeParameters { tnom: 50.0, ..card };
         let d50 = at(&warm, 50.0);
         assert!(rel(d50.saturation_current(), card.is, 1e-300) < 1e-15);
-        assert!(rel(d50.vj, card.vj, 1e-300) < 1e-13);
+        assert!(rel(d50.bottom.vj, card.vj, 1e-300) < 1e-13);
     }
 
     /// The junction limit follows `DEVpnjlim`: a forward step from reverse bias lands at
@@ -1207,6 +1315,6 @@ mod tests {
         )
         .expect("limited, not refused");
         assert_eq!(limited.warnings.len(), 1, "{:?}", limited.warnings);
-        assert_eq!(limited.diode.vj, 2.0);
+        assert_eq!(limited.diode.bottom.vj, 2.0);
     }
 }

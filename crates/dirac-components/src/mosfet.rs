@@ -2,7 +2,7 @@
 //!
 //! A level-1 MOSFET is a drain current `I_D(V_GS, V_DS, V_BS)` between drain and source
 //! ([`MosfetChannel`]), two bulk junctions (bulk–drain and bulk–source [`Diode`]s: the ideal
-//! junction current, `GMIN`, the bottom depletion charge), three linear overlap capacitances
+//! junction current, `GMIN`, the bottom and sidewall depletion charges), three linear overlap capacitances
 //! (`CGSO·W`, `CGDO·W`, `CGBO·L_eff`) and optional drain and source series resistances.
 //! [`Mosfet::at_temperature`] computes all of them from a model card and an instance's geometry
 //! at the circuit temperature; a netlist places them.
@@ -12,8 +12,7 @@
 //! adds when the card gives `TOX` are not: the gate–source charge increments by `C_GS(V_GS,
 //! V_DS, V_BS)·ΔV_GS` with a capacitance that depends on the other voltages (`devsup.c`,
 //! `DEVqmeyer`), a charge that no function of the voltages has as its gradient. A card with
-//! `TOX` is refused, as is a sidewall junction capacitance (`CJSW` with a perimeter), which
-//! the junction part does not carry.
+//! `TOX` is refused.
 //!
 //! Equations: `mos1load.c` (drain current and its regions), `mos1temp.c` (temperature),
 //! `mos1set.c` (defaults); constants as in [`crate::Diode`].
@@ -220,8 +219,8 @@ impl Mosfet {
     ///
     /// # Errors
     /// [`MosfetError::Parameter`] for `PHI ≤ 0`, a non-positive effective length or width, a
-    /// negative capacitance, `FC ≥ 1`, a `TOX` (Meyer capacitances) or a sidewall capacitance
-    /// (both not modelled); [`MosfetError::Junction`] when a bulk junction cannot be built.
+    /// negative capacitance, `FC ≥ 1`, or a `TOX` (Meyer capacitances, not modelled);
+    /// [`MosfetError::Junction`] when a bulk junction cannot be built.
     pub fn at_temperature(
         p: &MosfetParameters,
         g: &MosfetGeometry,
@@ -278,30 +277,38 @@ impl Mosfet {
         let gmaold = (p.pb - pbo) / pbo;
         let bulk_pot = fact2 * pbo + pbfact;
         let gmanew = (bulk_pot - pbo) / pbo;
-        let capfact = (1.0 + p.mj * (4e-4 * (temp - REFTEMP) - gmanew))
-            / (1.0 + p.mj * (4e-4 * (tnom - REFTEMP) - gmaold));
+        let capfact = |m: f64| {
+            (1.0 + m * (4e-4 * (temp - REFTEMP) - gmanew))
+                / (1.0 + m * (4e-4 * (tnom - REFTEMP) - gmaold))
+        };
         let bottom = |given: Option<f64>, area: f64| match (given, p.cj) {
-            (Some(c), _) => c * capfact * g.m,
-            (None, Some(cj)) => cj * capfact * area * g.m,
+            (Some(c), _) => c * capfact(p.mj) * g.m,
+            (None, Some(cj)) => cj * capfact(p.mj) * area * g.m,
             (None, None) => 0.0,
         };
-        let junction = |is: f64, cjo: f64| -> Result<Option<DiodeParameters>, MosfetError> {
-            if is == 0.0 && cjo == 0.0 {
-                return Ok(None);
-            }
-            // Parameters already at `celsius`: the diode's own temperature model is the
-            // identity at its TNOM.
-            let card = DiodeParameters {
-                cjo,
-                vj: bulk_pot,
-                m: p.mj,
-                fc: p.fc,
-                tnom: celsius,
-                ..DiodeParameters::new(is, 1.0)
+        let sidewall = |perimeter: f64| p.cjsw.unwrap_or(0.0) * capfact(p.mjsw) * perimeter * g.m;
+        let junction =
+            |is: f64, cjo: f64, cjsw: f64| -> Result<Option<DiodeParameters>, MosfetError> {
+                if is == 0.0 && cjo == 0.0 && cjsw == 0.0 {
+                    return Ok(None);
+                }
+                // Parameters already at `celsius`: the diode's own temperature model is the
+                // identity at its TNOM.
+                let card = DiodeParameters {
+                    cjo,
+                    vj: bulk_pot,
+                    m: p.mj,
+                    fc: p.fc,
+                    cjsw,
+                    vjsw: bulk_pot,
+                    mjsw: p.mjsw,
+                    fcs: p.fc,
+                    tnom: celsius,
+                    ..DiodeParameters::new(is, 1.0)
+                };
+                Diode::at_temperature(&card, celsius)?;
+                Ok(Some(card))
             };
-            Diode::at_temperature(&card, celsius)?;
-            Ok(Some(card))
-        };
         let series = |given: Option<f64>, squares: f64| match (given, p.rsh) {
             (Some(r), _) => r / g.m,
             (None, Some(rsh)) => rsh * squares / g.m,
@@ -309,8 +316,8 @@ impl Mosfet {
         };
         Ok(Self {
             channel,
-            drain_junction: junction(drain_is, bottom(p.cbd, g.ad))?,
-            source_junction: junction(source_is, bottom(p.cbs, g.as_))?,
+            drain_junction: junction(drain_is, bottom(p.cbd, g.ad), sidewall(g.pd))?,
+            source_junction: junction(source_is, bottom(p.cbs, g.as_), sidewall(g.ps))?,
             overlap: [p.cgso * g.m * g.w, p.cgdo * g.m * g.w, p.cgbo * g.m * leff],
             series: [series(p.rd, g.nrd), series(p.rs, g.nrs)],
         })
@@ -344,14 +351,6 @@ fn validate(p: &MosfetParameters, g: &MosfetGeometry) -> Result<(), MosfetError>
             "the Meyer gate capacitances a TOX turns on are not modelled (their charge is not a \
              function of the terminal voltages); give KP instead of TOX (and CGSO/CGDO for gate \
              capacitance)",
-        );
-    }
-    let sidewall = p.cjsw.unwrap_or(0.0) * (g.pd + g.ps);
-    if sidewall != 0.0 {
-        return fail(
-            "CJSW",
-            p.cjsw.unwrap_or(0.0),
-            "a sidewall junction capacitance (CJSW with PD or PS) is not modelled",
         );
     }
     if p.phi <= 0.0 {
@@ -641,8 +640,8 @@ mod tests {
         assert!(hot.phi < nominal.phi);
     }
 
-    /// What the netlist refuses: Meyer capacitances (TOX), sidewall capacitance, a channel
-    /// shorter than twice its lateral diffusion.
+    /// What the netlist refuses: Meyer capacitances (TOX), a channel shorter than twice its
+    /// lateral diffusion.
     #[test]
     fn refused_cards() {
         let g = MosfetGeometry::default();
@@ -657,13 +656,6 @@ mod tests {
                 ..
             })
         ));
-        let sidewall = MosfetParameters {
-            cjsw: Some(1e-10),
-            ..nmos()
-        };
-        let perimeter = MosfetGeometry { pd: 1e-5, ..g };
-        assert!(Mosfet::at_temperature(&sidewall, &perimeter, 27.0).is_err());
-        assert!(Mosfet::at_temperature(&sidewall, &g, 27.0).is_ok());
         let short = MosfetParameters {
             ld: 0.6e-4,
             ..nmos()
@@ -700,5 +692,20 @@ mod tests {
         let cj = |j: Option<DiodeParameters>| j.map(|j| j.cjo);
         assert!(cj(d.drain_junction).is_some_and(|c| (c - 1e-4 * 2e-11 * 2.0).abs() < 1e-27));
         assert_eq!(cj(d.source_junction), Some(0.0));
+        // Sidewall: CJSW·PS·M on the source junction, with its own grading and the bulk potential.
+        let side = Mosfet::at_temperature(
+            &MosfetParameters {
+                cjsw: Some(3e-10),
+                mjsw: 0.33,
+                ..p
+            },
+            &MosfetGeometry { ps: 5e-6, ..g },
+            27.0,
+        )
+        .unwrap();
+        let j = side.source_junction.unwrap();
+        assert!((j.cjsw - 3e-10 * 5e-6 * 2.0).abs() < 1e-27);
+        assert_eq!((j.mjsw, j.vjsw, j.fcs), (0.33, j.vj, p.fc));
+        assert_eq!(side.drain_junction.unwrap().cjsw, 0.0);
     }
 }

@@ -60,7 +60,8 @@ fn all_example_netlists_parse() {
         let has_diode = net.elements.iter().any(|e| matches!(e, Element::D { .. }));
         assert_eq!(
             has_diode,
-            name == "rectifier.cir" || name.starts_with("diode_")
+            name == "rectifier.cir"
+                || name.starts_with("diode_")
                 || name == "mosfet.cir"
                 || name == "cmos_ring.cir",
             "{name}: only the rectifier, the diode_* netlists and the MOSFETs' bulk junctions \

@@ -1652,8 +1652,8 @@ fn mosfet_places_its_parts() {
 }
 
 /// What an `M` card refuses, at its place: an undefined model, a model of another device, a
-/// level other than 1 (at the value), Meyer capacitances (`TOX`) and sidewall capacitance (at
-/// the card), an instance parameter it does not read (at the parameter).
+/// level other than 1 (at the value), Meyer capacitances (`TOX`, at the card), an instance
+/// parameter it does not read (at the parameter).
 #[test]
 fn mosfet_refusals() {
     assert_err("t\nM1 d g 0 0 none\n", ErrorKind::MissingModel, 2, 12);
@@ -1677,13 +1677,6 @@ fn mosfet_refusals() {
         1,
     );
     assert!(e.message.contains("Meyer"), "{e}");
-    let e = assert_err(
-        "t\n.model ns nmos (cjsw=1n)\nM1 d g 0 0 ns pd=10u\n",
-        ErrorKind::BadValue,
-        3,
-        1,
-    );
-    assert!(e.message.contains("sidewall"), "{e}");
     assert_err(
         "t\n.model n1 nmos\nM1 d g 0 0 n1 w=1u temp=50\n",
         ErrorKind::Unsupported,

@@ -965,6 +965,7 @@ impl DiodeParams {
             ttt: [self.ttt1, self.ttt2],
             tm: [self.tm1, self.tm2],
             area: self.area,
+            ..dirac_components::DiodeParameters::default()
         }
     }
 }
