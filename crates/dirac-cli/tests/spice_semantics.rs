@@ -1040,3 +1040,35 @@ fn operating_point_of_mosfets() {
     // Printed to six digits: half a unit of the last one.
     assert_values(&parsed, &[("i(vdd)", -1.59951e-3)], 3.2e-6);
 }
+
+/// Instance temperatures: a diode at `temp=75` and at `dtemp=20` beside one at the circuit's
+/// 40 °C, MOSFETs at `temp=100`, `dtemp=-30` and at `temp=120` with a reverse-biased bulk
+/// junction, as ngspice-39's `.op` prints them (without the instance temperatures `v(b)` and
+/// `v(c)` would be `v(e)`, 0.7278950, and `v(d1)` 1.779022).
+#[test]
+fn operating_point_with_instance_temperatures() {
+    let parsed = operating_point(
+        "instance_temp_op.cir",
+        "t\n.model dm d (is=1e-14 n=1.2 rs=5 eg=1.11 xti=3)\n\
+         .model nch nmos (level=1 vto=0.7 kp=110u gamma=0.4 phi=0.7 lambda=0.04 is=1e-12)\n\
+         v1 a 0 1\nr1 a b 1k\nd1 b 0 dm temp=75\nr2 a c 1k\nd2 c 0 dm dtemp=20\n\
+         r3 a e 1k\nd3 e 0 dm\nvdd vdd 0 3\nrd1 vdd d1 10k\n\
+         m1 d1 g s1 0 nch l=1u w=5u temp=100\nvg g 0 1.5\nrs1 s1 0 1k\nrd2 vdd d2 10k\n\
+         m2 d2 g s2 0 nch l=1u w=5u dtemp=-30\nrs2 s2 0 1k\nvb bb 0 -2\nrd3 vdd d3 100k\n\
+         m3 d3 g 0 bb nch l=1u w=5u temp=120\n.temp 40\n.op\n.end\n",
+    );
+    assert_values(
+        &parsed,
+        &[
+            ("v(b)", 6.814105e-1),
+            ("v(c)", 7.014050e-1),
+            ("v(e)", 7.278950e-1),
+            ("v(d1)", 1.813806),
+            ("v(s1)", 1.186017e-1),
+            ("v(d2)", 1.749796),
+            ("v(s2)", 1.250204e-1),
+            ("v(d3)", 1.534683e-1),
+        ],
+        5e-7,
+    );
+}

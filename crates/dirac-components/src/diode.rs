@@ -85,6 +85,19 @@ pub struct DiodeParameters {
     pub mjsw: f64,
     /// Sidewall forward-bias depletion capacitance coefficient, default 0.5.
     pub fcs: f64,
+    /// The current below `−3·N·V_t` (and above the breakdown knee): a junction diode's cubic
+    /// approach to `−I_S` by default, or `−I_S` itself, as ngspice's MOSFET junctions compute it.
+    pub reverse: ReverseCurrent,
+}
+
+/// How a junction's current approaches `−I_S` below `−3·N·V_t`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ReverseCurrent {
+    /// `−I_S(1 + (3NV_t/(e·v))³)`, continuous with its slope at `−3NV_t` (`dioload.c`).
+    #[default]
+    Cubic,
+    /// `−I_S` (`mos1load.c`'s bulk junctions): the current steps by `e⁻³·I_S` at `−3NV_t`.
+    Saturated,
 }
 
 impl Default for DiodeParameters {
@@ -113,6 +126,7 @@ impl Default for DiodeParameters {
             vjsw: 1.0,
             mjsw: 0.33,
             fcs: 0.5,
+            reverse: ReverseCurrent::Cubic,
         }
     }
 }
@@ -193,6 +207,7 @@ pub struct Diode {
     bottom: Depletion,
     /// The sidewall depletion charge (zero capacitance unless given).
     sidewall: Depletion,
+    reverse: ReverseCurrent,
     tt: f64,
     vcrit: f64,
     gmin: f64,
@@ -395,6 +410,7 @@ impl Diode {
                 rs,
                 bottom: Depletion::new(cj0, vj, m, p.fc),
                 sidewall: Depletion::new(cjsw, vjsw, p.mjsw, p.fcs),
+                reverse: p.reverse,
                 tt,
                 vcrit,
                 gmin: Self::GMIN,
@@ -466,11 +482,14 @@ impl Diode {
                     let e = (-(bv + v) / self.vtb).exp();
                     (-self.is * e, self.is * e / self.vtb)
                 }
-                _ => {
-                    let a = 3.0 * vte / (v * std::f64::consts::E);
-                    let a3 = a * a * a;
-                    (-self.is * (1.0 + a3), self.is * 3.0 * a3 / v)
-                }
+                _ => match self.reverse {
+                    ReverseCurrent::Cubic => {
+                        let a = 3.0 * vte / (v * std::f64::consts::E);
+                        let a3 = a * a * a;
+                        (-self.is * (1.0 + a3), self.is * 3.0 * a3 / v)
+                    }
+                    ReverseCurrent::Saturated => (-self.is, 0.0),
+                },
             }
         }
     }
@@ -492,7 +511,10 @@ impl Diode {
             return forward(v);
         }
         let c = 3.0 * vte / std::f64::consts::E;
-        let c3 = c * c * c;
+        let c3 = match self.reverse {
+            ReverseCurrent::Cubic => c * c * c,
+            ReverseCurrent::Saturated => 0.0,
+        };
         let reverse = |v: f64| {
             forward(v3) - is * (v - v3) + 0.5 * is * c3 * (1.0 / (v * v) - 1.0 / (v3 * v3))
         };
@@ -1044,6 +1066,40 @@ mod tests {
             d.lagrangian_gradient(&[0.0, 0.0], &[i, v], &mut lq, &mut lv);
             assert_eq!((lq, lv), ([0.0; 2], [0.0, q]));
             assert_eq!(d.lagrangian(&[0.0, 0.0], &[i, v]), d.co_energy(v));
+        }
+    }
+
+    /// A MOSFET junction's reverse current is `−I_S` below `−3V_t` (`mos1load.c`), where the
+    /// diode's approaches it as a cubic; its integral (the co-energy of a diffusion charge) is
+    /// the integral of that current.
+    #[test]
+    fn saturated_reverse_current() {
+        let card = DiodeParameters {
+            reverse: ReverseCurrent::Saturated,
+            tt: 1e-9,
+            ..DiodeParameters::new(1e-12, 1.0)
+        };
+        let d = at(&card, 27.0);
+        let vt = d.thermal_voltage();
+        assert_eq!(d.shockley(-3.5 * vt), (-1e-12, 0.0));
+        let cubic = at(&DiodeParameters::new(1e-12, 1.0), 27.0);
+        assert!(cubic.shockley(-3.5 * vt).0 > -1e-12);
+        for v in [-0.5, -3.5 * vt, -0.01, 0.3] {
+            // Across the step at −3V_t in two pieces, the second from the value below it.
+            let knee = -3.0 * vt;
+            let exact = if v < knee {
+                simpson(0.0, knee, 20000, |u| d.shockley(u).0)
+                    + simpson(knee, v, 20000, |u| {
+                        d.shockley(u.min(knee * (1.0 + 1e-12))).0
+                    })
+            } else {
+                simpson(0.0, v, 20000, |u| d.shockley(u).0)
+            };
+            let integral = d.shockley_integral(v);
+            assert!(
+                rel(integral, exact, 1e-30) < 1e-7,
+                "{v}: {integral:e} vs {exact:e}"
+            );
         }
     }
 

@@ -124,7 +124,7 @@ mod waveform;
 pub use behavioural::{BehaviouralSource, Control, Expression, Function, Operator, Output};
 pub use circuit::CircuitBuilder;
 pub use controlled::{Cccs, Ccvs, Vccs, Vcvs};
-pub use diode::{Diode, DiodeBuild, DiodeError, DiodeParameters};
+pub use diode::{Diode, DiodeBuild, DiodeError, DiodeParameters, ReverseCurrent};
 pub use dirac_graph::PartError;
 pub use electrical::{
     Capacitor, CoupledInductors, CurrentSource, Inductor, Resistor, VoltageSource,

@@ -22,7 +22,7 @@ use dirac_graph::Subsystem;
 use thiserror::Error;
 
 use crate::diode::{BOLTZMANN, CHARGE, K_OVER_Q, REFTEMP, ZERO_CELSIUS};
-use crate::{Diode, DiodeError, DiodeParameters};
+use crate::{Diode, DiodeError, DiodeParameters, ReverseCurrent};
 
 /// N- or p-channel (ngspice's `type`, +1 or −1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -303,6 +303,7 @@ impl Mosfet {
                     vjsw: bulk_pot,
                     mjsw: p.mjsw,
                     fcs: p.fc,
+                    reverse: ReverseCurrent::Saturated,
                     tnom: celsius,
                     ..DiodeParameters::new(is, 1.0)
                 };

@@ -799,12 +799,12 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                     },
                     ..model.card
                 };
-                let built = Diode::at_temperature(&card, conditions.temp).map_err(|e| {
-                    CircuitError::Diode {
+                let celsius = model.temp.unwrap_or(conditions.temp);
+                let built =
+                    Diode::at_temperature(&card, celsius).map_err(|e| CircuitError::Diode {
                         element: name.clone(),
                         source: e,
-                    }
-                })?;
+                    })?;
                 notes.extend(
                     built
                         .warnings

@@ -448,6 +448,7 @@ fn diode_model(
         card: DiodeParameters::default(),
         tnom_given: false,
         ignored: Vec::new(),
+        temp: None,
     };
     let c = &mut m.card;
     for (name, e) in &model.params {
@@ -613,16 +614,32 @@ fn mosfet_model(
     Ok(c)
 }
 
-/// An `M` card's instance parameters as a geometry (ngspice's defaults for the rest).
+/// An element's own temperature (°C) from its `temp=` (which wins, as in ngspice) or `dtemp=`
+/// (added to the circuit's); `None` when neither is given.
+fn instance_temperature(temp: Option<f64>, dtemp: Option<f64>, circuit: f64) -> Option<f64> {
+    temp.or(dtemp.map(|d| circuit + d))
+}
+
+/// An `M` card's instance parameters as a geometry (ngspice's defaults for the rest) and its
+/// own temperature, if `temp=` or `dtemp=` gives one.
 fn mosfet_geometry(
     params: &[(Name, ExprTok)],
     scope: &Scope<'_>,
     element: &Name,
-    warnings: &mut Vec<Warning>,
-) -> Result<MosfetGeometry, NetlistError> {
+    out: &mut Out,
+) -> Result<(MosfetGeometry, Option<f64>), NetlistError> {
     let mut g = MosfetGeometry::default();
+    let (mut temp, mut dtemp) = (None, None);
     for (name, e) in params {
         let slot = match name.norm.as_str() {
+            "temp" => {
+                temp = Some(scope.eval(e)?);
+                continue;
+            }
+            "dtemp" => {
+                dtemp = Some(scope.eval(e)?);
+                continue;
+            }
             "l" => &mut g.l,
             "w" => &mut g.w,
             "ad" => &mut g.ad,
@@ -633,7 +650,7 @@ fn mosfet_geometry(
             "nrs" => &mut g.nrs,
             "m" => &mut g.m,
             "icvds" | "icvgs" | "icvbs" | "ic" => {
-                warnings.push(Warning::new(
+                out.warnings.push(Warning::new(
                     name.pos,
                     name.orig.clone(),
                     format!(
@@ -648,7 +665,8 @@ fn mosfet_geometry(
                     name.pos,
                     &name.orig,
                     &format!(
-                        "MOSFET instance parameter `{}` of `{}` (read: L, W, AD, AS, PD, PS,                          NRD, NRS, M)",
+                        "MOSFET instance parameter `{}` of `{}` (read: L, W, AD, AS, PD, PS, NRD, NRS, M, \
+                         TEMP, DTEMP)",
                         name.orig, element.orig
                     ),
                     &name.orig,
@@ -657,7 +675,7 @@ fn mosfet_geometry(
         };
         *slot = scope.eval(e)?;
     }
-    Ok(g)
+    Ok((g, instance_temperature(temp, dtemp, out.temperatures.0)))
 }
 
 /// What an ignored `.model D` parameter would change (ngspice's level-1 diode and its
@@ -822,7 +840,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     k: kv,
                 }
             }
-            ElemKind::D(model, area, m) => {
+            ElemKind::D(model, instance) => {
                 let (found_model, mscope) = ctx.model(model, "diode", &el.name)?;
                 if found_model.kind.norm != "d" {
                     return Err(NetlistError::new(
@@ -837,11 +855,17 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                 }
                 let mut model = diode_model(found_model, mscope, out)?;
                 // The instance's area replaces the model's AREA; `m` multiplies either.
-                let area = match area {
+                let area = match &instance.area {
                     Some(e) => positive_factor(e, "area", scope, &el.name)?,
                     None => model.card.area,
                 };
-                model.card.area = area * multiplicity(m.as_ref(), scope, &el.name)?;
+                model.card.area = area * multiplicity(instance.m.as_ref(), scope, &el.name)?;
+                let value = |e: &Option<ExprTok>| e.as_ref().map(|e| scope.eval(e)).transpose();
+                model.temp = instance_temperature(
+                    value(&instance.temp)?,
+                    value(&instance.dtemp)?,
+                    out.temperatures.0,
+                );
                 Element::D {
                     name: full,
                     anode: n(0),
@@ -852,15 +876,15 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
             ElemKind::M(model, params) => {
                 let (def, mscope) = ctx.model(model, "MOSFET", &el.name)?;
                 let card = mosfet_model(def, mscope, &el.name, model, out)?;
-                let geometry = mosfet_geometry(params, scope, &el.name, &mut out.warnings)?;
-                let device =
-                    Mosfet::at_temperature(&card, &geometry, out.temperatures.0).map_err(|e| {
-                        NetlistError::bad_value(
-                            el.name.pos,
-                            el.name.orig.clone(),
-                            format!("MOSFET `{}` (model `{}`): {e}", el.name.orig, model.orig),
-                        )
-                    })?;
+                let (geometry, temp) = mosfet_geometry(params, scope, &el.name, out)?;
+                let celsius = temp.unwrap_or(out.temperatures.0);
+                let device = Mosfet::at_temperature(&card, &geometry, celsius).map_err(|e| {
+                    NetlistError::bad_value(
+                        el.name.pos,
+                        el.name.orig.clone(),
+                        format!("MOSFET `{}` (model `{}`): {e}", el.name.orig, model.orig),
+                    )
+                })?;
                 let (drain, gate, source, bulk) = (n(0), n(1), n(2), n(3));
                 let inner = |node: String, r: f64, which: &str| {
                     if r > 0.0 {
@@ -902,6 +926,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                             card: junction,
                             tnom_given: true,
                             ignored: Vec::new(),
+                            temp,
                         },
                     });
                 }

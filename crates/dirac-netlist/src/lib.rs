@@ -133,6 +133,9 @@ pub struct DiodeModel {
     /// Other parameters given (`IKF`, `KF`, ...), lowercased, which are not used; each produced
     /// a warning saying what it would change.
     pub ignored: Vec<(String, f64)>,
+    /// The element's own temperature (°C): `temp=` on its card, or the circuit's plus `dtemp=`
+    /// (a MOSFET's junctions: the device's). `None`: the circuit's.
+    pub temp: Option<f64>,
 }
 
 /// The `.tran` analysis card.

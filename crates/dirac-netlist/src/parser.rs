@@ -70,8 +70,8 @@ pub(crate) enum ElemKind {
     V(SourceFn),
     I(SourceFn),
     K(Name, Name, ExprTok),
-    /// Model, area factor, `m=`.
-    D(Name, Option<ExprTok>, Option<ExprTok>),
+    /// Model, area factor, `m=`, `temp=`, `dtemp=`.
+    D(Name, DiodeInstance),
     /// `M` (drain, gate, source, bulk): model and instance parameters (`L=`, `W=`, …).
     M(Name, Vec<(Name, ExprTok)>),
     X(Name, Vec<(Name, ExprTok)>),
@@ -101,6 +101,16 @@ pub(crate) enum PolyControls {
     Nodes(usize),
     /// `n` controlling voltage sources.
     Sources(Vec<Name>),
+}
+
+/// A `D` card's instance parameters: the area factor, the multiplicity `m`, the instance
+/// temperature `temp` or its offset `dtemp` from the circuit's.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct DiodeInstance {
+    pub area: Option<ExprTok>,
+    pub m: Option<ExprTok>,
+    pub temp: Option<ExprTok>,
+    pub dtemp: Option<ExprTok>,
 }
 
 /// The instance parameters ngspice reads on R, L and C cards besides the value (and `IC=`): the
@@ -896,9 +906,10 @@ impl<'a> CardParser<'a> {
                 let nodes = two_nodes(self)?;
                 let model = Name::plain(&self.word("model name")?);
                 // ngspice's instance parameters: an area factor (positional or `area=`), a
-                // multiplicity `m=` (both scale the junction), and `off` (a hint for the
-                // operating point's Newton start, which dirac's does not take).
-                let (mut area, mut m) = (None, None);
+                // multiplicity `m=` (both scale the junction), the instance temperature `temp=`
+                // or `dtemp=`, and `off` (a hint for the operating point's Newton start, which
+                // dirac's does not take).
+                let mut instance = DiodeInstance::default();
                 while !self.cur.at_end() {
                     if self.cur.eat_keyword("off") {
                         warnings.push(Warning::new(
@@ -907,17 +918,21 @@ impl<'a> CardParser<'a> {
                             format!("`off` ignored in card `{}`", self.text),
                         ));
                     } else if self.cur.eat_assignment_of("area") {
-                        area = Some(self.value("area factor")?);
+                        instance.area = Some(self.value("area factor")?);
                     } else if self.cur.eat_assignment_of("m") {
-                        m = Some(self.value("multiplicity")?);
-                    } else if area.is_none()
+                        instance.m = Some(self.value("multiplicity")?);
+                    } else if self.cur.eat_assignment_of("temp") {
+                        instance.temp = Some(self.value("instance temperature")?);
+                    } else if self.cur.eat_assignment_of("dtemp") {
+                        instance.dtemp = Some(self.value("instance temperature offset")?);
+                    } else if instance.area.is_none()
                         && self.cur.peek_word().is_none_or(|w| {
                             w.starts_with(|c: char| {
                                 c.is_ascii_digit() || matches!(c, '.' | '-' | '+')
                             })
                         })
                     {
-                        area = Some(self.value("area factor")?);
+                        instance.area = Some(self.value("area factor")?);
                     } else {
                         let pos = self.cur.pos();
                         let rest = self.cur.rest().text;
@@ -929,7 +944,7 @@ impl<'a> CardParser<'a> {
                         ));
                     }
                 }
-                (nodes, ElemKind::D(model, area, m))
+                (nodes, ElemKind::D(model, instance))
             }
             'e' | 'g' => {
                 let mut nodes = two_nodes(self)?;

@@ -306,7 +306,8 @@ fn diode_with_model() {
                     ..DiodeParameters::new(2e-14, 1.5)
                 },
                 tnom_given: false,
-                ignored: vec![("ikf".into(), 1.0)]
+                ignored: vec![("ikf".into(), 1.0)],
+                temp: None,
             }
         })
     );
@@ -1678,7 +1679,7 @@ fn mosfet_refusals() {
     );
     assert!(e.message.contains("Meyer"), "{e}");
     assert_err(
-        "t\n.model n1 nmos\nM1 d g 0 0 n1 w=1u temp=50\n",
+        "t\n.model n1 nmos\nM1 d g 0 0 n1 w=1u tnom=50\n",
         ErrorKind::Unsupported,
         3,
         20,

@@ -112,8 +112,9 @@ fn diode(model: &DiodeModel, conditions: DeviceConditions) -> String {
     key("tm2", c.tm[1], d.tm[1]);
     key("area", c.area, d.area);
     // The scene's `tnom` defaults to its `temp`, whose default is ngspice's 27 °C.
-    key("temp", conditions.temp, d.tnom);
-    key("tnom", tnom, conditions.temp);
+    let temp = model.temp.unwrap_or(conditions.temp);
+    key("temp", temp, d.tnom);
+    key("tnom", tnom, temp);
     key("gmin", conditions.gmin, Diode::GMIN);
     out
 }
