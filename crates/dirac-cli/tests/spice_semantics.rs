@@ -1072,3 +1072,17 @@ fn operating_point_with_instance_temperatures() {
         5e-7,
     );
 }
+
+/// `.options defl defw` give a MOSFET without `L`/`W` its geometry, as in ngspice: β = KP·W/L =
+/// 1.1 mA/V², so 137.5 µA at `V_GS − V_T` = 0.5 V in saturation and `v(d)` = 3 − 1.375 = 1.625 V
+/// (ngspice-39 prints 1.625000; with its 100 µm defaults it would be 2.8625).
+#[test]
+fn mosfet_geometry_defaults_from_options() {
+    let parsed = operating_point(
+        "defl_op.cir",
+        "t\n.options defl=2u defw=20u defad=10p\n\
+         .model nch nmos (level=1 vto=0.7 kp=110u cj=0.3m)\n\
+         vdd vdd 0 3\nvg g 0 1.2\nrd vdd d 10k\nm1 d g 0 0 nch\n.op\n.end\n",
+    );
+    assert_values(&parsed, &[("v(d)", 1.625)], 1e-7);
+}

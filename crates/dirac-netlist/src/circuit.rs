@@ -156,7 +156,10 @@ impl DeviceConditions {
         };
         for option in &netlist.options {
             let key = option.key.as_str();
-            if !matches!(key, "temp" | "tnom" | "gmin") {
+            if !matches!(
+                key,
+                "temp" | "tnom" | "gmin" | "defl" | "defw" | "defad" | "defas"
+            ) {
                 continue;
             }
             let fail = |message| bad_option(netlist.file_of(option.pos, file), option, message);
@@ -166,6 +169,12 @@ impl DeviceConditions {
             match key {
                 "gmin" if value >= 0.0 => out.gmin = value,
                 "gmin" => return Err(fail(format!("gmin = {value} must not be negative"))),
+                // MOSFET geometry defaults, applied when the netlist is flattened.
+                "defl" | "defw" if value > 0.0 => {}
+                "defad" | "defas" if value >= 0.0 => {}
+                "defl" | "defw" | "defad" | "defas" => {
+                    return Err(fail(format!("{key} = {value} must be positive")));
+                }
                 _ if value <= -273.15 => {
                     return Err(fail(format!(
                         "{key} = {value} °C is at or below absolute zero"
@@ -1052,7 +1061,7 @@ impl Circuit {
                 ("method", Some(other)) => self.warnings.push(format!(
                     "{at}: `.options method={other}` has no equivalent (dirac has no BDF/Gear method, which damps ringing that the midpoint rule keeps); using the midpoint rule; choose another with --method"
                 )),
-                ("temp" | "tnom" | "gmin", _) => {}
+                ("temp" | "tnom" | "gmin" | "defl" | "defw" | "defad" | "defas", _) => {}
                 (key, _) => self.warnings.push(format!(
                     "{at}: `.options {key}` ignored (dirac steps on the .tran TSTEP grid with its own Newton tolerances)"
                 )),

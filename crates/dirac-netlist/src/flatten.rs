@@ -238,6 +238,8 @@ struct Out {
     krefs: Vec<KRef>,
     /// The circuit's temperature and `TNOM` in °C.
     temperatures: (f64, f64),
+    /// A MOSFET's geometry when its card gives none (`.options defl defw defad defas`).
+    mos_defaults: MosfetGeometry,
     /// Inductors written with `m=`, `scale=` or a temperature factor other than 1 (hierarchical
     /// names): a K card may not couple them.
     multiplied_inductors: HashSet<String>,
@@ -628,7 +630,7 @@ fn mosfet_geometry(
     element: &Name,
     out: &mut Out,
 ) -> Result<(MosfetGeometry, Option<f64>), NetlistError> {
-    let mut g = MosfetGeometry::default();
+    let mut g = out.mos_defaults;
     let (mut temp, mut dtemp) = (None, None);
     for (name, e) in params {
         let slot = match name.norm.as_str() {
@@ -1360,6 +1362,24 @@ fn temperatures(options: &[super::OptionCard]) -> (f64, f64) {
     out
 }
 
+/// A MOSFET's default geometry from `.options defl defw defad defas` (ngspice's names; 100 µm,
+/// 100 µm, 0, 0 otherwise). A value out of range is left at its default here: the circuit
+/// builder reports it at its card.
+fn mos_defaults(options: &[super::OptionCard]) -> MosfetGeometry {
+    let mut g = MosfetGeometry::default();
+    for option in options {
+        let value = option.value.as_deref().and_then(super::parse_spice_number);
+        match (option.key.as_str(), value) {
+            ("defl", Some(v)) if v > 0.0 => g.l = v,
+            ("defw", Some(v)) if v > 0.0 => g.w = v,
+            ("defad", Some(v)) if v >= 0.0 => g.ad = v,
+            ("defas", Some(v)) if v >= 0.0 => g.as_ = v,
+            _ => {}
+        }
+    }
+    g
+}
+
 /// The value of `e`, a scale factor (`what`) of `element` that must be positive and finite.
 fn positive_factor(
     e: &ExprTok,
@@ -1473,6 +1493,7 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
     let mut out = Out {
         warnings: parsed.warnings.clone(),
         temperatures: temperatures(&parsed.options),
+        mos_defaults: mos_defaults(&parsed.options),
         ..Out::default()
     };
     let globals: HashSet<String> = parsed.globals.iter().cloned().collect();
