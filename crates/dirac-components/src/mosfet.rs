@@ -456,10 +456,10 @@ impl MosfetChannel {
         }
     }
 
-    /// The normal-mode current (`vds ≥ 0`, polarity applied) and its partial derivatives.
-    fn normal(&self, vgs: f64, vds: f64, vbs: f64) -> (f64, [f64; 3]) {
+    /// `s` of the body effect at `vbs` (polarity applied) and `ds/dV_BS`.
+    fn body(&self, vbs: f64) -> (f64, f64) {
         let root_phi = self.phi.sqrt();
-        let (sarg, dsarg) = if vbs <= 0.0 {
+        if vbs <= 0.0 {
             let s = (self.phi - vbs).sqrt();
             (s, -0.5 / s)
         } else {
@@ -469,7 +469,17 @@ impl MosfetChannel {
             } else {
                 (0.0, 0.0)
             }
-        };
+        }
+    }
+
+    /// The threshold `V_on` at `vbs` (polarity applied).
+    fn on_voltage(&self, vbs: f64) -> f64 {
+        self.vbi * self.polarity.sign() + self.gamma * self.body(vbs).0
+    }
+
+    /// The normal-mode current (`vds ≥ 0`, polarity applied) and its partial derivatives.
+    fn normal(&self, vgs: f64, vds: f64, vbs: f64) -> (f64, [f64; 3]) {
+        let (sarg, dsarg) = self.body(vbs);
         let von = self.vbi * self.polarity.sign() + self.gamma * sarg;
         let vgst = vgs - von;
         if vgst <= 0.0 {
@@ -530,10 +540,103 @@ impl Model for MosfetChannel {
             j.v.add(at + 1, at, -1.0);
         }
     }
+    fn has_update_limit(&self) -> bool {
+        true
+    }
+    /// ngspice's `DEVfetlim` on the gate voltage against the source (drain in inverse mode) and
+    /// `DEVlimvds` on the drain–source voltage (`mos1load.c`), as the fraction of the update
+    /// that keeps both within their limits: a Newton step from a cut-off or reversed device
+    /// cannot jump across the threshold and the mode boundary in one go.
+    fn update_fraction(&self, _q: &[f64], v: &[f64], _dq: &[f64], dv: &[f64]) -> f64 {
+        let ty = self.polarity.sign();
+        let (vds, vgs, vbs) = (ty * v[1], ty * v[3], ty * v[5]);
+        let (dds, dgs) = (ty * dv[1], ty * dv[3]);
+        let mut alpha = 1.0_f64;
+        let mut keep = |old: f64, step: f64, limited: f64| {
+            if step != 0.0 && limited != old + step {
+                let a = (limited - old) / step;
+                if a > 0.0 && a <= 1.0 {
+                    alpha = alpha.min(a);
+                }
+            }
+        };
+        if vds >= 0.0 {
+            let von = self.on_voltage(vbs);
+            keep(vgs, dgs, fetlim(vgs + dgs, vgs, von));
+            keep(vds, dds, limvds(vds + dds, vds));
+        } else {
+            let von = self.on_voltage(vbs - vds);
+            let (vgd, dgd) = (vgs - vds, dgs - dds);
+            keep(vgd, dgd, fetlim(vgd + dgd, vgd, von));
+            keep(-vds, -dds, limvds(-(vds + dds), -vds));
+        }
+        alpha
+    }
     fn coordinate_name(&self, i: usize) -> String {
         ["q", "phi", "q_gs", "phi_gs", "q_bs", "phi_bs"]
             .get(i)
             .map_or_else(|| format!("q{i}"), |s| (*s).to_owned())
+    }
+}
+
+/// ngspice's `DEVfetlim` (`devsup.c`): the gate voltage `vnew` an iteration may move to from
+/// `vold`, given the threshold `vto`.
+fn fetlim(vnew: f64, vold: f64, vto: f64) -> f64 {
+    let vtsthi = (2.0 * (vold - vto)).abs() + 2.0;
+    let vtstlo = (vold - vto).abs() + 1.0;
+    let vtox = vto + 3.5;
+    let delv = vnew - vold;
+    if vold >= vto {
+        if vold >= vtox {
+            if delv <= 0.0 {
+                // Going off.
+                if vnew >= vtox {
+                    if -delv > vtstlo {
+                        return vold - vtstlo;
+                    }
+                    vnew
+                } else {
+                    vnew.max(vto + 2.0)
+                }
+            } else if delv >= vtsthi {
+                // Staying on.
+                vold + vtsthi
+            } else {
+                vnew
+            }
+        } else if delv <= 0.0 {
+            // Middle region, decreasing.
+            vnew.max(vto - 0.5)
+        } else {
+            vnew.min(vto + 4.0)
+        }
+    } else if delv <= 0.0 {
+        // Off.
+        if -delv > vtsthi { vold - vtsthi } else { vnew }
+    } else {
+        let vtemp = vto + 0.5;
+        if vnew <= vtemp {
+            if delv > vtstlo { vold + vtstlo } else { vnew }
+        } else {
+            vtemp
+        }
+    }
+}
+
+/// ngspice's `DEVlimvds` (`devsup.c`): the drain–source voltage an iteration may move to.
+fn limvds(vnew: f64, vold: f64) -> f64 {
+    if vold >= 3.5 {
+        if vnew > vold {
+            vnew.min(3.0 * vold + 2.0)
+        } else if vnew < 3.5 {
+            vnew.max(2.0)
+        } else {
+            vnew
+        }
+    } else if vnew > vold {
+        vnew.min(4.0)
+    } else {
+        vnew.max(-0.5)
     }
 }
 

@@ -534,12 +534,18 @@ impl<'a> Cursor<'a> {
         while k < chars.len() && chars[k].is_whitespace() {
             k += 1;
         }
+        // A device's `off` flag after its last assignment (`M1 … W=10u off`) ends the value too:
+        // no expression has two operands side by side.
+        if word == "off" && (k == chars.len() || self.assignment_ahead(k)) {
+            return true;
+        }
         chars.get(k) == Some(&'=') && chars.get(k + 1) != Some(&'=')
     }
 
     /// Reads the value of a `name=value` assignment (`.param`, `.subckt` and `X` parameters,
     /// `.model` parameters): `{expr}`, `'expr'`, or a bare expression that may contain blanks and
-    /// runs to the end of the card, to the next `name=`, or to an unmatched `)`.
+    /// runs to the end of the card, to the next `name=` (or a device's `off` flag), or to an
+    /// unmatched `)`.
     pub fn assigned_value(&mut self) -> Result<Option<Spanned>, NetlistError> {
         self.skip_ws();
         match self.peek_raw() {

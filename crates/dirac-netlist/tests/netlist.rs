@@ -1686,4 +1686,14 @@ fn mosfet_refusals() {
     );
     // A model library with a level-1 card beside a BSIM one that no element uses reads.
     parse("t\n.model nb nmos level=54 version=4.5\n.model n1 nmos\nM1 d g 0 0 n1\nV1 g 0 1\n");
+    // `off` after the last assignment (where SPICE writes it) ends that value and is ignored with
+    // a warning, on an M card as on a D card.
+    let net =
+        parse("t\n.model n1 nmos\n.model dm d\nM1 d g 0 0 n1 W=10u off\nD1 d 0 dm area=2 off\n");
+    let offs = net
+        .warnings
+        .iter()
+        .filter(|w| w.message.contains("`off` ignored"))
+        .count();
+    assert_eq!(offs, 2, "{:?}", net.warnings);
 }
