@@ -799,7 +799,12 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 none(2),
                 none(2),
             ),
-            Element::D { name, model, .. } => {
+            Element::D {
+                name,
+                model,
+                anode,
+                cathode,
+            } => {
                 let card = DiodeParameters {
                     tnom: if model.tnom_given {
                         model.card.tnom
@@ -822,7 +827,21 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                 );
                 let diode = built.diode.with_gmin(conditions.gmin);
                 device = Some(diode);
-                (name, diode.subsystem(name.clone()), none(2), none(2))
+                // `.ic` across a junction that stores charge gives its initial voltage (its
+                // charge is a momentum, `p_φ = Q_j(v_j)`), as across a capacitor.
+                let volts = diode
+                    .has_charge()
+                    .then(|| netlist.capacitor_voltage(anode, cathode, None))
+                    .flatten();
+                (
+                    name,
+                    diode.subsystem(name.clone()),
+                    none(2),
+                    (
+                        vec![0.0, volts.unwrap_or(0.0)],
+                        vec![false, volts.is_some()],
+                    ),
+                )
             }
             Element::Controlled { name, source, .. } => {
                 let (part, dim) = match source {
