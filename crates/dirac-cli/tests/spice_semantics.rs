@@ -1136,3 +1136,54 @@ fn initial_condition_across_a_charged_junction() {
         }
     }
 }
+
+/// A source's node reads its source's value at every row, also where the run checks the state
+/// against the steps' means: a CMOS NOR gate (ramps after every PULSE corner, which its fast
+/// junction modes switch on) read `v(a)` at 3/4 of the flat top three steps after a corner
+/// (2.475 V for 3.3 V) and 2.0728 V for 2.805 V on a ramp, at six rows of `v(a)` and one of
+/// `v(b)`: a ramp's step and the step after it gave constraint-force means that are no sample of
+/// the source (their impulses sit elsewhere), and the check took them.
+#[test]
+fn source_nodes_read_their_source_after_ramped_corners() {
+    let netlist = deck(
+        "nor2.cir",
+        "* CMOS NOR2 driven by pulses\n\
+         .model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 PHI=0.7 LAMBDA=0.04 CGSO=0.3n CGDO=0.3n \
+         CGBO=0.1n CJ=0.5m MJ=0.5 CJSW=0.2n MJSW=0.33 PB=0.9 LD=0.05u)\n\
+         .model pch PMOS (LEVEL=1 VTO=-0.8 KP=50u GAMMA=0.57 PHI=0.8 LAMBDA=0.05 CGSO=0.3n CGDO=0.3n \
+         CGBO=0.1n CJ=0.8m MJ=0.5 CJSW=0.25n MJSW=0.33 PB=0.9 LD=0.05u)\n\
+         VDD vdd 0 3.3\nVA a 0 PULSE(0 3.3 10n 1n 1n 20n 40n)\nVB b 0 PULSE(0 3.3 20n 1n 1n 40n 80n)\n\
+         MP1 mid a vdd vdd pch L=0.5u W=8u AD=8p AS=8p PD=18u PS=18u\n\
+         MP2 out b mid vdd pch L=0.5u W=8u AD=8p AS=8p PD=18u PS=18u\n\
+         MN1 out a 0 0 nch L=0.5u W=2u AD=2p AS=2p PD=6u PS=6u\n\
+         MN2 out b 0 0 nch L=0.5u W=2u AD=2p AS=2p PD=6u PS=6u\nCL out 0 20f\n\
+         .tran 0.05n 160n\n.end\n",
+    );
+    let out = dirac(&["run", netlist.to_str().unwrap(), "--signals", "v(a),v(b)"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let pulse = |t: f64, delay: f64, width: f64, period: f64| {
+        let x = (t - delay).rem_euclid(period);
+        if t < delay || x >= width + 2e-9 {
+            0.0
+        } else if x < 1e-9 {
+            3.3 * x / 1e-9
+        } else if x < 1e-9 + width {
+            3.3
+        } else {
+            3.3 * (1.0 - (x - 1e-9 - width) / 1e-9)
+        }
+    };
+    let (_, rows) = rows(&String::from_utf8(out.stdout).unwrap());
+    for row in &rows {
+        let t = row[0];
+        let (a, b) = (pulse(t, 10e-9, 20e-9, 40e-9), pulse(t, 20e-9, 40e-9, 80e-9));
+        assert!(
+            (row[1] - a).abs() < 1e-9 && (row[2] - b).abs() < 1e-9,
+            "{row:?}: {a}, {b}"
+        );
+    }
+}

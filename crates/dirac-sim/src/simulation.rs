@@ -1153,12 +1153,23 @@ impl Simulation {
                 .is_some_and(|b| b <= to)
         };
         let margin = BREAKPOINT_MARGIN * h;
-        let corner = Corners {
+        let mut corner = Corners {
             start: near(t - margin, t + margin),
             inside: near(t + margin, t + h - margin),
             end: near(t + h - margin, t + h + margin),
+            ramped: false,
+            after_ramp: false,
         };
+        let ramps = |s: &Self| s.engine.as_ref().map_or(0, Engine::ramp_substeps);
+        let before_ramps = ramps(self);
         self.step()?;
+        // A step taken as a ramp (after a corner, or the start), and the step after one, gives
+        // no constraint force centred where a regular step's is: the ramp's substeps' impulses
+        // sit elsewhere, and the next step's first block carries the share of the ramp's last
+        // substep (a PULSE's node read from such means came out at 3/4 of its flat top). Its mean
+        // rate is a mean like any other.
+        corner.ramped = ramps(self) > before_ramps;
+        corner.after_ramp = means.last.back().is_some_and(|m| m.corner.ramped);
         means.record(|mean| {
             mean.corner = corner;
             self.step_mean_into(before, h, mean)
@@ -1616,14 +1627,14 @@ impl Agreement {
     /// a corner row is the mean of its extrapolations from the pairs on either side, with
     /// [`CURVATURE`] times their difference as the margin (a value that jumps there is left to the
     /// state). A constraint force carries the impulse of a corner on the grid point it sits at,
-    /// so it takes no step that touches one.
+    /// so it takes no step that touches one, nor a ramp's step or the step after it.
     fn from_steps(k: usize, entry: Entry, means: &Means) -> Option<FromMeans> {
         let a = means.pair(k, entry)?;
         let before = means.mean(a.checked_sub(1)?)?;
         let (x, y) = (means.mean(a)?, means.mean(a + 1)?);
         let inside = before.corner.inside || x.corner.inside || y.corner.inside;
         match entry {
-            Entry::Effort(_) if before.corner.any() || x.corner.any() || y.corner.any() => None,
+            Entry::Effort(_) if [before, x, y].iter().any(|m| m.corner.disturbs_forces()) => None,
             Entry::Velocity(_) if inside => None,
             Entry::Velocity(_) if x.corner.end => {
                 // Row k on a corner: the pairs (k − 2, k − 1) and (k, k + 1).
@@ -1770,11 +1781,20 @@ struct Corners {
     inside: bool,
     /// On the grid point it ends at.
     end: bool,
+    /// The step was taken as a ramp's substeps.
+    ramped: bool,
+    /// The step before it was.
+    after_ramp: bool,
 }
 
 impl Corners {
     fn any(self) -> bool {
         self.start || self.inside || self.end
+    }
+
+    /// Whether the step's mean constraint force is no smooth sample (a corner, or a ramp).
+    fn disturbs_forces(self) -> bool {
+        self.any() || self.ramped || self.after_ramp
     }
 }
 
@@ -2112,6 +2132,19 @@ impl Engine {
         match self {
             Self::Assembled(e) => e.system.subsystem_momenta_into(e.integrator.p(), out),
             Self::Staggered(e) => *out = e.staggered.momenta(),
+        }
+    }
+
+    /// Substeps taken so far by start and corner ramps.
+    fn ramp_substeps(&self) -> usize {
+        match self {
+            Self::Assembled(e) => e.integrator.counters().ramp_substeps,
+            Self::Staggered(e) => e
+                .staggered
+                .parts()
+                .iter()
+                .map(|p| p.counters().ramp_substeps)
+                .sum(),
         }
     }
 
