@@ -663,15 +663,15 @@ fn mosfet_geometry(
                 continue;
             }
             _ => {
-                return Err(NetlistError::unsupported_in(
+                return Err(NetlistError::new(
+                    ErrorKind::Unsupported,
                     name.pos,
-                    &name.orig,
-                    &format!(
-                        "MOSFET instance parameter `{}` of `{}` (read: L, W, AD, AS, PD, PS, NRD, NRS, M, \
-                         TEMP, DTEMP)",
+                    name.orig.clone(),
+                    format!(
+                        "MOSFET instance parameter `{}` of `{}` not supported (read: L, W, AD, AS, \
+                         PD, PS, NRD, NRS, M, TEMP, DTEMP)",
                         name.orig, element.orig
                     ),
-                    &name.orig,
                 ));
             }
         };

@@ -1005,11 +1005,44 @@ impl<'a> CardParser<'a> {
             }
             'm' => {
                 let nodes = vec![self.node()?, self.node()?, self.node()?, self.node()?];
-                let model = Name::plain(&self.word("model name")?);
+                let model_word = self.word("model name")?;
+                let model = Name::plain(&model_word);
+                let count = |what: &str| {
+                    format!(
+                        "`{}` needs four nodes (drain, gate, source, bulk) and then its model \
+                         name; {what}",
+                        name.orig
+                    )
+                };
+                if self.cur.peek() == Some('=') {
+                    return Err(NetlistError::syntax(
+                        model_word.start(),
+                        model_word.text.clone(),
+                        count(&format!(
+                            "`{}=` came where the model name belongs",
+                            model_word.text
+                        )),
+                    ));
+                }
                 // `L=`, `W=`, `AD=`, … (read when the model is known); `off` is a hint for the
                 // operating point's Newton start, which dirac's does not take.
                 let mut params = Vec::new();
                 while !self.cur.at_end() {
+                    if let Some((word, next)) = self.cur.peek_word_and_next()
+                        && params.is_empty()
+                        && word != "off"
+                        && next != Some('=')
+                    {
+                        let pos = self.cur.pos();
+                        return Err(NetlistError::syntax(
+                            pos,
+                            word.clone(),
+                            count(&format!(
+                                "`{word}` follows `{}`, which was read as the model",
+                                model.orig
+                            )),
+                        ));
+                    }
                     if self.cur.eat_keyword("off") {
                         warnings.push(Warning::new(
                             self.card.start(),

@@ -1684,6 +1684,21 @@ fn mosfet_refusals() {
         3,
         20,
     );
+    // Three nodes or five: the message says an M card has four and then its model.
+    let e = assert_err(
+        "t\n.model n1 nmos\nM1 d g 0 n1 L=1u\n",
+        ErrorKind::Syntax,
+        3,
+        13,
+    );
+    assert!(e.message.contains("needs four nodes"), "{e}");
+    let e = assert_err(
+        "t\n.model n1 nmos\nM1 d g 0 0 0 n1 L=1u\n",
+        ErrorKind::Syntax,
+        3,
+        14,
+    );
+    assert!(e.message.contains("`n1` follows `0`"), "{e}");
     // A model library with a level-1 card beside a BSIM one that no element uses reads.
     parse("t\n.model nb nmos level=54 version=4.5\n.model n1 nmos\nM1 d g 0 0 n1\nV1 g 0 1\n");
     // `off` after the last assignment (where SPICE writes it) ends that value and is ignored with
