@@ -1187,3 +1187,35 @@ fn source_nodes_read_their_source_after_ramped_corners() {
         );
     }
 }
+
+/// A junction whose nonlinear charge closes a loop with a capacitor is named in a warning
+/// (audit item 39: the loop's balance is an invariant the step does not keep); a junction alone,
+/// or one with a linear charge (`M = 0`), is not.
+#[test]
+fn a_junction_charge_in_a_loop_of_charges_is_reported() {
+    for (name, model, cap, reported) in [
+        ("loop.cir", "cjo=20f m=0.45", "C1 0 d 1f\n", true),
+        ("alone.cir", "cjo=20f m=0.45", "", false),
+        ("linear.cir", "cjo=20f m=0", "C1 0 d 1f\n", false),
+    ] {
+        let netlist = deck(
+            name,
+            &format!(
+                "t\n.model dj d ({model} vj=0.8)\nVP p 0 PULSE(0 3 1n 1n 1n 20n 40n)\n\
+                 R1 p d 10k\nD1 0 d dj\n{cap}.tran 0.1n 5n\n.end\n"
+            ),
+        );
+        let out = dirac(&["run", netlist.to_str().unwrap()]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(
+            stderr.contains("`d1` closes a loop of charges"),
+            reported,
+            "{name}: {stderr}"
+        );
+    }
+}
