@@ -617,9 +617,17 @@ fn mosfet_model(
 }
 
 /// An element's own temperature (°C) from its `temp=` (which wins, as in ngspice) or `dtemp=`
-/// (added to the circuit's); `None` when neither is given.
-fn instance_temperature(temp: Option<f64>, dtemp: Option<f64>, circuit: f64) -> Option<f64> {
-    temp.or(dtemp.map(|d| circuit + d))
+/// (added to the circuit's temperature `circuit`); `None` when neither is given.
+fn instance_temperature(
+    temp: Option<&ExprTok>,
+    dtemp: Option<&ExprTok>,
+    scope: &Scope<'_>,
+    circuit: f64,
+) -> Result<Option<f64>, NetlistError> {
+    if let Some(t) = temp {
+        return scope.eval(t).map(Some);
+    }
+    dtemp.map(|d| Ok(circuit + scope.eval(d)?)).transpose()
 }
 
 /// An `M` card's instance parameters as a geometry (ngspice's defaults for the rest) and its
@@ -635,11 +643,11 @@ fn mosfet_geometry(
     for (name, e) in params {
         let slot = match name.norm.as_str() {
             "temp" => {
-                temp = Some(scope.eval(e)?);
+                temp = Some(e);
                 continue;
             }
             "dtemp" => {
-                dtemp = Some(scope.eval(e)?);
+                dtemp = Some(e);
                 continue;
             }
             "l" => &mut g.l,
@@ -677,7 +685,10 @@ fn mosfet_geometry(
         };
         *slot = scope.eval(e)?;
     }
-    Ok((g, instance_temperature(temp, dtemp, out.temperatures.0)))
+    Ok((
+        g,
+        instance_temperature(temp, dtemp, scope, out.temperatures.0)?,
+    ))
 }
 
 /// What an ignored `.model D` parameter would change (ngspice's level-1 diode and its
@@ -862,12 +873,12 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     None => model.card.area,
                 };
                 model.card.area = area * multiplicity(instance.m.as_ref(), scope, &el.name)?;
-                let value = |e: &Option<ExprTok>| e.as_ref().map(|e| scope.eval(e)).transpose();
                 model.temp = instance_temperature(
-                    value(&instance.temp)?,
-                    value(&instance.dtemp)?,
+                    instance.temp.as_ref(),
+                    instance.dtemp.as_ref(),
+                    scope,
                     out.temperatures.0,
-                );
+                )?;
                 Element::D {
                     name: full,
                     anode: n(0),
@@ -1319,10 +1330,13 @@ fn instance_factor(
         .as_ref()
         .map_or(Ok(1.0), |e| positive_factor(e, "scale", scope, element))?;
     let (circuit, tnom) = temperatures;
-    let temperature = match value(&instance.temp)? {
-        Some(t) => t,
-        None => circuit + value(&instance.dtemp)?.unwrap_or(0.0),
-    };
+    let temperature = instance_temperature(
+        instance.temp.as_ref(),
+        instance.dtemp.as_ref(),
+        scope,
+        circuit,
+    )?
+    .unwrap_or(circuit);
     let difference = temperature - tnom;
     let factor = match value(&instance.tce)? {
         Some(tce) => 1.01_f64.powf(tce * difference),
