@@ -205,7 +205,7 @@ fn voltage_loops(netlist: &Netlist) -> Result<(), CircuitError> {
         let Some((a, b)) = element.terminals().filter(|_| voltage) else {
             continue;
         };
-        if let Some(path) = voltage_path(&joined, a, b) {
+        if let Some(path) = branch_path(&joined, a, b) {
             let origin = &netlist.origins[e];
             let members: Vec<&str> = path
                 .iter()
@@ -220,15 +220,25 @@ fn voltage_loops(netlist: &Netlist) -> Result<(), CircuitError> {
                 members: members.join(", "),
             });
         }
-        joined.entry(a).or_default().push((b, e));
-        joined.entry(b).or_default().push((a, e));
+        join(&mut joined, a, b, e);
     }
     Ok(())
 }
 
-/// The elements along a path of `joined` branches from `from` to `to` (breadth first), if any
-/// (empty when the nodes are the same).
-fn voltage_path(
+/// Adds branch `e` between nodes `a` and `b` to the adjacency `joined`.
+fn join<'a>(
+    joined: &mut HashMap<&'a str, Vec<(&'a str, usize)>>,
+    a: &'a str,
+    b: &'a str,
+    e: usize,
+) {
+    joined.entry(a).or_default().push((b, e));
+    joined.entry(b).or_default().push((a, e));
+}
+
+/// The elements along a path of `joined` branches (node → neighbour and element index) from
+/// `from` to `to` (breadth first), if any (empty when the nodes are the same).
+fn branch_path(
     joined: &HashMap<&str, Vec<(&str, usize)>>,
     from: &str,
     to: &str,
@@ -617,42 +627,22 @@ impl SharedParts {
 
 /// The first junction with a nonlinear charge (a diode's or a MOSFET's junction with `CJO`,
 /// `CJSW` or `TT`) whose terminals capacitors and other such junctions already join, and how
-/// many junctions close such loops (docs/audit.md item 39).
+/// many junctions close such loops (docs/audit.md item 39). Branches are joined as in
+/// [`voltage_loops`].
 fn junction_charge_loops(netlist: &Netlist) -> Option<(String, usize)> {
-    let mut index: HashMap<String, usize> = HashMap::new();
-    let mut parent: Vec<usize> = Vec::new();
-    let mut id = |node: &str, parent: &mut Vec<usize>| {
-        let node = if CircuitBuilder::is_ground(node) {
-            "0"
-        } else {
-            node
-        };
-        *index.entry(node.to_owned()).or_insert_with(|| {
-            parent.push(parent.len());
-            parent.len() - 1
-        })
-    };
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
+    let mut joined: HashMap<&str, Vec<(&str, usize)>> = HashMap::new();
+    for (e, element) in netlist.elements.iter().enumerate() {
+        if let Element::C { n1, n2, .. } = element {
+            join(&mut joined, n1, n2, e);
         }
-        i
     }
     let charged = |model: &DiodeModel| {
         let c = &model.card;
         c.m > 0.0 && c.cjo > 0.0 || c.cjsw > 0.0 && c.mjsw > 0.0 || c.tt > 0.0
     };
-    for element in &netlist.elements {
-        if let Element::C { n1, n2, .. } = element {
-            let (a, b) = (id(n1, &mut parent), id(n2, &mut parent));
-            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-            parent[ra] = rb;
-        }
-    }
     let mut first = None;
     let mut loops = 0;
-    for element in &netlist.elements {
+    for (e, element) in netlist.elements.iter().enumerate() {
         let Element::D {
             name,
             anode,
@@ -665,13 +655,11 @@ fn junction_charge_loops(netlist: &Netlist) -> Option<(String, usize)> {
         if !charged(model) {
             continue;
         }
-        let (a, b) = (id(anode, &mut parent), id(cathode, &mut parent));
-        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-        if ra == rb {
+        if branch_path(&joined, anode, cathode).is_some() {
             loops += 1;
             first.get_or_insert_with(|| name.clone());
         } else {
-            parent[ra] = rb;
+            join(&mut joined, anode, cathode, e);
         }
     }
     first.map(|name| (name, loops))
