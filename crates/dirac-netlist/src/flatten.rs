@@ -925,7 +925,11 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     ("bd", device.drain_junction, &d),
                     ("bs", device.source_junction, &s),
                 ] {
-                    let Some(junction) = junction else { continue };
+                    // A junction shorted by the card's wiring (source tied to bulk) has no voltage:
+                    // it is not placed.
+                    let Some(junction) = junction.filter(|_| *node != bulk) else {
+                        continue;
+                    };
                     let (anode, cathode) = match card.polarity {
                         Polarity::N => (bulk.clone(), node.clone()),
                         Polarity::P => (node.clone(), bulk.clone()),
@@ -948,7 +952,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     ("cgd", device.overlap[1], &d),
                     ("cgb", device.overlap[2], &bulk),
                 ] {
-                    if value > 0.0 {
+                    if value > 0.0 && *other != gate {
                         parts.push(Element::C {
                             name: crate::inner_name(&full, which),
                             n1: gate.clone(),

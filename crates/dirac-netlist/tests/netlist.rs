@@ -1643,6 +1643,11 @@ fn mosfet_places_its_parts() {
     }
     // A p-channel junction conducts from the drain into the bulk.
     assert_eq!(n.elements[2].terminals(), Some(("m1 drain", "b")));
+    // With the source tied to the bulk and the gate to the source, the bulk–source junction
+    // and the gate–source overlap are shorted: not placed.
+    let tied = parse("t\n.model p1 pmos (cbs=2f cgso=1n)\nM1 d s s s p1 l=1u w=3u\n");
+    let names: Vec<&str> = tied.elements.iter().map(Element::name).collect();
+    assert_eq!(names, ["m1", "m1 bd"]);
     match &n.elements[4] {
         Element::C { n1, n2, value, .. } => {
             assert_eq!((n1.as_str(), n2.as_str()), ("g", "s"));
