@@ -24,6 +24,8 @@
 use dirac_core::{ForceJacobian, Model};
 use dirac_graph::{PartError, Subsystem};
 
+use crate::{flux_branch_force, flux_branch_jacobian};
+
 /// A one-argument function of an [`Expression`] (ngspice's names in brackets).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Function {
@@ -798,17 +800,14 @@ impl Model for BehaviouralSource {
         match self.output {
             Output::Voltage => f[0] = -y,
             Output::Current => {
-                f[0] = -v[1];
-                f[1] = y - v[0];
+                flux_branch_force(v, 0, f);
+                f[1] += y;
             }
         }
         let mut at = output_dim(self.output);
         for c in &self.controls {
             match c {
-                Control::Voltage => {
-                    f[at] = -v[at + 1];
-                    f[at + 1] = -v[at];
-                }
+                Control::Voltage => flux_branch_force(v, at, f),
                 Control::Current => f[at] = 0.0,
             }
             at += c.dim();
@@ -818,8 +817,7 @@ impl Model for BehaviouralSource {
         let (row, sign) = match self.output {
             Output::Voltage => (0, -1.0),
             Output::Current => {
-                j.v.add(0, 1, -1.0);
-                j.v.add(1, 0, -1.0);
+                flux_branch_jacobian(0, j);
                 (1, 1.0)
             }
         };
@@ -832,8 +830,7 @@ impl Model for BehaviouralSource {
         let mut at = output_dim(self.output);
         for c in &self.controls {
             if *c == Control::Voltage {
-                j.v.add(at, at + 1, -1.0);
-                j.v.add(at + 1, at, -1.0);
+                flux_branch_jacobian(at, j);
             }
             at += c.dim();
         }

@@ -18,6 +18,7 @@
 //! output of a step is `k` times the step's mean controlling voltage (or current). The parts are
 //! not passive and do no work of their own beyond what their output branch delivers.
 
+use crate::{flux_branch_force, flux_branch_jacobian};
 use dirac_core::{ForceJacobian, Model};
 use dirac_graph::{Check, PartError, Subsystem};
 use serde::{Deserialize, Serialize};
@@ -87,13 +88,11 @@ impl Model for Vcvs {
     no_lagrangian!(3, ["q", "q_c", "phi_c"]);
     fn force(&self, _q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
         f[0] = -self.gain * v[2];
-        f[1] = -v[2];
-        f[2] = -v[1];
+        flux_branch_force(v, 1, f);
     }
     fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, j: &mut ForceJacobian) {
         j.v.add(0, 2, -self.gain);
-        j.v.add(1, 2, -1.0);
-        j.v.add(2, 1, -1.0);
+        flux_branch_jacobian(1, j);
     }
 }
 
@@ -133,17 +132,14 @@ impl Vccs {
 impl Model for Vccs {
     no_lagrangian!(4, ["q", "phi", "q_c", "phi_c"]);
     fn force(&self, _q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
-        f[0] = -v[1];
-        f[1] = self.gm * v[3] - v[0];
-        f[2] = -v[3];
-        f[3] = -v[2];
+        flux_branch_force(v, 0, f);
+        f[1] += self.gm * v[3];
+        flux_branch_force(v, 2, f);
     }
     fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, j: &mut ForceJacobian) {
-        j.v.add(0, 1, -1.0);
-        j.v.add(1, 0, -1.0);
+        flux_branch_jacobian(0, j);
         j.v.add(1, 3, self.gm);
-        j.v.add(2, 3, -1.0);
-        j.v.add(3, 2, -1.0);
+        flux_branch_jacobian(2, j);
     }
 }
 
@@ -183,13 +179,12 @@ impl Cccs {
 impl Model for Cccs {
     no_lagrangian!(3, ["q", "phi", "q_c"]);
     fn force(&self, _q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
-        f[0] = -v[1];
-        f[1] = self.gain * v[2] - v[0];
+        flux_branch_force(v, 0, f);
+        f[1] += self.gain * v[2];
         f[2] = 0.0;
     }
     fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, j: &mut ForceJacobian) {
-        j.v.add(0, 1, -1.0);
-        j.v.add(1, 0, -1.0);
+        flux_branch_jacobian(0, j);
         j.v.add(1, 2, self.gain);
     }
 }

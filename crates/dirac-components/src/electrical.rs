@@ -12,6 +12,7 @@ use dirac_graph::{Check, PartError, Subsystem};
 use serde::{Deserialize, Serialize};
 
 use crate::waveform::Waveform;
+use crate::{flux_branch_force, flux_branch_jacobian};
 
 /// Inductor: `L = ½ L q̇²` (flux linkage `p = L q̇`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -340,12 +341,11 @@ impl Model for CurrentSource {
         true
     }
     fn force(&self, _q: &[f64], v: &[f64], t: f64, f: &mut [f64]) {
-        f[0] = -v[1];
-        f[1] = self.waveform.value(t) - v[0];
+        flux_branch_force(v, 0, f);
+        f[1] += self.waveform.value(t);
     }
     fn force_jacobian(&self, _q: &[f64], _v: &[f64], _t: f64, j: &mut ForceJacobian) {
-        j.v.add(0, 1, -1.0);
-        j.v.add(1, 0, -1.0);
+        flux_branch_jacobian(0, j);
     }
     fn is_linear(&self) -> bool {
         true

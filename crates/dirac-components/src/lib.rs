@@ -102,6 +102,21 @@ macro_rules! zero_lagrangian {
     };
 }
 
+/// The forces of a branch `(q, φ)` at coordinates `at`, `at + 1` that stores no energy:
+/// `f_q = −φ̇` makes `φ̇` the voltage across it and `f_φ = −q̇` balances its current, to which a
+/// current output adds the current it drives. A voltage-sensing branch (no current) is exactly
+/// this.
+pub(crate) fn flux_branch_force(v: &[f64], at: usize, f: &mut [f64]) {
+    f[at] = -v[at + 1];
+    f[at + 1] = -v[at];
+}
+
+/// The rate Jacobian of [`flux_branch_force`].
+pub(crate) fn flux_branch_jacobian(at: usize, j: &mut dirac_core::ForceJacobian) {
+    j.v.add(at, at + 1, -1.0);
+    j.v.add(at + 1, at, -1.0);
+}
+
 mod behavioural;
 mod checked;
 mod circuit;

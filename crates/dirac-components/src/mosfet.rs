@@ -22,7 +22,9 @@ use dirac_graph::Subsystem;
 use thiserror::Error;
 
 use crate::diode::{BOLTZMANN, CHARGE, K_OVER_Q, REFTEMP, ZERO_CELSIUS};
-use crate::{Diode, DiodeError, DiodeParameters, ReverseCurrent};
+use crate::{
+    Diode, DiodeError, DiodeParameters, ReverseCurrent, flux_branch_force, flux_branch_jacobian,
+};
 
 /// N- or p-channel (ngspice's `type`, +1 or −1).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -521,24 +523,19 @@ impl Model for MosfetChannel {
     }
     fn force(&self, _q: &[f64], v: &[f64], _t: f64, f: &mut [f64]) {
         let (i, _) = self.current(v[3], v[1], v[5]);
-        f[0] = -v[1];
-        f[1] = i - v[0];
-        for at in [2, 4] {
-            f[at] = -v[at + 1];
-            f[at + 1] = -v[at];
+        for at in [0, 2, 4] {
+            flux_branch_force(v, at, f);
         }
+        f[1] += i;
     }
     fn force_jacobian(&self, _q: &[f64], v: &[f64], _t: f64, j: &mut ForceJacobian) {
         let (_, [gm, gds, gmbs]) = self.current(v[3], v[1], v[5]);
-        j.v.add(0, 1, -1.0);
-        j.v.add(1, 0, -1.0);
+        for at in [0, 2, 4] {
+            flux_branch_jacobian(at, j);
+        }
         j.v.add(1, 3, gm);
         j.v.add(1, 1, gds);
         j.v.add(1, 5, gmbs);
-        for at in [2, 4] {
-            j.v.add(at, at + 1, -1.0);
-            j.v.add(at + 1, at, -1.0);
-        }
     }
     fn has_update_limit(&self) -> bool {
         true
