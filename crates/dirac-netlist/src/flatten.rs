@@ -691,6 +691,110 @@ fn mosfet_geometry(
     ))
 }
 
+/// An `M` card as the elements it places: the channel (the main element, named `full`) between
+/// the inner drain and source, and its series resistances, bulk junctions and overlap
+/// capacitances, named `"<card> <what>"`; a junction or capacitance the card's wiring shorts
+/// is not placed.
+fn mosfet_elements(
+    ctx: &Ctx<'_, '_>,
+    element: &Name,
+    model: &Name,
+    params: &[(Name, ExprTok)],
+    full: String,
+    nodes: &[String],
+    out: &mut Out,
+) -> Result<(Element, Vec<Element>), NetlistError> {
+    let n = |i: usize| nodes.get(i).cloned().unwrap_or_default();
+    let mut parts = Vec::new();
+    let (def, mscope) = ctx.model(model, "MOSFET", element)?;
+    let card = mosfet_model(def, mscope, element, model, out)?;
+    let (geometry, temp) = mosfet_geometry(params, ctx.scope, element, out)?;
+    let celsius = temp.unwrap_or(out.temperatures.0);
+    let device = Mosfet::at_temperature(&card, &geometry, celsius).map_err(|e| {
+        NetlistError::bad_value(
+            element.pos,
+            element.orig.clone(),
+            format!("MOSFET `{}` (model `{}`): {e}", element.orig, model.orig),
+        )
+    })?;
+    let (drain, gate, source, bulk) = (n(0), n(1), n(2), n(3));
+    let inner = |node: String, r: f64, which: &str| {
+        if r > 0.0 {
+            crate::inner_name(&full, which)
+        } else {
+            node
+        }
+    };
+    let d = inner(drain.clone(), device.series[0], "drain");
+    let s = inner(source.clone(), device.series[1], "source");
+    for (which, outer, r, inner) in [
+        ("rd", &drain, device.series[0], &d),
+        ("rs", &source, device.series[1], &s),
+    ] {
+        if r > 0.0 {
+            parts.push(Element::R {
+                name: crate::inner_name(&full, which),
+                n1: outer.clone(),
+                n2: inner.clone(),
+                value: r,
+            });
+        }
+    }
+    for (which, junction, node) in [
+        ("bd", device.drain_junction, &d),
+        ("bs", device.source_junction, &s),
+    ] {
+        // A junction shorted by the card's wiring (source tied to bulk) has no voltage:
+        // it is not placed.
+        let Some(junction) = junction.filter(|_| *node != bulk) else {
+            continue;
+        };
+        let (anode, cathode) = match card.polarity {
+            Polarity::N => (bulk.clone(), node.clone()),
+            Polarity::P => (node.clone(), bulk.clone()),
+        };
+        parts.push(Element::D {
+            name: crate::inner_name(&full, which),
+            anode,
+            cathode,
+            model: DiodeModel {
+                name: def.name.norm.clone(),
+                card: junction,
+                tnom_given: true,
+                ignored: Vec::new(),
+                temp,
+            },
+        });
+    }
+    for (which, value, other) in [
+        ("cgs", device.overlap[0], &s),
+        ("cgd", device.overlap[1], &d),
+        ("cgb", device.overlap[2], &bulk),
+    ] {
+        if value > 0.0 && *other != gate {
+            parts.push(Element::C {
+                name: crate::inner_name(&full, which),
+                n1: gate.clone(),
+                n2: other.clone(),
+                value,
+                ic: None,
+            });
+        }
+    }
+    let channel = Element::Controlled {
+        name: full,
+        n_plus: d,
+        n_minus: s.clone(),
+        source: ControlledSource::Mosfet {
+            gate,
+            bulk,
+            source: s,
+            channel: device.channel,
+        },
+    };
+    Ok((channel, parts))
+}
+
 /// What an ignored `.model D` parameter would change (ngspice's level-1 diode and its
 /// extensions).
 fn unsupported_diode_parameter(name: &str) -> &'static str {
@@ -887,92 +991,10 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                 }
             }
             ElemKind::M(model, params) => {
-                let (def, mscope) = ctx.model(model, "MOSFET", &el.name)?;
-                let card = mosfet_model(def, mscope, &el.name, model, out)?;
-                let (geometry, temp) = mosfet_geometry(params, scope, &el.name, out)?;
-                let celsius = temp.unwrap_or(out.temperatures.0);
-                let device = Mosfet::at_temperature(&card, &geometry, celsius).map_err(|e| {
-                    NetlistError::bad_value(
-                        el.name.pos,
-                        el.name.orig.clone(),
-                        format!("MOSFET `{}` (model `{}`): {e}", el.name.orig, model.orig),
-                    )
-                })?;
-                let (drain, gate, source, bulk) = (n(0), n(1), n(2), n(3));
-                let inner = |node: String, r: f64, which: &str| {
-                    if r > 0.0 {
-                        crate::inner_name(&full, which)
-                    } else {
-                        node
-                    }
-                };
-                let d = inner(drain.clone(), device.series[0], "drain");
-                let s = inner(source.clone(), device.series[1], "source");
-                for (which, outer, r, inner) in [
-                    ("rd", &drain, device.series[0], &d),
-                    ("rs", &source, device.series[1], &s),
-                ] {
-                    if r > 0.0 {
-                        parts.push(Element::R {
-                            name: crate::inner_name(&full, which),
-                            n1: outer.clone(),
-                            n2: inner.clone(),
-                            value: r,
-                        });
-                    }
-                }
-                for (which, junction, node) in [
-                    ("bd", device.drain_junction, &d),
-                    ("bs", device.source_junction, &s),
-                ] {
-                    // A junction shorted by the card's wiring (source tied to bulk) has no voltage:
-                    // it is not placed.
-                    let Some(junction) = junction.filter(|_| *node != bulk) else {
-                        continue;
-                    };
-                    let (anode, cathode) = match card.polarity {
-                        Polarity::N => (bulk.clone(), node.clone()),
-                        Polarity::P => (node.clone(), bulk.clone()),
-                    };
-                    parts.push(Element::D {
-                        name: crate::inner_name(&full, which),
-                        anode,
-                        cathode,
-                        model: DiodeModel {
-                            name: def.name.norm.clone(),
-                            card: junction,
-                            tnom_given: true,
-                            ignored: Vec::new(),
-                            temp,
-                        },
-                    });
-                }
-                for (which, value, other) in [
-                    ("cgs", device.overlap[0], &s),
-                    ("cgd", device.overlap[1], &d),
-                    ("cgb", device.overlap[2], &bulk),
-                ] {
-                    if value > 0.0 && *other != gate {
-                        parts.push(Element::C {
-                            name: crate::inner_name(&full, which),
-                            n1: gate.clone(),
-                            n2: other.clone(),
-                            value,
-                            ic: None,
-                        });
-                    }
-                }
-                Element::Controlled {
-                    name: full,
-                    n_plus: d,
-                    n_minus: s.clone(),
-                    source: ControlledSource::Mosfet {
-                        gate,
-                        bulk,
-                        source: s,
-                        channel: device.channel,
-                    },
-                }
+                let (channel, placed) =
+                    mosfet_elements(ctx, &el.name, model, params, full, &nodes, out)?;
+                parts = placed;
+                channel
             }
             ElemKind::E(v) | ElemKind::G(v) => {
                 let value = scope.eval(v)?;
