@@ -15,9 +15,7 @@ use dirac_sim::{
 };
 use thiserror::Error;
 
-use crate::{
-    ControlledSource, DiodeModel, Element, Netlist, OptionCard, Sensing, SourceSpec, Tran,
-};
+use crate::{ControlledSource, Element, Netlist, OptionCard, Sensing, SourceSpec, Tran};
 
 /// A netlist that cannot be turned into a circuit model.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -625,46 +623,6 @@ impl SharedParts {
     }
 }
 
-/// The first junction with a nonlinear charge (a diode's or a MOSFET's junction with `CJO`,
-/// `CJSW` or `TT`) whose terminals capacitors and other such junctions already join, and how
-/// many junctions close such loops (docs/audit.md item 39). Branches are joined as in
-/// [`voltage_loops`].
-fn junction_charge_loops(netlist: &Netlist) -> Option<(String, usize)> {
-    let mut joined: HashMap<&str, Vec<(&str, usize)>> = HashMap::new();
-    for (e, element) in netlist.elements.iter().enumerate() {
-        if let Element::C { n1, n2, .. } = element {
-            join(&mut joined, n1, n2, e);
-        }
-    }
-    let charged = |model: &DiodeModel| {
-        let c = &model.card;
-        c.m > 0.0 && c.cjo > 0.0 || c.cjsw > 0.0 && c.mjsw > 0.0 || c.tt > 0.0
-    };
-    let mut first = None;
-    let mut loops = 0;
-    for (e, element) in netlist.elements.iter().enumerate() {
-        let Element::D {
-            name,
-            anode,
-            cathode,
-            model,
-        } = element
-        else {
-            continue;
-        };
-        if !charged(model) {
-            continue;
-        }
-        if branch_path(&joined, anode, cathode).is_some() {
-            loops += 1;
-            first.get_or_insert_with(|| name.clone());
-        } else {
-            join(&mut joined, anode, cathode, e);
-        }
-    }
-    first.map(|name| (name, loops))
-}
-
 /// Builds the circuit of `netlist` (read from `file`).
 ///
 /// # Errors
@@ -1003,15 +961,6 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
             none(2),
         )?;
         circuit.connect(&name, "i", &node, "0")?;
-    }
-    if let Some((junction, loops)) = junction_charge_loops(netlist) {
-        notes.push(format!(
-            "`{junction}` closes a loop of charges with capacitors or other junctions (junctions \
-             closing such loops: {loops}): the balance of a nonlinear junction charge against the \
-             loop's other charges is an invariant the step does not keep, so the midpoint rule \
-             leaves an error alternating at its nodes and Gauss methods a constant offset, both \
-             O(h²) (docs/audit.md item 39); a smaller step reduces it"
-        ));
     }
     // KCL at every non-ground node, in order of first appearance (`Netlist::nodes`' order).
     let graph = circuit.build()?;

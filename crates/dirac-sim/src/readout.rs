@@ -56,6 +56,8 @@ pub enum ReadoutRow {
     Force(usize),
     /// R4 of constraint `a` (accelerations).
     Acceleration(usize),
+    /// R5 of constraint `a`: the charge shared along shifted coordinates keeps it.
+    Sharing(usize),
 }
 
 /// The algebraic readout of one model with its (active) constraint rows.
@@ -120,6 +122,8 @@ pub(crate) struct ReadoutPlan {
     row_slot: Vec<usize>,
     velocity_determined: Vec<bool>,
     multiplier_determined: Vec<bool>,
+    /// The shifts of degenerate positions the readout may make (charge sharing).
+    sharing: Sharing,
     /// Equations left out of the solve because others already fix their unknowns.
     redundant: Vec<usize>,
     /// Every equation of the over-determined part (the redundant ones and those they restate).
@@ -128,6 +132,15 @@ pub(crate) struct ReadoutPlan {
 }
 
 impl ReadoutPlan {
+    /// Where each block sits in the full system.
+    fn layout(&self) -> Layout<'_> {
+        Layout {
+            n: self.n,
+            m: self.m,
+            sharing: &self.sharing,
+        }
+    }
+
     /// Whether some equation is left out as a restatement of others (else a start cannot
     /// violate an algebraic relation the readout checks).
     pub(crate) fn has_consistency_conditions(&self) -> bool {
@@ -164,6 +177,8 @@ struct Work {
     force_jacobian: ForceJacobian,
     forms: Triplets,
     contracted: Triplets,
+    /// The positions shifted by the sharing unknowns of `full` ([`Work::shift`]).
+    shifted: Vec<f64>,
 }
 
 /// A readout that could not be computed: the state `(q_k, p_k)` the steps reached has no
@@ -254,7 +269,9 @@ impl Readout {
         &self.plan
     }
 
-    fn from_parts(plan: Arc<ReadoutPlan>, work: Work) -> Self {
+    fn from_parts(plan: Arc<ReadoutPlan>, mut work: Work) -> Self {
+        work.full.resize(plan.layout().unknowns(), 0.0);
+        work.residual.resize(plan.layout().equations(), 0.0);
         let options = NewtonOptions {
             reuse_jacobian: false,
             update_tol: 1e-13,
@@ -272,7 +289,7 @@ impl Readout {
                 options,
             ),
             reduced: vec![0.0; plan.rows.len()],
-            precise: vec![true; 2 * plan.n + 2 * plan.m],
+            precise: vec![true; plan.layout().unknowns()],
             plan,
             scale: 0.0,
             work,
@@ -293,10 +310,7 @@ impl Readout {
         t: f64,
     ) -> Result<(), ReadoutError> {
         let mut system = System {
-            layout: Layout {
-                n: self.plan.n,
-                m: self.plan.m,
-            },
+            layout: self.plan.layout(),
             model,
             constraints,
             q,
@@ -388,6 +402,19 @@ impl Readout {
         &self.work.full[..self.plan.n]
     }
 
+    /// The shifts of positions (coordinate, shift) the last [`Readout::solve`] read the state
+    /// with: the charge shared along a loop of junction and capacitor charges that the steps
+    /// leave split otherwise (see the module's documentation). Empty for most models.
+    pub fn position_shifts(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let d0 = 2 * self.plan.n + 2 * self.plan.m;
+        self.plan
+            .sharing
+            .coords
+            .iter()
+            .zip(&self.work.full[d0..])
+            .map(|(&i, &d)| (i, d))
+    }
+
     /// Multipliers `λ` (one per constraint row) at the state of the last [`Readout::solve`].
     #[must_use]
     pub fn multipliers(&self) -> &[f64] {
@@ -434,10 +461,7 @@ impl Readout {
     /// The equations left out of the solve (they restate others: consistency conditions).
     #[must_use]
     pub fn redundant_equations(&self) -> Vec<ReadoutRow> {
-        let layout = Layout {
-            n: self.plan.n,
-            m: self.plan.m,
-        };
+        let layout = self.plan.layout();
         self.plan
             .redundant
             .iter()
@@ -455,15 +479,20 @@ impl Readout {
         p: &[f64],
         t: f64,
     ) -> Vec<(ReadoutRow, f64)> {
-        let layout = Layout {
-            n: self.plan.n,
-            m: self.plan.m,
-        };
-        self.work
-            .stamp(model, constraints, q, self.velocities_owned().as_slice(), t);
+        let layout = self.plan.layout();
+        self.work.shift(q, layout.sharing);
+        let q = std::mem::take(&mut self.work.shifted);
+        self.work.stamp(
+            model,
+            constraints,
+            &q,
+            self.velocities_owned().as_slice(),
+            t,
+        );
         let full = std::mem::take(&mut self.work.full);
         let mut residual = std::mem::take(&mut self.work.residual);
-        layout.residual(&mut self.work, model, q, p, t, &full, &mut residual);
+        layout.residual(&mut self.work, model, &q, p, t, &full, &mut residual);
+        self.work.shifted = q;
         self.scale = term_scale(p, &self.work);
         let out = self
             .plan
@@ -492,10 +521,7 @@ impl Readout {
     #[must_use]
     pub(crate) fn involved(&self, _violated: &[ReadoutRow]) -> Vec<crate::simulation::Unknown> {
         use crate::simulation::Unknown;
-        let layout = Layout {
-            n: self.plan.n,
-            m: self.plan.m,
-        };
+        let layout = self.plan.layout();
         let mut out = Vec::new();
         let mut push = |u: Unknown| {
             if !out.contains(&u) {
@@ -528,7 +554,9 @@ impl Readout {
                         }
                     }
                 }
-                ReadoutRow::Constraint(_) | ReadoutRow::Acceleration(_) => {}
+                ReadoutRow::Constraint(_)
+                | ReadoutRow::Acceleration(_)
+                | ReadoutRow::Sharing(_) => {}
             }
         }
         out
@@ -539,10 +567,7 @@ impl Readout {
     #[must_use]
     pub(crate) fn sensitivity(&self, unknown: crate::simulation::Unknown) -> f64 {
         use crate::simulation::Unknown;
-        let layout = Layout {
-            n: self.plan.n,
-            m: self.plan.m,
-        };
+        let layout = self.plan.layout();
         let mut worst: f64 = 0.0;
         for &r in &self.plan.overdetermined {
             match (layout.kind(r), unknown) {
@@ -587,10 +612,7 @@ impl Readout {
         constraints: &C,
         row: ReadoutRow,
     ) -> String {
-        let layout = Layout {
-            n: self.plan.n,
-            m: self.plan.m,
-        };
+        let layout = self.plan.layout();
         self.describe(model, constraints, layout.row(row))
     }
 
@@ -685,10 +707,15 @@ impl Readout {
             format!("the impulse of constraint `{}`", constraints.name(c - n))
         } else if c < 2 * n + m {
             format!("the acceleration of `{}`", model.coordinate_name(c - n - m))
-        } else {
+        } else if c < 2 * n + 2 * m {
             format!(
                 "the multiplier of constraint `{}`",
                 constraints.name(c - 2 * n - m)
+            )
+        } else {
+            format!(
+                "the charge shared along `{}`",
+                model.coordinate_name(self.plan.sharing.coords[c - 2 * n - 2 * m])
             )
         }
     }
@@ -699,10 +726,7 @@ impl Readout {
         constraints: &C,
         r: usize,
     ) -> String {
-        let layout = Layout {
-            n: self.plan.n,
-            m: self.plan.m,
-        };
+        let layout = self.plan.layout();
         match layout.kind(r) {
             ReadoutRow::Momentum(i) => {
                 format!("momentum of `{}`", model.coordinate_name(i))
@@ -711,6 +735,9 @@ impl Readout {
             ReadoutRow::Force(i) => format!("force balance of `{}`", model.coordinate_name(i)),
             ReadoutRow::Acceleration(a) => {
                 format!("constraint `{}` (differentiated)", constraints.name(a))
+            }
+            ReadoutRow::Sharing(a) => {
+                format!("constraint `{}` on the shared charge", constraints.name(a))
             }
         }
     }
@@ -725,14 +752,21 @@ impl ReadoutPlan {
     ) -> Self {
         let n = model.dim();
         let m = constraints.count();
-        let size = 2 * n + 2 * m;
-        let layout = Layout { n, m };
+        let sharing = Sharing::find(n, m, work);
+        let layout = Layout {
+            n,
+            m,
+            sharing: &sharing,
+        };
+        let (size, unknowns) = (layout.equations(), layout.unknowns());
         let mut pattern = Vec::new();
         layout.jacobian_entries(work, |r, c, _| pattern.push((r, c)));
-        // Prefer to solve for outputs (velocities, multipliers) over accelerations and gauges.
-        let mut priority = vec![0u8; size];
+        // Prefer to solve for outputs (velocities, multipliers) over accelerations, gauges and
+        // shifts.
+        let mut priority = vec![0u8; unknowns];
         priority[n..n + m].fill(2);
         priority[n + m..2 * n + m].fill(1);
+        priority[2 * n + 2 * m..].fill(2);
         // Equations of sources first: where two equations fix one value (a capacitor across a
         // voltage source) the source's own equation is the one kept.
         let order: Vec<usize> = (0..n)
@@ -751,9 +785,9 @@ impl ReadoutPlan {
         }
         let permuted: Vec<(usize, usize)> =
             pattern.iter().map(|&(r, c)| (permuted_row[r], c)).collect();
-        let structure = Structure::analyse(size, size, &permuted, &priority);
+        let structure = Structure::analyse(size, unknowns, &permuted, &priority);
         // The equation each matched unknown is solved from, and the unknowns of every equation.
-        let mut row_of = vec![OUT; size];
+        let mut row_of = vec![OUT; unknowns];
         for (c, r) in row_of.iter_mut().enumerate() {
             if let Some(k) = structure.matched_row(c) {
                 *r = order[k];
@@ -766,9 +800,9 @@ impl ReadoutPlan {
         // Solve only what the outputs (determined velocities and multipliers) depend on: their
         // equations and, recursively, the unknowns those contain. Accelerations stay out unless a
         // multiplier needs them (a node joining only inductors, a joint between masses).
-        let mut needed = vec![false; size];
+        let mut needed = vec![false; unknowns];
         let mut stack: Vec<usize> = (0..n)
-            .chain(2 * n + m..size)
+            .chain(2 * n + m..2 * n + 2 * m)
             .filter(|&c| row_of[c] != OUT && !structure.is_underdetermined_col(c))
             .collect();
         for &c in &stack {
@@ -782,7 +816,7 @@ impl ReadoutPlan {
                 }
             }
         }
-        let mut col_slot = vec![OUT; size];
+        let mut col_slot = vec![OUT; unknowns];
         let mut cols = Vec::new();
         for (c, slot) in col_slot.iter_mut().enumerate() {
             if needed[c] {
@@ -827,6 +861,7 @@ impl ReadoutPlan {
             row_slot,
             velocity_determined,
             multiplier_determined,
+            sharing,
             redundant,
             overdetermined,
             constant,
@@ -843,20 +878,33 @@ fn term_scale(p: &[f64], work: &Work) -> f64 {
         .fold(f64::MIN_POSITIVE, |a, x| a.max(x.abs()))
 }
 
-/// Positions of the blocks in the full `(2n + 2m)`-square system.
+/// Positions of the blocks in the full system: `2n + 2m` equations and unknowns, then one
+/// unknown per shifted coordinate and one equation per constraint row that a shift enters.
 #[derive(Debug, Clone, Copy)]
-struct Layout {
+struct Layout<'a> {
     n: usize,
     m: usize,
+    sharing: &'a Sharing,
 }
 
-impl Layout {
+impl Layout<'_> {
+    /// Number of equations of the full system.
+    fn equations(self) -> usize {
+        2 * self.n + 2 * self.m + self.sharing.rows.len()
+    }
+
+    /// Number of unknowns of the full system.
+    fn unknowns(self) -> usize {
+        2 * self.n + 2 * self.m + self.sharing.coords.len()
+    }
+
     fn row(self, kind: ReadoutRow) -> usize {
         match kind {
             ReadoutRow::Momentum(i) => i,
             ReadoutRow::Constraint(a) => self.n + a,
             ReadoutRow::Force(i) => self.n + self.m + i,
             ReadoutRow::Acceleration(a) => 2 * self.n + self.m + a,
+            ReadoutRow::Sharing(a) => 2 * self.n + 2 * self.m + self.sharing.row_slot[a],
         }
     }
 
@@ -868,13 +916,16 @@ impl Layout {
             ReadoutRow::Constraint(r - n)
         } else if r < 2 * n + m {
             ReadoutRow::Force(r - n - m)
-        } else {
+        } else if r < 2 * n + 2 * m {
             ReadoutRow::Acceleration(r - 2 * n - m)
+        } else {
+            ReadoutRow::Sharing(self.sharing.rows[r - 2 * n - 2 * m])
         }
     }
 
-    /// The full residual at unknowns `x = (v, γ, a, λ)`; `work` must hold the derivatives stamped
-    /// at `(q, v)` (for the Hessian blocks).
+    /// The full residual at unknowns `x = (v, γ, a, λ, δ)`, with `q` the shifted positions
+    /// ([`Work::shift`]); `work` must hold the derivatives stamped at `(q, v)` (for the Hessian
+    /// blocks and the impulses of the shifts).
     #[allow(clippy::too_many_arguments)]
     fn residual<M: Model + ?Sized>(
         self,
@@ -889,7 +940,8 @@ impl Layout {
         let (n, m) = (self.n, self.m);
         let (v, rest) = x.split_at(n);
         let (gamma, rest) = rest.split_at(m);
-        let (a, lambda) = rest.split_at(n);
+        let (a, rest) = rest.split_at(n);
+        let (lambda, delta) = rest.split_at(m);
         model.lagrangian_gradient(q, v, &mut work.lq, &mut work.lv);
         if model.has_force() {
             model.force(q, v, t, &mut work.f);
@@ -899,10 +951,26 @@ impl Layout {
         r.fill(0.0);
         let (r1, rest) = r.split_at_mut(n);
         let (r2, rest) = rest.split_at_mut(m);
-        let (r3, r4) = rest.split_at_mut(n);
+        let (r3, rest) = rest.split_at_mut(n);
+        let (r4, r5) = rest.split_at_mut(m);
         for i in 0..n {
             r1[i] = work.lv[i] - p[i];
             r3[i] = -work.lq[i] - work.f[i];
+        }
+        let sharing = self.sharing;
+        if !sharing.coords.is_empty() {
+            for (i, j, value) in work.force_jacobian.v.iter() {
+                let k = sharing.slot[j];
+                if k != OUT && sharing.kinetic[i] {
+                    r1[i] -= value * delta[k];
+                }
+            }
+            for (row, j, value) in work.forms.iter() {
+                let (l, k) = (sharing.row_slot[row], sharing.slot[j]);
+                if l != OUT && k != OUT {
+                    r5[l] += value * delta[k];
+                }
+            }
         }
         for (row, j, value) in work.forms.iter() {
             r1[j] -= value * gamma[row];
@@ -948,10 +1016,133 @@ impl Layout {
         for (a, l, value) in work.contracted.iter() {
             emit(r4 + a, v0 + l, value);
         }
+        let sharing = self.sharing;
+        if sharing.coords.is_empty() {
+            return;
+        }
+        // The shifts: positions move the terms that depend on them (second derivatives of the
+        // constraints left out, a chord in that term as above), rates push momenta.
+        let (d0, r5) = (2 * n + 2 * m, 2 * n + 2 * m);
+        for (j, i, value) in work.hessian.qv.iter() {
+            if sharing.slot[j] != OUT {
+                emit(r1 + i, d0 + sharing.slot[j], value);
+            }
+        }
+        for (i, j, value) in work.hessian.qq.iter().chain(work.force_jacobian.q.iter()) {
+            if sharing.slot[j] != OUT {
+                emit(r3 + i, d0 + sharing.slot[j], -value);
+            }
+        }
+        for (i, j, value) in work.force_jacobian.v.iter() {
+            if sharing.slot[j] != OUT && sharing.kinetic[i] {
+                emit(r1 + i, d0 + sharing.slot[j], -value);
+            }
+        }
+        for (a, j, value) in work.forms.iter() {
+            let (l, k) = (sharing.row_slot[a], sharing.slot[j]);
+            if l != OUT && k != OUT {
+                emit(r5 + l, d0 + k, value);
+            }
+        }
+    }
+}
+
+/// Charge sharing: shifts `δ` of degenerate positions that the readout may make to reach a
+/// state its relations can all hold at (docs/math.md §7).
+///
+/// A junction's charge is a momentum (`p_φ = Q_j(φ̇)`) and a capacitor's a position; when both sit
+/// on one loop of charges the exact motion keeps `Q_j⁻¹(p_φ) = q_C/C`, which a step keeps only
+/// inside the step, not at its ends: the split of the node's charge between them is a mode the
+/// steps do not see (midpoint alternates it, Gauss methods keep it) and the state carries it. The
+/// readout undoes it as the circuit would, by an impulsive flow `δ` through the loop: it moves
+/// the degenerate positions it passes (the capacitor's charge, the junction branch's charge) and,
+/// through forces linear in those rates (`f_φ = q̇ − i_D`), the momenta (`δp = ∂f/∂v · δ`).
+/// Only coordinates whose rate no degenerate force resists take part (no resistor, no current
+/// source, no series resistance), the flow keeps every constraint (`A δ = 0`), and only the
+/// loops reached from a constrained coordinate whose rate pushes a momentum are included (a part
+/// read alone, its ports open, has none), so a model without such a coupling reads exactly as
+/// before.
+#[derive(Debug, Default)]
+struct Sharing {
+    /// Coordinate of each shift unknown.
+    coords: Vec<usize>,
+    /// Shift unknown of each coordinate (`OUT` when the coordinate is not shifted).
+    slot: Vec<usize>,
+    /// Constraint row of each sharing equation (`A δ = 0`).
+    rows: Vec<usize>,
+    /// Sharing equation of each constraint row (`OUT` when no shift enters it).
+    row_slot: Vec<usize>,
+    /// Whether a coordinate has a kinetic term (its momentum takes a shift's impulse).
+    kinetic: Vec<bool>,
+}
+
+impl Sharing {
+    /// The shifts of the model whose derivative patterns `work` holds.
+    fn find(n: usize, m: usize, work: &Work) -> Self {
+        let mut kinetic = vec![false; n];
+        for (i, _, _) in work.hessian.vv.iter() {
+            kinetic[i] = true;
+        }
+        let mut free = kinetic.iter().map(|k| !k).collect::<Vec<bool>>();
+        for (i, j, _) in work.force_jacobian.v.iter() {
+            if !kinetic[i] {
+                free[j] = false;
+            }
+        }
+        let mut row_cols: Vec<Vec<usize>> = vec![Vec::new(); m];
+        let mut col_rows: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for (a, j, _) in work.forms.iter() {
+            if free[j] {
+                row_cols[a].push(j);
+                col_rows[j].push(a);
+            }
+        }
+        let mut slot = vec![OUT; n];
+        let mut row_slot = vec![OUT; m];
+        let mut coords = Vec::new();
+        let mut rows = Vec::new();
+        let mut stack: Vec<usize> = work
+            .force_jacobian
+            .v
+            .iter()
+            .filter(|&(i, j, _)| kinetic[i] && free[j] && !col_rows[j].is_empty())
+            .map(|(_, j, _)| j)
+            .collect();
+        while let Some(j) = stack.pop() {
+            if slot[j] != OUT {
+                continue;
+            }
+            slot[j] = coords.len();
+            coords.push(j);
+            for &a in &col_rows[j] {
+                if row_slot[a] == OUT {
+                    row_slot[a] = rows.len();
+                    rows.push(a);
+                    stack.extend(row_cols[a].iter().copied().filter(|&k| slot[k] == OUT));
+                }
+            }
+        }
+        Self {
+            coords,
+            slot,
+            rows,
+            row_slot,
+            kinetic,
+        }
     }
 }
 
 impl Work {
+    /// Writes `q` shifted by the sharing unknowns of `self.full` into `self.shifted`.
+    fn shift(&mut self, q: &[f64], sharing: &Sharing) {
+        self.shifted.clear();
+        self.shifted.extend_from_slice(q);
+        let d0 = self.full.len() - sharing.coords.len();
+        for (&j, &d) in sharing.coords.iter().zip(&self.full[d0..]) {
+            self.shifted[j] += d;
+        }
+    }
+
     /// Buffers for a model of `model.dim()` coordinates and `constraints.count()` rows, with the
     /// derivatives stamped at `(q, v, t)`.
     fn stamped<M: Model + ?Sized, C: Constraints + ?Sized>(
@@ -1004,7 +1195,7 @@ impl Work {
 
 /// The reduced readout equations as a [`NonlinearSystem`].
 struct System<'a, M: ?Sized, C: ?Sized> {
-    layout: Layout,
+    layout: Layout<'a>,
     model: &'a M,
     constraints: &'a C,
     q: &'a [f64],
@@ -1062,17 +1253,19 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for System<'_, 
         }
         self.scatter(x);
         let n = self.layout.n;
+        self.work.shift(self.q, self.layout.sharing);
+        let q = std::mem::take(&mut self.work.shifted);
         if !self.constant {
             let v = self.work.full[..n].to_vec();
             self.work
-                .stamp(self.model, self.constraints, self.q, &v, self.t);
+                .stamp(self.model, self.constraints, &q, &v, self.t);
         }
         let full = std::mem::take(&mut self.work.full);
         let mut residual = std::mem::take(&mut self.work.residual);
         self.layout.residual(
             self.work,
             self.model,
-            self.q,
+            &q,
             self.p,
             self.t,
             &full,
@@ -1083,14 +1276,18 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for System<'_, 
         }
         self.work.full = full;
         self.work.residual = residual;
+        self.work.shifted = q;
     }
 
     fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
         self.scatter(x);
         if !self.constant {
+            self.work.shift(self.q, self.layout.sharing);
+            let q = std::mem::take(&mut self.work.shifted);
             let v = self.work.full[..self.layout.n].to_vec();
             self.work
-                .stamp(self.model, self.constraints, self.q, &v, self.t);
+                .stamp(self.model, self.constraints, &q, &v, self.t);
+            self.work.shifted = q;
         }
         let (rows, cols) = (self.row_slot, self.col_slot);
         self.layout.jacobian_entries(self.work, |r, c, value| {

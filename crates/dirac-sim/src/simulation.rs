@@ -2026,6 +2026,11 @@ impl Engine {
                         integrator.t(),
                     )?;
                     out.v.copy_from_slice(&readout.velocities()[..parts]);
+                    for (i, shift) in readout.position_shifts() {
+                        if i < parts {
+                            out.q[i] += shift;
+                        }
+                    }
                     let lambda = readout.multipliers();
                     for (effort, row) in out.efforts.iter_mut().zip(&e.connection_rows) {
                         *effort = row.map(|r| lambda[r]);

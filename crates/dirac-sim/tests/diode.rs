@@ -8,11 +8,12 @@
 //! solution must satisfy.
 
 use dirac_components::{Capacitor, Diode, DiodeParameters, Resistor, VoltageSource, Waveform};
-use dirac_core::Model;
+use dirac_core::{Constraints, Model};
+use dirac_graph::Assembler;
 use dirac_graph::{Interconnection, Representation};
 use dirac_sim::{
-    Discretisation, Execution, IntegratorOptions, Probe, RunSummary, Signal, Simulation, Start,
-    SteadyState,
+    Discretisation, Execution, Integrator, IntegratorOptions, Probe, Readout, RunSummary, Signal,
+    Simulation, Start, SteadyState,
 };
 
 /// Round-off of a relation between a few terms, relative to the largest: the step's Newton
@@ -523,4 +524,153 @@ fn square_wave_from_minus_500_volts() {
         worst_v < 1e-12 && worst_i < 1e-12,
         "{worst_v:e} {worst_i:e}"
     );
+}
+
+/// A junction charge beside a capacitor (`V — R — a`, a reverse-biased `D1` with `CJO` and `C1`
+/// from `a` to ground) is a loop of charges: the exact motion keeps `Q_j⁻¹(p_φ) = q_C/C`, the
+/// steps keep it only inside a step, and the split of node `a`'s charge between the junction
+/// (a momentum) and the capacitor (a position) is a mode the steps do not see (docs/math.md §7,
+/// audit item 39). Checked here by moving charge `δ` from the junction to the capacitor
+/// (`q_C + δ`, `p_φ + δ`, `q_D + δ` to keep KCL: the plate charges of node `a` are `q_C − p_φ`)
+/// in the middle of the charging transient and stepping both states on:
+/// - the steps do not see it: the resistor's charge and every readout value (rates and node
+///   potentials at `t_k`) of the two runs agree to round-off at every later step, under the
+///   midpoint rule and gauss2;
+/// - the states keep it: the capacitor charges differ by `δ` alternating in sign under the
+///   midpoint rule (`R(∞) = −1`) and by `δ` under gauss2 (`R(∞) = +1`);
+/// - the readout undoes it: both states read the same potentials, which on the plateau are the
+///   source less the junction's reverse current through `R` (`3 − R·(I_S + 3·GMIN)` = `3 −
+///   3.01e-8` V) to 1e-10 V, where reading `p_φ` alone (the build before the charge sharing)
+///   gave 1.4e-5 V (gauss2) and ±5.9e-5 V (midpoint) above it at `h = 0.1` ns.
+#[test]
+fn split_junction_and_capacitor_charge_is_not_seen_by_the_steps_and_read_shared() {
+    let d = diode(&DiodeParameters {
+        cjo: 20e-15,
+        m: 0.45,
+        vj: 0.8,
+        ..DiodeParameters::new(1e-14, 1.0)
+    });
+    let mut g = Interconnection::new();
+    g.add_subsystem(
+        VoltageSource::new(Waveform::Dc(3.0))
+            .expect("source")
+            .subsystem("V1"),
+    )
+    .expect("V1");
+    g.add_subsystem(Resistor::new(1e4).expect("resistance").subsystem("R1"))
+        .expect("R1");
+    g.add_subsystem(d.subsystem("D1")).expect("D1");
+    g.add_subsystem(Capacitor::new(1e-15).expect("capacitance").subsystem("C1"))
+        .expect("C1");
+    wire(
+        &mut g,
+        &[
+            ("V1", "in", "0"),
+            ("R1", "in", "a"),
+            ("D1", "0", "a"),
+            ("C1", "a", "0"),
+        ],
+    );
+    let system = Assembler::assemble(&g, Representation::Monolithic).expect("assembles");
+    let model = system.model.clone();
+    let index = |name: &str| {
+        (0..model.dim())
+            .find(|&i| model.coordinate_name(i) == name)
+            .unwrap_or_else(|| panic!("coordinate {name}"))
+    };
+    let (qc, qd, phi, qr) = (index("C1.q"), index("D1.q"), index("D1.phi"), index("R1.q"));
+    let h = 1e-10;
+    for (method, discretisation, sign) in [
+        ("midpoint", Discretisation::midpoint(), -1.0),
+        ("gauss2", Discretisation::gauss(2), 1.0),
+    ] {
+        let new = || {
+            Integrator::new(
+                system.model.clone(),
+                system.constraints.clone(),
+                IntegratorOptions::new(discretisation.clone(), h),
+            )
+            .expect("integrator")
+        };
+        let mut base = new();
+        base.initialise(&vec![0.0; model.dim()], &vec![0.0; model.dim()], 0.0)
+            .expect("start");
+        for _ in 0..3 {
+            base.step().expect("step");
+        }
+        let delta = 1e-17;
+        let (mut q, mut p) = (base.q().to_vec(), base.p().to_vec());
+        q[qc] += delta;
+        q[qd] += delta;
+        p[phi] += delta;
+        let mut split = new();
+        split.set_state(&q, &p, base.t()).expect("state");
+        let mut readouts = [&base, &split].map(|sim| {
+            Readout::new(
+                sim.model(),
+                sim.active_constraints(),
+                sim.q(),
+                &vec![0.0; model.dim()],
+                sim.t(),
+            )
+        });
+        // Each readout value's largest size so far: the scale its round-off is judged against
+        // (the currents fall from 3e-4 A to 3e-12 A on the plateau).
+        let mut size = vec![0.0_f64; model.dim() + system.constraints.count()];
+        let mut expected_split = delta;
+        for k in 0..400 {
+            base.step().expect("step");
+            split.step().expect("step");
+            expected_split *= sign;
+            let charge = base.q()[qr].abs().max(1e-18);
+            assert!(
+                (base.q()[qr] - split.q()[qr]).abs() <= 1e-12 * charge,
+                "{method} step {k}: the resistor's charge moved with the split"
+            );
+            let kept = split.q()[qc] - base.q()[qc];
+            assert!(
+                (kept - expected_split).abs() <= 1e-3 * delta,
+                "{method} step {k}: split {kept:e}, expected {expected_split:e}"
+            );
+            let mut read = Vec::new();
+            for (readout, sim) in readouts.iter_mut().zip([&base, &split]) {
+                readout
+                    .solve(
+                        sim.model(),
+                        sim.active_constraints(),
+                        sim.q(),
+                        sim.p(),
+                        sim.t(),
+                    )
+                    .expect("readout");
+                read.push((
+                    readout.velocities().to_vec(),
+                    readout.multipliers().to_vec(),
+                ));
+            }
+            let (a, b) = (&read[0], &read[1]);
+            for ((x, y), size) in
+                a.0.iter()
+                    .chain(&a.1)
+                    .zip(b.0.iter().chain(&b.1))
+                    .zip(&mut size)
+            {
+                *size = size.max(x.abs());
+                assert!(
+                    (x - y).abs() <= 1e-12 * *size,
+                    "{method} step {k}: the readouts of the split and unsplit states differ: {x:e} against {y:e}"
+                );
+            }
+            if k >= 200 {
+                let potential =
+                    a.1.iter()
+                        .fold(0.0_f64, |m, &x| if (x - 3.0).abs() < 0.1 { x } else { m });
+                let exact = 3.0 - 1e4 * (1e-14 + 3.0 * 1e-12);
+                assert!(
+                    (potential - exact).abs() <= 1e-10,
+                    "{method} step {k}: node a reads {potential}, exact {exact}"
+                );
+            }
+        }
+    }
 }
