@@ -75,6 +75,33 @@ fn rows(csv: &str) -> (Vec<String>, Vec<Vec<f64>>) {
     (header, rows)
 }
 
+/// `.op` holds every source at its value at t = 0, as ngspice-39's `.op` does with a transient
+/// function: a PULSE from 1 V, a SIN at 30° (`0.5 + sin 30°` = 1 V) and a PWL current of 1 mA, each
+/// beside a capacitor. ngspice prints `v(a) = v(b) = v(c) = 1`, `i(v1) = −1e-3`, `i(v2) = −5e-4`.
+/// The source currents need the capacitors' rates (index 2), which the readout takes from a step;
+/// the operating point's step ran 1 s of the sources' motion and read `i(v1) = −5.02e-4` and
+/// `i(v2) = −2.5e-4` before the sources were held.
+#[test]
+fn operating_point_holds_sources_at_their_time_zero_values() {
+    let parsed = operating_point(
+        "held_sources.cir",
+        "t\nV1 a 0 PULSE(1 2 0 1n 1n 1u 2u)\nC1 a 0 1n\nR1 a 0 1k\n\
+         V2 b 0 SIN(0.5 1 1k 0 0 30)\nC2 b 0 1u\nR2 b 0 2k\n\
+         I1 0 c PWL(0 1m 1u 2m)\nR3 c 0 1k\nC3 c 0 1n\n.op\n.end\n",
+    );
+    assert_values(
+        &parsed,
+        &[
+            ("v(a)", 1.0),
+            ("v(b)", 1.0),
+            ("v(c)", 1.0),
+            ("i(v1)", -1e-3),
+            ("i(v2)", -5e-4),
+        ],
+        1e-9,
+    );
+}
+
 /// `.op` of a current divider (1 mA into 1k ∥ (2k + 1k)): v(a) = 0.75 V, v(b) = 0.25 V, as
 /// `signal,value` from `dirac run` on an `.op`-only netlist and as JSON from `dirac op --json`.
 #[test]

@@ -3,7 +3,7 @@
 
 use dirac_core::{Discretisation, Model as _};
 use dirac_graph::{Assembler, Representation};
-use dirac_netlist::Circuit;
+use dirac_netlist::{Circuit, Element, SourceSpec, build_circuit, waveform};
 use dirac_sim::{
     Composition, Execution, IntegratorOptions, NaturalModes, RunError, RunSummary, Scheme, Signal,
     Simulation, Sink, Splitting, Start, StartRamp, Trajectory, TruncationControl,
@@ -484,7 +484,28 @@ impl Model {
             Built::Netlist { circuit, .. } => circuit.operating_point_signals(),
             Built::Scene { scene, .. } => scene.signals.clone(),
         };
-        let mut simulation = self.simulation(self.execution(), options, Start::SteadyState)?;
+        let mut simulation = match &self.built {
+            // A DC operating point holds every independent source at its value at t = 0, as
+            // ngspice's `.op` takes a transient function's time-zero value: a value the readout
+            // takes from the steps (a source's current through a capacitor) then does not see
+            // the source move over the step it is read from.
+            Built::Netlist { netlist, .. } => {
+                let mut held = netlist.as_ref().clone();
+                for element in &mut held.elements {
+                    if let Element::V { source, .. } | Element::I { source, .. } = element {
+                        *source = SourceSpec::Dc(waveform(source).value(0.0));
+                    }
+                }
+                build_circuit(&held, self.name())?.simulation(
+                    self.execution(),
+                    options,
+                    Start::SteadyState,
+                )?
+            }
+            Built::Scene { .. } => {
+                self.simulation(self.execution(), options, Start::SteadyState)?
+            }
+        };
         let (trajectory, _) = simulation.run(0.0, &signals)?;
         Ok(signals
             .iter()
