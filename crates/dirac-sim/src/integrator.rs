@@ -876,7 +876,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// [`IntegratorOptions::truncation`]); none when the control is off or nothing stores energy.
     fn start_history(&mut self) {
         self.history = self.options.truncation.and_then(|_| {
-            let mut history = History::for_model(&self.model, &self.q, &self.v0);
+            let mut history = History::for_model(
+                &self.model,
+                self.active_constraints(),
+                &self.q,
+                &self.v0,
+                self.t,
+            );
             history.restart(self.t, &self.q, &self.p);
             (!history.is_empty()).then_some(history)
         });

@@ -12,6 +12,7 @@ mod integrator;
 mod linear;
 mod modes;
 mod readout;
+mod sharing;
 mod shooting;
 mod signal;
 mod simulation;

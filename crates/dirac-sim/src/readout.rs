@@ -41,6 +41,7 @@ use dirac_solve::{
 use std::sync::Arc;
 
 use crate::linear::{AutoLu, SolverChoice};
+use crate::sharing::Sharing;
 
 /// Marks a full-system unknown or equation left out of the reduced solve.
 const OUT: usize = usize::MAX;
@@ -752,7 +753,7 @@ impl ReadoutPlan {
     ) -> Self {
         let n = model.dim();
         let m = constraints.count();
-        let sharing = Sharing::find(n, m, work);
+        let sharing = Sharing::find(n, m, &work.hessian.vv, &work.force_jacobian.v, &work.forms);
         let layout = Layout {
             n,
             m,
@@ -1043,91 +1044,6 @@ impl Layout<'_> {
             if l != OUT && k != OUT {
                 emit(r5 + l, d0 + k, value);
             }
-        }
-    }
-}
-
-/// Charge sharing: shifts `δ` of degenerate positions that the readout may make to reach a
-/// state its relations can all hold at (docs/math.md §7).
-///
-/// A junction's charge is a momentum (`p_φ = Q_j(φ̇)`) and a capacitor's a position; when both sit
-/// on one loop of charges the exact motion keeps `Q_j⁻¹(p_φ) = q_C/C`, which a step keeps only
-/// inside the step, not at its ends: the split of the node's charge between them is a mode the
-/// steps do not see (midpoint alternates it, Gauss methods keep it) and the state carries it. The
-/// readout undoes it as the circuit would, by an impulsive flow `δ` through the loop: it moves
-/// the degenerate positions it passes (the capacitor's charge, the junction branch's charge) and,
-/// through forces linear in those rates (`f_φ = q̇ − i_D`), the momenta (`δp = ∂f/∂v · δ`).
-/// Only coordinates whose rate no degenerate force resists take part (no resistor, no current
-/// source, no series resistance), the flow keeps every constraint (`A δ = 0`), and only the
-/// loops reached from a constrained coordinate whose rate pushes a momentum are included (a part
-/// read alone, its ports open, has none), so a model without such a coupling reads exactly as
-/// before.
-#[derive(Debug, Default)]
-struct Sharing {
-    /// Coordinate of each shift unknown.
-    coords: Vec<usize>,
-    /// Shift unknown of each coordinate (`OUT` when the coordinate is not shifted).
-    slot: Vec<usize>,
-    /// Constraint row of each sharing equation (`A δ = 0`).
-    rows: Vec<usize>,
-    /// Sharing equation of each constraint row (`OUT` when no shift enters it).
-    row_slot: Vec<usize>,
-    /// Whether a coordinate has a kinetic term (its momentum takes a shift's impulse).
-    kinetic: Vec<bool>,
-}
-
-impl Sharing {
-    /// The shifts of the model whose derivative patterns `work` holds.
-    fn find(n: usize, m: usize, work: &Work) -> Self {
-        let mut kinetic = vec![false; n];
-        for (i, _, _) in work.hessian.vv.iter() {
-            kinetic[i] = true;
-        }
-        let mut free = kinetic.iter().map(|k| !k).collect::<Vec<bool>>();
-        for (i, j, _) in work.force_jacobian.v.iter() {
-            if !kinetic[i] {
-                free[j] = false;
-            }
-        }
-        let mut row_cols: Vec<Vec<usize>> = vec![Vec::new(); m];
-        let mut col_rows: Vec<Vec<usize>> = vec![Vec::new(); n];
-        for (a, j, _) in work.forms.iter() {
-            if free[j] {
-                row_cols[a].push(j);
-                col_rows[j].push(a);
-            }
-        }
-        let mut slot = vec![OUT; n];
-        let mut row_slot = vec![OUT; m];
-        let mut coords = Vec::new();
-        let mut rows = Vec::new();
-        let mut stack: Vec<usize> = work
-            .force_jacobian
-            .v
-            .iter()
-            .filter(|&(i, j, _)| kinetic[i] && free[j] && !col_rows[j].is_empty())
-            .map(|(_, j, _)| j)
-            .collect();
-        while let Some(j) = stack.pop() {
-            if slot[j] != OUT {
-                continue;
-            }
-            slot[j] = coords.len();
-            coords.push(j);
-            for &a in &col_rows[j] {
-                if row_slot[a] == OUT {
-                    row_slot[a] = rows.len();
-                    rows.push(a);
-                    stack.extend(row_cols[a].iter().copied().filter(|&k| slot[k] == OUT));
-                }
-            }
-        }
-        Self {
-            coords,
-            slot,
-            rows,
-            row_slot,
-            kinetic,
         }
     }
 }

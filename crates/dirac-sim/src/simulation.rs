@@ -1157,19 +1157,20 @@ impl Simulation {
             start: near(t - margin, t + margin),
             inside: near(t + margin, t + h - margin),
             end: near(t + h - margin, t + h + margin),
-            ramped: false,
-            after_ramp: false,
+            split: false,
+            after_split: false,
         };
-        let ramps = |s: &Self| s.engine.as_ref().map_or(0, Engine::ramp_substeps);
-        let before_ramps = ramps(self);
+        let substeps = |s: &Self| s.engine.as_ref().map_or(0, Engine::extra_substeps);
+        let before_substeps = substeps(self);
         self.step()?;
-        // A step taken as a ramp (after a corner, or the start), and the step after one, gives
-        // no constraint force centred where a regular step's is: the ramp's substeps' impulses
-        // sit elsewhere, and the next step's first block carries the share of the ramp's last
-        // substep (a PULSE's node read from such means came out at 3/4 of its flat top). Its mean
-        // rate is a mean like any other.
-        corner.ramped = ramps(self) > before_ramps;
-        corner.after_ramp = means.last.back().is_some_and(|m| m.corner.ramped);
+        // A step taken in substeps (a ramp after a corner or at the start, a refinement of the
+        // truncation-error control, a cut), and the step after one, gives no constraint force
+        // centred where a regular step's is: the substeps' impulses sit elsewhere, and the next
+        // step's first block carries the share of the last substep (a PULSE's node read from
+        // such means came out at 3/4 of its flat top, a DC supply's at 5/8 after a refinement).
+        // Its mean rate is a mean like any other.
+        corner.split = substeps(self) > before_substeps;
+        corner.after_split = means.last.back().is_some_and(|m| m.corner.split);
         means.record(|mean| {
             mean.corner = corner;
             self.step_mean_into(before, h, mean)
@@ -1781,10 +1782,10 @@ struct Corners {
     inside: bool,
     /// On the grid point it ends at.
     end: bool,
-    /// The step was taken as a ramp's substeps.
-    ramped: bool,
+    /// The step was taken in substeps (a ramp, a refinement, a cut).
+    split: bool,
     /// The step before it was.
-    after_ramp: bool,
+    after_split: bool,
 }
 
 impl Corners {
@@ -1792,9 +1793,9 @@ impl Corners {
         self.start || self.inside || self.end
     }
 
-    /// Whether the step's mean constraint force is no smooth sample (a corner, or a ramp).
+    /// Whether the step's mean constraint force is no smooth sample (a corner, or substeps).
     fn disturbs_forces(self) -> bool {
-        self.any() || self.ramped || self.after_ramp
+        self.any() || self.split || self.after_split
     }
 }
 
@@ -2140,10 +2141,14 @@ impl Engine {
         }
     }
 
-    /// Substeps taken so far by start and corner ramps.
-    fn ramp_substeps(&self) -> usize {
+    /// Substeps taken so far beyond one per step (ramps, refinements, cuts); for a staggered
+    /// run, the parts' ramp substeps.
+    fn extra_substeps(&self) -> usize {
         match self {
-            Self::Assembled(e) => e.integrator.counters().ramp_substeps,
+            Self::Assembled(e) => {
+                let counters = e.integrator.counters();
+                counters.substeps.saturating_sub(e.integrator.steps_taken())
+            }
             Self::Staggered(e) => e
                 .staggered
                 .parts()
