@@ -1215,6 +1215,20 @@ fn a_junction_beside_a_capacitor_reads_their_shared_charge() {
     }
 }
 
+/// `PULSE(0 3.3 delay 1n 1n width period)` at `t`, the gate drives of the CMOS decks below.
+fn gate_pulse(t: f64, delay: f64, width: f64, period: f64) -> f64 {
+    let x = (t - delay).rem_euclid(period);
+    if t < delay || x >= width + 2e-9 {
+        0.0
+    } else if x < 1e-9 {
+        3.3 * x / 1e-9
+    } else if x < 1e-9 + width {
+        3.3
+    } else {
+        3.3 * (1.0 - (x - 1e-9 - width) / 1e-9)
+    }
+}
+
 /// A CMOS XOR gate (two inverters and a complex gate; every node a loop of junction and
 /// capacitor charges): the truncation-error test judges each node's stored charge, not the split
 /// between its junctions and capacitors that the steps do not see (audit item 42). Judged member
@@ -1262,22 +1276,13 @@ fn a_cmos_xor_gate_is_not_refined_by_the_split_of_its_node_charges() {
         .expect("a JSON summary");
     let substeps = summary["substeps"].as_u64().unwrap_or(u64::MAX);
     assert!(substeps < 10_000, "{summary}");
-    let pulse = |t: f64, delay: f64, width: f64, period: f64| {
-        let x = (t - delay).rem_euclid(period);
-        if t < delay || x >= width + 2e-9 {
-            0.0
-        } else if x < 1e-9 {
-            3.3 * x / 1e-9
-        } else if x < 1e-9 + width {
-            3.3
-        } else {
-            3.3 * (1.0 - (x - 1e-9 - width) / 1e-9)
-        }
-    };
     let (_, rows) = rows(&String::from_utf8(out.stdout).unwrap());
     for row in &rows {
         let t = row[0];
-        let (a, b) = (pulse(t, 10e-9, 20e-9, 40e-9), pulse(t, 20e-9, 40e-9, 80e-9));
+        let (a, b) = (
+            gate_pulse(t, 10e-9, 20e-9, 40e-9),
+            gate_pulse(t, 20e-9, 40e-9, 80e-9),
+        );
         assert!(
             (row[1] - 3.3).abs() < 1e-9 && (row[2] - a).abs() < 1e-9 && (row[3] - b).abs() < 1e-9,
             "{row:?}: 3.3, {a}, {b}"
@@ -1313,22 +1318,13 @@ fn source_nodes_read_their_source_after_ramped_corners() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let pulse = |t: f64, delay: f64, width: f64, period: f64| {
-        let x = (t - delay).rem_euclid(period);
-        if t < delay || x >= width + 2e-9 {
-            0.0
-        } else if x < 1e-9 {
-            3.3 * x / 1e-9
-        } else if x < 1e-9 + width {
-            3.3
-        } else {
-            3.3 * (1.0 - (x - 1e-9 - width) / 1e-9)
-        }
-    };
     let (_, rows) = rows(&String::from_utf8(out.stdout).unwrap());
     for row in &rows {
         let t = row[0];
-        let (a, b) = (pulse(t, 10e-9, 20e-9, 40e-9), pulse(t, 20e-9, 40e-9, 80e-9));
+        let (a, b) = (
+            gate_pulse(t, 10e-9, 20e-9, 40e-9),
+            gate_pulse(t, 20e-9, 40e-9, 80e-9),
+        );
         assert!(
             (row[1] - a).abs() < 1e-9 && (row[2] - b).abs() < 1e-9,
             "{row:?}: {a}, {b}"

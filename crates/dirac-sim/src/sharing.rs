@@ -2,7 +2,6 @@
 //! directions of the state that the steps do not see, which the readout removes before reading
 //! and the truncation-error test leaves out of its estimate.
 
-use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model};
 use dirac_solve::Triplets;
 
 /// Marks a coordinate or constraint row without a shift.
@@ -90,29 +89,5 @@ impl Sharing {
             row_slot,
             kinetic,
         }
-    }
-}
-
-impl Sharing {
-    /// The shifts of `model` with `constraints`, from their patterns at `(q, v, t)`.
-    pub(crate) fn of_model<M: Model + ?Sized, C: Constraints + ?Sized>(
-        model: &M,
-        constraints: &C,
-        q: &[f64],
-        v: &[f64],
-        t: f64,
-    ) -> Self {
-        let mut hessian = LagrangianHessian::default();
-        hessian.begin();
-        model.lagrangian_hessian(q, v, &mut hessian);
-        let mut force = ForceJacobian::default();
-        force.begin();
-        if model.has_force() {
-            model.force_jacobian(q, v, t, &mut force);
-        }
-        let mut forms = Triplets::default();
-        forms.begin();
-        constraints.forms(q, &mut forms);
-        Self::find(q.len(), constraints.count(), &hessian.vv, &force.v, &forms)
     }
 }

@@ -8,7 +8,8 @@
 //! momentum with a mass, `∂²L/∂v² ≠ 0`). Branch charges of resistors and sources, which store no
 //! energy, are not judged: their offsets are arbitrary.
 
-use dirac_core::{Constraints, LagrangianHessian, Model};
+use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model};
+use dirac_solve::Triplets;
 
 use crate::sharing::{OUT, Sharing};
 
@@ -97,7 +98,7 @@ impl History {
         hessian.begin();
         model.lagrangian_hessian(q, v, &mut hessian);
         let n = q.len();
-        let diagonal = |block: &dirac_solve::Triplets| {
+        let diagonal = |block: &Triplets| {
             let mut on = vec![false; n];
             for (i, j, value) in block.iter() {
                 if i == j && value != 0.0 {
@@ -108,18 +109,21 @@ impl History {
         };
         let mut positions = diagonal(&hessian.qq);
         let mut momenta = diagonal(&hessian.vv);
-        let sharing = Sharing::of_model(model, constraints, q, v, t);
+        let mut jacobian = ForceJacobian::default();
+        jacobian.begin();
+        if model.has_force() {
+            model.force_jacobian(q, v, t, &mut jacobian);
+        }
+        let mut forms = Triplets::default();
+        forms.begin();
+        constraints.forms(q, &mut forms);
+        let sharing = Sharing::find(n, constraints.count(), &hessian.vv, &jacobian.v, &forms);
         let mut sums = Vec::new();
         if !sharing.coords.is_empty() {
             // The momentum each shifted coordinate's rate pushes, when it pushes one alone, and
             // the coefficient: the member of the sum that moves with that coordinate's shift.
             let mut pushes: Vec<Option<(usize, f64)>> = vec![None; n];
             let mut pushed = vec![0usize; n];
-            let mut jacobian = dirac_core::ForceJacobian::default();
-            jacobian.begin();
-            if model.has_force() {
-                model.force_jacobian(q, v, t, &mut jacobian);
-            }
             for (i, j, value) in jacobian.v.iter() {
                 if sharing.slot[j] != OUT && sharing.kinetic[i] && value != 0.0 {
                     pushed[i] += 1;
@@ -129,9 +133,6 @@ impl History {
                     };
                 }
             }
-            let mut forms = dirac_solve::Triplets::default();
-            forms.begin();
-            constraints.forms(q, &mut forms);
             sums = vec![Vec::new(); sharing.rows.len()];
             for (a, j, value) in forms.iter() {
                 let (l, k) = (sharing.row_slot[a], sharing.slot[j]);
