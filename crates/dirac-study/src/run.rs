@@ -418,7 +418,9 @@ impl Model {
         // SPICE damps its start (a backward-Euler first step) and restarts with a tiny step
         // after every breakpoint; midpoint and Gauss steps do neither, so a netlist whose
         // fastest damped mode they would leave ringing takes the start ramp and the ramps after
-        // breakpoints. A method that amplifies a mode (the trapezoid rule on a decay much
+        // breakpoints, both sized to reach that mode (`StartRamp::for_ratio`): the default
+        // ramp's 32 levels went down to `h·2⁻³²/3` (4e-21 s on a CMOS deck), below the round-off
+        // of the state's own time scale, where Gauss 3 and 4 could not converge (audit 43). A method that amplifies a mode (the trapezoid rule on a decay much
         // faster than h) would write a trajectory that blows up: refused before a step is
         // taken. Both decisions read the modes of the start state at this h, which are kept for
         // the front end's warnings (with the ramps or without, they are the same).
@@ -436,7 +438,7 @@ impl Model {
         {
             let mut options = plan.options.clone();
             if start_auto {
-                options = options.start_ramp(Some(StartRamp::default()));
+                options = options.start_ramp(Some(corner_ramp));
             }
             if corner_auto {
                 options = options.corner_ramp(Some(corner_ramp));
