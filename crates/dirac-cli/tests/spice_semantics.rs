@@ -40,6 +40,24 @@ fn dirac(args: &[&str]) -> Output {
 }
 
 /// `dirac op --json` of the netlist `text` (written as `name`), each signal's value.
+/// The rows of `dirac run path --method method --signals signals`, which must succeed.
+fn run_rows(path: &std::path::Path, method: &str, signals: &str) -> Vec<Vec<f64>> {
+    let out = dirac(&[
+        "run",
+        path.to_str().unwrap(),
+        "--method",
+        method,
+        "--signals",
+        signals,
+    ]);
+    assert!(
+        out.status.success(),
+        "{method}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    rows(&String::from_utf8(out.stdout).unwrap()).1
+}
+
 fn operating_point(name: &str, text: &str) -> serde_json::Value {
     let json = dirac(&["op", deck(name, text).to_str().unwrap(), "--json"]);
     assert!(
@@ -1134,20 +1152,7 @@ fn initial_condition_across_a_charged_junction() {
                  {cap}.ic v(q)=1.9\n.tran 0.02n 20n uic\n.end\n"
             ),
         );
-        let out = dirac(&[
-            "run",
-            netlist.to_str().unwrap(),
-            "--method",
-            "gauss2",
-            "--signals",
-            "v(q)",
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let (_, rows) = rows(&String::from_utf8(out.stdout).unwrap());
+        let rows = run_rows(&netlist, "gauss2", "v(q)");
         assert!(
             (rows[0][1] - 1.9).abs() < 1e-12,
             "{name}: row 0 {:?}",
@@ -1180,20 +1185,7 @@ fn a_junction_beside_a_capacitor_reads_their_shared_charge() {
          r1 p d 10k\nd1 0 d dj\nc1 d 0 1f\n.tran 0.1n 40n\n.end\n",
     );
     for method in ["midpoint", "gauss2"] {
-        let out = dirac(&[
-            "run",
-            netlist.to_str().unwrap(),
-            "--method",
-            method,
-            "--signals",
-            "v(d),q(c1)",
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        let (_, rows) = rows(&String::from_utf8(out.stdout).unwrap());
+        let rows = run_rows(&netlist, method, "v(d),q(c1)");
         let plateau = 3.0 - 1e4 * (1e-14 + 3.0 * 1e-12);
         for row in &rows {
             let (t, v, q) = (row[0], row[1], row[2]);
@@ -1215,7 +1207,16 @@ fn a_junction_beside_a_capacitor_reads_their_shared_charge() {
     }
 }
 
-/// `PULSE(0 3.3 delay 1n 1n width period)` at `t`, the gate drives of the CMOS decks below.
+/// The two gate drives of the CMOS decks below at `t`: `PULSE(0 3.3 10n 1n 1n 20n 40n)` and
+/// `PULSE(0 3.3 20n 1n 1n 40n 80n)`.
+fn gate_drives(t: f64) -> (f64, f64) {
+    (
+        gate_pulse(t, 10e-9, 20e-9, 40e-9),
+        gate_pulse(t, 20e-9, 40e-9, 80e-9),
+    )
+}
+
+/// `PULSE(0 3.3 delay 1n 1n width period)` at `t`.
 fn gate_pulse(t: f64, delay: f64, width: f64, period: f64) -> f64 {
     let x = (t - delay).rem_euclid(period);
     if t < delay || x >= width + 2e-9 {
@@ -1237,22 +1238,7 @@ fn gate_pulse(t: f64, delay: f64, width: f64, period: f64) -> f64 {
 #[test]
 fn the_mosfet_deck_runs_under_gauss3_and_gauss4() {
     let deck = repo("examples/netlists/mosfet.cir");
-    let run = |method: &str| {
-        let out = dirac(&[
-            "run",
-            deck.to_str().unwrap(),
-            "--method",
-            method,
-            "--signals",
-            "v(o),v(hold)",
-        ]);
-        assert!(
-            out.status.success(),
-            "{method}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        rows(&String::from_utf8(out.stdout).unwrap()).1
-    };
+    let run = |method: &str| run_rows(&deck, method, "v(o),v(hold)");
     let (three, four) = (run("gauss3"), run("gauss4"));
     assert_eq!(three.len(), four.len());
     for (a, b) in three.iter().zip(&four) {
@@ -1317,11 +1303,7 @@ fn a_cmos_xor_gate_is_not_refined_by_the_split_of_its_node_charges() {
         assert!(substeps < 10_000, "{method}: {summary}");
         let (_, rows) = rows(&String::from_utf8(out.stdout).unwrap());
         for row in &rows {
-            let t = row[0];
-            let (a, b) = (
-                gate_pulse(t, 10e-9, 20e-9, 40e-9),
-                gate_pulse(t, 20e-9, 40e-9, 80e-9),
-            );
+            let (a, b) = gate_drives(row[0]);
             assert!(
                 (row[1] - 3.3).abs() < 1e-9
                     && (row[2] - a).abs() < 1e-9
@@ -1362,11 +1344,7 @@ fn source_nodes_read_their_source_after_ramped_corners() {
     );
     let (_, rows) = rows(&String::from_utf8(out.stdout).unwrap());
     for row in &rows {
-        let t = row[0];
-        let (a, b) = (
-            gate_pulse(t, 10e-9, 20e-9, 40e-9),
-            gate_pulse(t, 20e-9, 40e-9, 80e-9),
-        );
+        let (a, b) = gate_drives(row[0]);
         assert!(
             (row[1] - a).abs() < 1e-9 && (row[2] - b).abs() < 1e-9,
             "{row:?}: {a}, {b}"
