@@ -178,7 +178,7 @@ struct Work {
     force_jacobian: ForceJacobian,
     forms: Triplets,
     contracted: Triplets,
-    /// The positions shifted by the sharing unknowns of `full` ([`Work::shift`]).
+    /// The positions shifted by the sharing unknowns of `full` ([`Work::take_shifted`]).
     shifted: Vec<f64>,
 }
 
@@ -481,19 +481,14 @@ impl Readout {
         t: f64,
     ) -> Vec<(ReadoutRow, f64)> {
         let layout = self.plan.layout();
-        self.work.shift(q, layout.sharing);
-        let q = std::mem::take(&mut self.work.shifted);
-        self.work.stamp(
-            model,
-            constraints,
-            &q,
-            self.velocities_owned().as_slice(),
-            t,
-        );
+        let shifted = self.work.take_shifted(q, layout.sharing);
+        let q = positions(q, &shifted);
+        self.work
+            .stamp(model, constraints, q, self.velocities_owned().as_slice(), t);
         let full = std::mem::take(&mut self.work.full);
         let mut residual = std::mem::take(&mut self.work.residual);
-        layout.residual(&mut self.work, model, &q, p, t, &full, &mut residual);
-        self.work.shifted = q;
+        layout.residual(&mut self.work, model, q, p, t, &full, &mut residual);
+        self.work.shifted = shifted;
         self.scale = term_scale(p, &self.work);
         let out = self
             .plan
@@ -870,6 +865,12 @@ impl ReadoutPlan {
     }
 }
 
+/// The positions a readout evaluates at: `shifted` from [`Work::take_shifted`], or `q` itself
+/// when nothing is shifted.
+fn positions<'a>(q: &'a [f64], shifted: &'a [f64]) -> &'a [f64] {
+    if shifted.is_empty() { q } else { shifted }
+}
+
 /// The largest momentum, Lagrangian derivative or force of the last evaluation.
 fn term_scale(p: &[f64], work: &Work) -> f64 {
     p.iter()
@@ -925,7 +926,7 @@ impl Layout<'_> {
     }
 
     /// The full residual at unknowns `x = (v, γ, a, λ, δ)`, with `q` the shifted positions
-    /// ([`Work::shift`]); `work` must hold the derivatives stamped at `(q, v)` (for the Hessian
+    /// ([`Work::take_shifted`]); `work` must hold the derivatives stamped at `(q, v)` (for the Hessian
     /// blocks and the impulses of the shifts).
     #[allow(clippy::too_many_arguments)]
     fn residual<M: Model + ?Sized>(
@@ -960,17 +961,11 @@ impl Layout<'_> {
         }
         let sharing = self.sharing;
         if !sharing.coords.is_empty() {
-            for (i, j, value) in work.force_jacobian.v.iter() {
-                let k = sharing.slot[j];
-                if k != OUT && sharing.kinetic[i] {
-                    r1[i] -= value * delta[k];
-                }
+            for (i, k, value) in sharing.impulses(&work.force_jacobian.v) {
+                r1[i] -= value * delta[k];
             }
-            for (row, j, value) in work.forms.iter() {
-                let (l, k) = (sharing.row_slot[row], sharing.slot[j]);
-                if l != OUT && k != OUT {
-                    r5[l] += value * delta[k];
-                }
+            for (l, k, value) in sharing.flows(&work.forms) {
+                r5[l] += value * delta[k];
             }
         }
         for (row, j, value) in work.forms.iter() {
@@ -1025,38 +1020,39 @@ impl Layout<'_> {
         // constraints left out, a chord in that term as above), rates push momenta.
         let (d0, r5) = (2 * n + 2 * m, 2 * n + 2 * m);
         for (j, i, value) in work.hessian.qv.iter() {
-            if sharing.slot[j] != OUT {
-                emit(r1 + i, d0 + sharing.slot[j], value);
+            if let Some(k) = sharing.shift(j) {
+                emit(r1 + i, d0 + k, value);
             }
         }
         for (i, j, value) in work.hessian.qq.iter().chain(work.force_jacobian.q.iter()) {
-            if sharing.slot[j] != OUT {
-                emit(r3 + i, d0 + sharing.slot[j], -value);
+            if let Some(k) = sharing.shift(j) {
+                emit(r3 + i, d0 + k, -value);
             }
         }
-        for (i, j, value) in work.force_jacobian.v.iter() {
-            if sharing.slot[j] != OUT && sharing.kinetic[i] {
-                emit(r1 + i, d0 + sharing.slot[j], -value);
-            }
+        for (i, k, value) in sharing.impulses(&work.force_jacobian.v) {
+            emit(r1 + i, d0 + k, -value);
         }
-        for (a, j, value) in work.forms.iter() {
-            let (l, k) = (sharing.row_slot[a], sharing.slot[j]);
-            if l != OUT && k != OUT {
-                emit(r5 + l, d0 + k, value);
-            }
+        for (l, k, value) in sharing.flows(&work.forms) {
+            emit(r5 + l, d0 + k, value);
         }
     }
 }
 
 impl Work {
-    /// Writes `q` shifted by the sharing unknowns of `self.full` into `self.shifted`.
-    fn shift(&mut self, q: &[f64], sharing: &Sharing) {
-        self.shifted.clear();
-        self.shifted.extend_from_slice(q);
-        let d0 = self.full.len() - sharing.coords.len();
-        for (&j, &d) in sharing.coords.iter().zip(&self.full[d0..]) {
-            self.shifted[j] += d;
+    /// `q` shifted by the sharing unknowns of `self.full`, in the buffer `self.shifted` taken out
+    /// of `self` (to be handed back); left empty when the model has no shifts, where `q` itself
+    /// serves (see [`positions`]).
+    fn take_shifted(&mut self, q: &[f64], sharing: &Sharing) -> Vec<f64> {
+        let mut out = std::mem::take(&mut self.shifted);
+        out.clear();
+        if !sharing.coords.is_empty() {
+            out.extend_from_slice(q);
+            let d0 = self.full.len() - sharing.coords.len();
+            for (&j, &d) in sharing.coords.iter().zip(&self.full[d0..]) {
+                out[j] += d;
+            }
         }
+        out
     }
 
     /// Buffers for a model of `model.dim()` coordinates and `constraints.count()` rows, with the
@@ -1169,19 +1165,18 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for System<'_, 
         }
         self.scatter(x);
         let n = self.layout.n;
-        self.work.shift(self.q, self.layout.sharing);
-        let q = std::mem::take(&mut self.work.shifted);
+        let shifted = self.work.take_shifted(self.q, self.layout.sharing);
+        let q = positions(self.q, &shifted);
         if !self.constant {
             let v = self.work.full[..n].to_vec();
-            self.work
-                .stamp(self.model, self.constraints, &q, &v, self.t);
+            self.work.stamp(self.model, self.constraints, q, &v, self.t);
         }
         let full = std::mem::take(&mut self.work.full);
         let mut residual = std::mem::take(&mut self.work.residual);
         self.layout.residual(
             self.work,
             self.model,
-            &q,
+            q,
             self.p,
             self.t,
             &full,
@@ -1192,18 +1187,22 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for System<'_, 
         }
         self.work.full = full;
         self.work.residual = residual;
-        self.work.shifted = q;
+        self.work.shifted = shifted;
     }
 
     fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
         self.scatter(x);
         if !self.constant {
-            self.work.shift(self.q, self.layout.sharing);
-            let q = std::mem::take(&mut self.work.shifted);
+            let shifted = self.work.take_shifted(self.q, self.layout.sharing);
             let v = self.work.full[..self.layout.n].to_vec();
-            self.work
-                .stamp(self.model, self.constraints, &q, &v, self.t);
-            self.work.shifted = q;
+            self.work.stamp(
+                self.model,
+                self.constraints,
+                positions(self.q, &shifted),
+                &v,
+                self.t,
+            );
+            self.work.shifted = shifted;
         }
         let (rows, cols) = (self.row_slot, self.col_slot);
         self.layout.jacobian_entries(self.work, |r, c, value| {

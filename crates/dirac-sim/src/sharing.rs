@@ -5,7 +5,7 @@
 use dirac_solve::Triplets;
 
 /// Marks a coordinate or constraint row without a shift.
-pub(crate) const OUT: usize = usize::MAX;
+const OUT: usize = usize::MAX;
 
 /// Charge sharing: shifts `δ` of degenerate positions that the readout may make to reach a
 /// state its relations can all hold at, and that the truncation-error test must not judge
@@ -28,13 +28,13 @@ pub(crate) struct Sharing {
     /// Coordinate of each shift unknown.
     pub(crate) coords: Vec<usize>,
     /// Shift unknown of each coordinate (`OUT` when the coordinate is not shifted).
-    pub(crate) slot: Vec<usize>,
+    slot: Vec<usize>,
     /// Constraint row of each sharing equation (`A δ = 0`).
     pub(crate) rows: Vec<usize>,
     /// Sharing equation of each constraint row (`OUT` when no shift enters it).
     pub(crate) row_slot: Vec<usize>,
     /// Whether a coordinate has a kinetic term (its momentum takes a shift's impulse).
-    pub(crate) kinetic: Vec<bool>,
+    kinetic: Vec<bool>,
 }
 
 impl Sharing {
@@ -89,5 +89,37 @@ impl Sharing {
             row_slot,
             kinetic,
         }
+    }
+
+    /// The shift unknown of coordinate `j`, if it is shifted.
+    pub(crate) fn shift(&self, j: usize) -> Option<usize> {
+        let k = self.slot[j];
+        (k != OUT).then_some(k)
+    }
+
+    /// The entries `(i, k, ∂f_i/∂v_j)` of a force Jacobian's rate block `fv` through which
+    /// shift `k` (of coordinate `j`) pushes the momentum of a kinetic coordinate `i`.
+    pub(crate) fn impulses<'a>(
+        &'a self,
+        fv: &'a Triplets,
+    ) -> impl Iterator<Item = (usize, usize, f64)> + 'a {
+        fv.iter()
+            .filter_map(|(i, j, value)| Some((i, self.shift(j)?, value)))
+            .filter(|&(i, _, _)| self.kinetic[i])
+    }
+
+    /// The entries `(l, k, A_aj)` of the constraint forms through which shift `k` (of
+    /// coordinate `j`) enters sharing equation `l` (of constraint row `a`).
+    pub(crate) fn flows<'a>(
+        &'a self,
+        forms: &'a Triplets,
+    ) -> impl Iterator<Item = (usize, usize, f64)> + 'a {
+        forms.iter().filter_map(|(a, j, value)| {
+            let l = self.row_slot[a];
+            if l == OUT {
+                return None;
+            }
+            Some((l, self.shift(j)?, value))
+        })
     }
 }

@@ -11,7 +11,7 @@
 use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model};
 use dirac_solve::Triplets;
 
-use crate::sharing::{OUT, Sharing};
+use crate::sharing::Sharing;
 
 /// Tolerances of the truncation-error test, with SPICE's names and defaults (ngspice 39 manual,
 /// `.options`): a substep of size `s` passes when, for every judged component `x`,
@@ -120,31 +120,24 @@ impl History {
         let sharing = Sharing::find(n, constraints.count(), &hessian.vv, &jacobian.v, &forms);
         let mut sums = Vec::new();
         if !sharing.coords.is_empty() {
-            // The momentum each shifted coordinate's rate pushes, when it pushes one alone, and
-            // the coefficient: the member of the sum that moves with that coordinate's shift.
-            let mut pushes: Vec<Option<(usize, f64)>> = vec![None; n];
+            // The momenta each shift's rate pushes, with the coefficient: a momentum pushed by
+            // that shift alone is the member of the sum that moves with it.
+            let mut pushes: Vec<Vec<(usize, f64)>> = vec![Vec::new(); sharing.coords.len()];
             let mut pushed = vec![0usize; n];
-            for (i, j, value) in jacobian.v.iter() {
-                if sharing.slot[j] != OUT && sharing.kinetic[i] && value != 0.0 {
+            for (i, k, value) in sharing.impulses(&jacobian.v) {
+                if value != 0.0 {
                     pushed[i] += 1;
-                    pushes[j] = match pushes[j] {
-                        None => Some((i, value)),
-                        Some(_) => Some((OUT, 0.0)),
-                    };
+                    pushes[k].push((i, value));
                 }
             }
             sums = vec![Vec::new(); sharing.rows.len()];
-            for (a, j, value) in forms.iter() {
-                let (l, k) = (sharing.row_slot[a], sharing.slot[j]);
-                if l == OUT || k == OUT {
-                    continue;
-                }
-                sums[l].push(match pushes[j] {
-                    Some((i, c)) if i != OUT && pushed[i] == 1 => (Member::Momentum(i), value / c),
-                    _ => (Member::Position(j), value),
+            for (l, k, value) in sharing.flows(&forms) {
+                sums[l].push(match pushes[k].as_slice() {
+                    &[(i, c)] if pushed[i] == 1 => (Member::Momentum(i), value / c),
+                    _ => (Member::Position(sharing.coords[k]), value),
                 });
             }
-            positions.retain(|&j| sharing.slot[j] == OUT);
+            positions.retain(|&j| sharing.shift(j).is_none());
             momenta.retain(|&i| pushed[i] == 0);
         }
         Self {
