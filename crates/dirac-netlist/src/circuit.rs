@@ -156,25 +156,24 @@ impl DeviceConditions {
         };
         for option in &netlist.options {
             let key = option.key.as_str();
-            if !matches!(
-                key,
-                "temp" | "tnom" | "gmin" | "defl" | "defw" | "defad" | "defas"
-            ) {
+            if !DEVICE_OPTIONS.contains(&key) {
                 continue;
             }
             let fail = |message| bad_option(netlist.file_of(option.pos, file), option, message);
             let text = option.value.as_deref().unwrap_or("");
             let value = crate::parse_spice_number(text)
                 .ok_or_else(|| fail(format!("`{key}` needs a number, got `{text}`")))?;
+            // MOSFET geometry defaults, applied when the netlist is flattened.
+            match crate::flatten::mos_default_check(key, value) {
+                Some(Ok(())) => continue,
+                Some(Err(requirement)) => {
+                    return Err(fail(format!("{key} = {value} {requirement}")));
+                }
+                None => {}
+            }
             match key {
                 "gmin" if value >= 0.0 => out.gmin = value,
                 "gmin" => return Err(fail(format!("gmin = {value} must not be negative"))),
-                // MOSFET geometry defaults, applied when the netlist is flattened.
-                "defl" | "defw" if value > 0.0 => {}
-                "defad" | "defas" if value >= 0.0 => {}
-                "defl" | "defw" | "defad" | "defas" => {
-                    return Err(fail(format!("{key} = {value} must be positive")));
-                }
                 _ if value <= -273.15 => {
                     return Err(fail(format!(
                         "{key} = {value} °C is at or below absolute zero"
@@ -622,6 +621,10 @@ impl SharedParts {
         Ok(part)
     }
 }
+
+/// The `.options` the devices read ([`DeviceConditions::read`], and the MOSFET geometry defaults
+/// the flattening applies): not warned about as ignored.
+const DEVICE_OPTIONS: [&str; 7] = ["temp", "tnom", "gmin", "defl", "defw", "defad", "defas"];
 
 /// Builds the circuit of `netlist` (read from `file`).
 ///
@@ -1090,7 +1093,7 @@ impl Circuit {
                 ("method", Some(other)) => self.warnings.push(format!(
                     "{at}: `.options method={other}` has no equivalent (dirac has no BDF/Gear method, which damps ringing that the midpoint rule keeps); using the midpoint rule; choose another with --method"
                 )),
-                ("temp" | "tnom" | "gmin" | "defl" | "defw" | "defad" | "defas", _) => {}
+                (key, _) if DEVICE_OPTIONS.contains(&key) => {}
                 (key, _) => self.warnings.push(format!(
                     "{at}: `.options {key}` ignored (dirac steps on the .tran TSTEP grid with its own Newton tolerances)"
                 )),

@@ -1408,16 +1408,35 @@ fn temperatures(options: &[super::OptionCard]) -> (f64, f64) {
 fn mos_defaults(options: &[super::OptionCard]) -> MosfetGeometry {
     let mut g = MosfetGeometry::default();
     for option in options {
-        let value = option.value.as_deref().and_then(super::parse_spice_number);
-        match (option.key.as_str(), value) {
-            ("defl", Some(v)) if v > 0.0 => g.l = v,
-            ("defw", Some(v)) if v > 0.0 => g.w = v,
-            ("defad", Some(v)) if v >= 0.0 => g.ad = v,
-            ("defas", Some(v)) if v >= 0.0 => g.as_ = v,
-            _ => {}
+        let key = option.key.as_str();
+        let Some(v) = option
+            .value
+            .as_deref()
+            .and_then(super::parse_spice_number)
+            .filter(|&v| mos_default_check(key, v) == Some(Ok(())))
+        else {
+            continue;
+        };
+        match key {
+            "defl" => g.l = v,
+            "defw" => g.w = v,
+            "defad" => g.ad = v,
+            _ => g.as_ = v,
         }
     }
     g
+}
+
+/// Whether `value` may set the MOSFET geometry default `.options key`: `Ok`, or the
+/// requirement it misses in words (`defl`, `defw` must be positive, `defad`, `defas` must not
+/// be negative); `None` for another key.
+pub(crate) fn mos_default_check(key: &str, value: f64) -> Option<Result<(), &'static str>> {
+    let (holds, requirement) = match key {
+        "defl" | "defw" => (value > 0.0, "must be positive"),
+        "defad" | "defas" => (value >= 0.0, "must not be negative"),
+        _ => return None,
+    };
+    Some(if holds { Ok(()) } else { Err(requirement) })
 }
 
 /// The value of `e`, a scale factor (`what`) of `element` that must be positive and finite.
