@@ -29,8 +29,8 @@ const MAX_SEPARATOR_SHARE: usize = 16;
 /// Only structures whose every level has at most this many vertices are cut. The halves are
 /// ordered level by level, which on a wide structure (a mesh) fills in like a band matrix of
 /// the level width, far beyond COLAMD's order: an RC mesh of 30 × 30 nodes (3540 unknowns, levels
-/// up to 88 wide) had 2.6× COLAMD's fill, and the warm-up that finds this out cost its
-/// 200-step run 30 % more time. An RLC ladder's levels hold 2 vertices, a rigid chain's 12.
+/// up to 88 wide) had 2.6× COLAMD's fill, and the factorisation that finds this out cost
+/// its 200-step run 30 % more time. An RLC ladder's levels hold 2 vertices, a rigid chain's 12.
 const MAX_WIDTH: usize = 16;
 
 /// Breadth-first sweeps from the last level's vertex in search of a pseudo-peripheral vertex

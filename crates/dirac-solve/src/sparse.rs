@@ -22,12 +22,14 @@ use crate::triplets::PatternMismatch;
 /// * [`analyse`](LinearSolver::analyse) (once per pattern) builds the compressed-column pattern
 ///   from the triplets and a slot map from every triplet to its entry (duplicates share a slot),
 ///   checks the structural rank with a maximum matching, computes the COLAMD fill-reducing column
-///   order, and sizes every buffer: the workspace of factorisation and solve, and the `L`/`U`
-///   storage (by one warm-up factorisation with generic values). On a long thin pattern (a
-///   ladder, a chain) of at least `SPLIT_MIN` unknowns it also tries COLAMD's order cut into two
+///   order and sizes the workspace of factorisation and solve. On a long thin pattern (a ladder,
+///   a chain) of at least `SPLIT_MIN` unknowns it also prepares COLAMD's order cut into two
 ///   halves whose columns alternate (see the `ordering` module), which lets the processor run the
-///   halves' dependency chains side by side, and keeps it if its warm-up fill stays within
-///   `SPLIT_MAX_FILL` of COLAMD's.
+///   halves' dependency chains side by side.
+/// * The first [`factor`](LinearSolver::factor) after `analyse` sizes the `L`/`U` storage. Where
+///   there is a split order, it factorises the values with both orders and keeps the split if
+///   its fill stays within `SPLIT_MAX_FILL` of COLAMD's (the fills of the matrix Newton solves,
+///   with its pivots; no factorisation of generic values is spent on the choice).
 /// * [`factor`](LinearSolver::factor) refills the values through the slot map (summing
 ///   duplicates) and first refactorises with the pivot order and the `L`/`U` pattern of the last
 ///   pivoting factorisation (no pivot search, no graph traversal), kept while every pivot passes
@@ -44,9 +46,9 @@ use crate::triplets::PatternMismatch;
 ///   [`LinearSolveError::NonFinite`].
 ///
 /// faer's supernodal variant is never used: its numeric LU allocates work arrays on every call
-/// (and on banded KKT systems it is also 2.5–3× slower). The `L`/`U` storage only grows; a later
-/// factorisation allocates only if its pivot sequence creates more fill than the warm-up or any
-/// earlier factorisation left room for.
+/// (and on banded KKT systems it is also 2.5–3× slower). The `L`/`U` storage only grows; a
+/// factorisation after the first allocates only if its pivot sequence creates more fill than any
+/// earlier one left room for.
 pub struct SparseLu {
     /// Pivots not above this fraction of the largest matrix entry count as zero.
     pivot_tol: f64,
@@ -70,6 +72,8 @@ struct Factors {
     slots: Vec<u32>,
     /// The column order and the factors made with it.
     order: Ordered,
+    /// The split column order, tried against COLAMD's (`order`) by the first factorisation.
+    split: Option<Vec<u32>>,
     /// Dense work column of a refactorisation, zero between calls.
     column: Vec<f64>,
     /// The permuted right-hand side of a solve.
@@ -85,6 +89,7 @@ impl Clone for Factors {
             matrix: self.matrix.clone(),
             slots: self.slots.clone(),
             order: self.order.clone(),
+            split: self.split.clone(),
             column: self.column.clone(),
             work: self.work.clone(),
             req: self.req,
@@ -110,11 +115,12 @@ struct Ordered {
 }
 
 impl Ordered {
-    /// Storage for `n` unknowns, without an order yet.
-    fn new(n: usize) -> Self {
-        Self {
+    /// Storage for factors with column order `order` (`order[k]` eliminated at step `k`).
+    fn new(order: Vec<u32>) -> Self {
+        let n = order.len();
+        let mut ordered = Self {
             col_fwd: Vec::new(),
-            col_inv: Vec::new(),
+            col_inv: vec![0; n],
             row_perm: vec![0; n],
             row_perm_inv: vec![0; n],
             lu: SimplicialLu::new(),
@@ -122,7 +128,19 @@ impl Ordered {
                 u_inv: Vec::with_capacity(n),
                 ..Triangular::default()
             },
+        };
+        ordered.reorder(order);
+        ordered
+    }
+
+    /// Takes `order` as the column order (the factors no longer belong to it) and returns the
+    /// previous one.
+    fn reorder(&mut self, order: Vec<u32>) -> Vec<u32> {
+        for (k, &c) in order.iter().enumerate() {
+            self.col_inv[c as usize] = k as u32;
         }
+        self.own.valid = false;
+        std::mem::replace(&mut self.col_fwd, order)
     }
 }
 
@@ -145,6 +163,11 @@ struct Triangular {
 }
 
 impl Triangular {
+    /// `nnz(L) + nnz(U)`.
+    fn fill(&self) -> usize {
+        self.l_val.len() + self.u_val.len()
+    }
+
     /// Copies faer's factors, checking the layout the solves rely on.
     fn capture(&mut self, lu: &SimplicialLu<u32, f64>) -> Result<(), LinearSolveError> {
         self.valid = false;
@@ -360,28 +383,16 @@ impl LinearSolver for SparseLu {
         );
         let mem = MemBuffer::try_new(req)
             .map_err(|_| LinearSolveError::Backend("out of memory for the LU workspace".into()))?;
-        let mut factors = Factors {
+        self.factors = Some(Factors {
             matrix: SparseColMat::new(pattern, vec![0.0; nnz]),
             slots,
-            order: Ordered::new(n),
+            order: Ordered::new(colamd),
+            split,
             column: vec![0.0; n],
             work: vec![0.0; n],
             req,
             mem,
-        };
-        let colamd_fill = factors.warm_up(colamd.clone())?;
-        if let Some(order) = split {
-            // The split is warmed up in COLAMD's storage, already grown to about the size it
-            // needs; if it fills in too much (or fails: COLAMD's order did not), COLAMD's order
-            // is warmed up again.
-            let kept = factors
-                .warm_up(order)
-                .is_ok_and(|fill| fill as f64 <= self.split_max_fill * colamd_fill as f64);
-            if !kept {
-                factors.warm_up(colamd)?;
-            }
-        }
-        self.factors = Some(factors);
+        });
         self.analysed = true;
         Ok(())
     }
@@ -421,6 +432,9 @@ impl LinearSolver for SparseLu {
         if !self.reused_pivots {
             numeric_lu(f)?;
             f.order.own.capture(&f.order.lu)?;
+            if let Some(split) = f.split.take() {
+                f.try_split(split, self.split_max_fill)?;
+            }
         }
         let tol = self.pivot_tol * largest;
         let col_perm = &f.order.col_fwd;
@@ -571,34 +585,32 @@ fn numeric_lu(f: &mut Factors) -> Result<(), LinearSolveError> {
 }
 
 impl Factors {
-    /// Takes `order` as the column order and factorises generic values with it (the warm-up of
-    /// [`SparseLu::analyse`]: it sizes the `L`/`U` storage, so that the first `factor` of the
-    /// Newton loop normally does not allocate; its numeric result is not used). Returns the fill,
-    /// `nnz(L) + nnz(U)`.
-    fn warm_up(&mut self, order: Vec<u32>) -> Result<usize, LinearSolveError> {
-        let o = &mut self.order;
-        o.col_inv.resize(order.len(), 0);
-        for (k, &c) in order.iter().enumerate() {
-            o.col_inv[c as usize] = k as u32;
+    /// After a first factorisation with COLAMD's order, factorises the same values with the
+    /// `split` order in the same storage and keeps it if its fill `nnz(L) + nnz(U)` is at most
+    /// `max_fill` times COLAMD's; otherwise (or if it fails, which COLAMD's order did not)
+    /// COLAMD's order is factorised again. Both fills are those of the values Newton actually
+    /// factorises, with their pivots.
+    fn try_split(&mut self, split: Vec<u32>, max_fill: f64) -> Result<(), LinearSolveError> {
+        let colamd_fill = self.order.own.fill();
+        let colamd = self.order.reorder(split);
+        let kept = numeric_lu(self).is_ok()
+            && self.order.own.capture(&self.order.lu).is_ok()
+            && self.order.own.fill() as f64 <= max_fill * colamd_fill as f64;
+        if !kept {
+            self.order.reorder(colamd);
+            numeric_lu(self)?;
+            self.order.own.capture(&self.order.lu)?;
         }
-        o.col_fwd = order;
-        let mut seed = 0x2545_f491_4f6c_dd1d_u64;
-        for v in self.matrix.val_mut() {
-            seed = lcg(seed);
-            *v = 0.5 + unit(seed);
-        }
-        numeric_lu(self)?;
-        let o = &mut self.order;
-        o.own.capture(&o.lu)?;
-        Ok(o.own.l_val.len() + o.own.u_val.len())
+        Ok(())
     }
 }
 
 /// Patterns with fewer unknowns keep COLAMD's order without trying the split: their dependency
-/// chains are short, and the second warm-up would be set-up cost for little.
+/// chains are short, and the second factorisation of the first `factor` would be set-up cost
+/// for little.
 const SPLIT_MIN: usize = 128;
 
-/// The split order is kept if its warm-up fill is at most this multiple of COLAMD's. Measured
+/// The split order is kept if its first fill is at most this multiple of COLAMD's. Measured
 /// side by side with COLAMD's order: on an RLC ladder with every section active the split has
 /// 0.2 % more fill and the steps cost 26 % less, all of it from the overlap (the same halves
 /// listed one after the other cost what COLAMD's order does); on the rigid chain (`chain_profile`,
@@ -699,22 +711,22 @@ pub(crate) fn structural_rank_check(
     Ok(())
 }
 
-/// One step of Knuth's MMIX linear congruential generator.
-fn lcg(state: u64) -> u64 {
-    state
-        .wrapping_mul(6_364_136_223_846_793_005)
-        .wrapping_add(1_442_695_040_888_963_407)
-}
-
-/// The top 53 bits of `state` as a number in `[0, 1)`.
-fn unit(state: u64) -> f64 {
-    (state >> 11) as f64 / (1_u64 << 53) as f64
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::DenseLu;
+
+    /// One step of Knuth's MMIX linear congruential generator.
+    fn lcg(state: u64) -> u64 {
+        state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407)
+    }
+
+    /// The top 53 bits of `state` as a number in `[0, 1)`.
+    fn unit(state: u64) -> f64 {
+        (state >> 11) as f64 / (1_u64 << 53) as f64
+    }
 
     /// Counts the allocations of the calling thread (tests run in parallel on other threads).
     mod counting {
@@ -936,18 +948,20 @@ mod tests {
             let mut p = ladder(sections, &mut rng);
             let mut lu = SparseLu::new();
             lu.analyse(p.n, &p.rows, &p.cols).unwrap();
-            let f = lu.factors.as_ref().unwrap();
-            let colamd = colamd_order(f.matrix.symbolic()).unwrap();
-            if p.n < SPLIT_MIN {
-                assert_eq!(f.order.col_fwd, colamd);
-            } else {
-                assert_eq!(
-                    Some(&f.order.col_fwd),
-                    split_order(f.matrix.symbolic(), &colamd).as_ref()
-                );
-            }
-            for _ in 0..3 {
+            for round in 0..3 {
                 lu.factor(&p.vals).unwrap();
+                if round == 0 {
+                    let f = lu.factors.as_ref().unwrap();
+                    let colamd = colamd_order(f.matrix.symbolic()).unwrap();
+                    if p.n < SPLIT_MIN {
+                        assert_eq!(f.order.col_fwd, colamd);
+                    } else {
+                        assert_eq!(
+                            Some(&f.order.col_fwd),
+                            split_order(f.matrix.symbolic(), &colamd).as_ref()
+                        );
+                    }
+                }
                 let x_true = random_vector(p.n, &mut rng);
                 let b = p.apply(&x_true);
                 let mut xs = b.clone();
@@ -988,16 +1002,15 @@ mod tests {
         }
         for p in [two, coupled] {
             let mut lu = SparseLu::new();
-            lu.analyse(p.n, &p.rows, &p.cols).unwrap();
+            let x_true = random_vector(p.n, &mut rng);
+            let rhs = p.apply(&x_true);
+            let xs = solve_with(&mut lu, &p, &rhs);
             let f = lu.factors.as_ref().unwrap();
             let split = split_order(
                 f.matrix.symbolic(),
                 &colamd_order(f.matrix.symbolic()).unwrap(),
             );
             assert_eq!(Some(&f.order.col_fwd), split.as_ref());
-            let x_true = random_vector(p.n, &mut rng);
-            let rhs = p.apply(&x_true);
-            let xs = solve_with(&mut lu, &p, &rhs);
             let xd = solve_with(&mut DenseLu::new(), &p, &rhs);
             assert_close(&xs, &xd, 1e-12);
             assert_close(&xs, &x_true, 1e-10);
@@ -1022,7 +1035,7 @@ mod tests {
     /// refused after large ones (where the old pivots fail the threshold test); either way the
     /// solution is backward stable: `‖A x − b‖∞ ≤ 1e-14 (‖A‖∞ ‖x‖∞ + ‖b‖∞)` (measured ≤ 3.2e-16).
     /// Mutations in `refactor`: accepting any finite multiplier gives a backward error of 1.0e-7
-    /// (round 0, on the warm-up's pivot order); skipping the elimination updates makes the small
+    /// (round 0); skipping the elimination updates makes the small
     /// change of round 2 refuse the old pivots.
     #[test]
     fn refactorises_without_pivot_search_only_on_the_same_pivots() {
@@ -1246,21 +1259,22 @@ mod tests {
         let mut rng = Rng(6);
         let kkt_system = kkt(400, 150, &mut rng);
         let ladder_system = ladder(300, &mut rng);
-        // The ladder keeps the split column order (its fill is 0.2 % above COLAMD's); with the
-        // fill bound at 1 the split is rejected and COLAMD's warmed-up factors come back. Both
+        // The ladder keeps the split column order (its fill is close to COLAMD's); with the
+        // fill bound at 0.5 the split is rejected and COLAMD's order is factorised again. Both
         // paths are checked for the storage they leave.
         for (p, max_fill, split) in [
             (&kkt_system, SPLIT_MAX_FILL, None),
             (&ladder_system, SPLIT_MAX_FILL, Some(true)),
-            (&ladder_system, 1.0, Some(false)),
+            (&ladder_system, 0.5, Some(false)),
         ] {
             assert_factor_and_solve_do_not_allocate(p, max_fill, split, &mut rng);
         }
     }
 
-    /// Checks that after `analyse` (with the split's fill bound `max_fill`) the factorisations
-    /// and solves of `p` allocate nothing, and, with `split = Some(kept)`, that `p` has a split
-    /// order and whether `analyse` kept it.
+    /// Checks that after `analyse` and the first factorisation (with the split's fill bound
+    /// `max_fill`) the factorisations and solves of `p` allocate nothing, and, with
+    /// `split = Some(kept)`, that `p` has a split order and whether the first factorisation
+    /// kept it.
     fn assert_factor_and_solve_do_not_allocate(
         p: &Problem,
         max_fill: f64,
@@ -1281,9 +1295,10 @@ mod tests {
         drop(probe);
         let before = counting::allocations();
         lu.analyse(p.n, &p.rows, &p.cols).unwrap();
+        lu.factor(&p.vals).unwrap();
         assert!(
             counting::allocations() > before,
-            "analyse was expected to allocate"
+            "analyse and the first factorisation were expected to allocate"
         );
         let f = lu.factors.as_ref().unwrap();
         let colamd = colamd_order(f.matrix.symbolic()).unwrap();
