@@ -34,7 +34,8 @@ same discrete trajectory whether its couplings are written as potentials, constr
 forces; `dirac compare` shows it.
 
 Input files:
-  *.cir, *.sp, *.net   SPICE-subset netlists (R L C V I K D, .tran, .op, .param, .subckt, .ic, .model D)
+  *.cir, *.sp, *.net   SPICE-subset netlists (R L C V I K D M E F G H B X, .tran, .op, .param,
+                       .subckt, .ic, .options, .model D/NMOS/PMOS; docs/guide.md lists the subset)
   *.toml               scene files (parts, connections, integrator, what to record)
 
 Every row of a run is the state at t_k = t_0 + k*h (row 0 is the initial or operating-point state).
@@ -155,9 +156,11 @@ struct ModelArgs {
     /// that amplifies a mode of the model over the run (the trapezoid rule on a fast decay).
     #[arg(long)]
     force: bool,
-    /// Take the first step as 99 geometrically growing substeps (h·2^-32/3 … h/6), so that the
-    /// stiff modes of a start off the slow manifold decay instead of ringing (midpoint and
-    /// Gauss are not L-stable). The grid t_k = k·h is unchanged.
+    /// Take the first step as geometrically growing substeps (3 per level, from h·2^-L/3 to
+    /// h/6), so that the stiff modes of a start off the slow manifold decay instead of ringing
+    /// (midpoint and Gauss are not L-stable). L = ⌈log₂(h/τ)⌉ + 2 reaches the fastest damped
+    /// mode τ of the modal check (at most 32; 32 where the modes are not analysed, 99
+    /// substeps). The grid t_k = k·h is unchanged.
     /// On by default for a netlist whose modal check finds a damped mode the method would
     /// leave ringing (SPICE damps every start); such a netlist also ramps the stretch after
     /// every source breakpoint, from a substep that resolves that mode (SPICE restarts with a

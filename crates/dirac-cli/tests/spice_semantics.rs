@@ -39,7 +39,6 @@ fn dirac(args: &[&str]) -> Output {
         .expect("dirac runs")
 }
 
-/// `dirac op --json` of the netlist `text` (written as `name`), each signal's value.
 /// The rows of `dirac run path --method method --signals signals`, which must succeed.
 fn run_rows(path: &std::path::Path, method: &str, signals: &str) -> Vec<Vec<f64>> {
     let out = dirac(&[
@@ -58,6 +57,7 @@ fn run_rows(path: &std::path::Path, method: &str, signals: &str) -> Vec<Vec<f64>
     rows(&String::from_utf8(out.stdout).unwrap()).1
 }
 
+/// `dirac op --json` of the netlist `text` (written as `name`), each signal's value.
 fn operating_point(name: &str, text: &str) -> serde_json::Value {
     let json = dirac(&["op", deck(name, text).to_str().unwrap(), "--json"]);
     assert!(
@@ -1246,6 +1246,57 @@ fn the_mosfet_deck_runs_under_gauss3_and_gauss4() {
             (a[1] - b[1]).abs() <= 2e-4 * 3.3 && (a[2] - b[2]).abs() <= 2e-4 * 3.3,
             "{a:?} against {b:?}"
         );
+    }
+}
+
+/// `--start-ramp` asked for explicitly is sized as the automatic ramp is, to the fastest damped
+/// mode (audit 43): with the default 32 levels (`h·2⁻³²/3` = 1.6e-20 s here) Gauss 3 stopped at
+/// step 0 on this Wilson mirror (and on 22 more of the sweep's 28 MOSFET decks under Gauss 3 or
+/// 4), Newton's residual 4e-30 being all of its equation's terms. Both methods now run with
+/// the flag, take fewer than the default ramp's 99 substeps, and agree with each other on the
+/// mirror's output to 2e-4 of the supply.
+#[test]
+fn an_explicit_start_ramp_reaches_the_fastest_mode_not_below() {
+    let netlist = deck(
+        "wilson.cir",
+        "* Wilson current mirror, reference current pulsed
+         .model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 PHI=0.7 LAMBDA=0.04 CGSO=0.3n CGDO=0.3n \
+         CGBO=0.1n CJ=0.5m MJ=0.5 CJSW=0.2n MJSW=0.33 PB=0.9 LD=0.05u)\n\
+         VDD vdd 0 3.3\nIREF vdd a PULSE(10u 40u 20n 10n 10n 80n 200n)\n\
+         M1 a b 0 0 nch L=1u W=8u AD=8p AS=8p PD=18u PS=18u\n\
+         M2 b b 0 0 nch L=1u W=8u AD=8p AS=8p PD=18u PS=18u\n\
+         M3 out a b 0 nch L=1u W=8u AD=8p AS=8p PD=18u PS=18u\n\
+         RL vdd out 20k\nCA a 0 20f\n.tran 0.2n 400n\n.end\n",
+    );
+    let run = |method: &str| {
+        let out = dirac(&[
+            "run",
+            netlist.to_str().unwrap(),
+            "--method",
+            method,
+            "--start-ramp",
+            "--signals",
+            "v(out),v(a)",
+            "--json-summary",
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{method}: {stderr}");
+        let summary: serde_json::Value = stderr
+            .lines()
+            .find_map(|l| serde_json::from_str(l).ok())
+            .expect("a JSON summary");
+        let substeps = summary["ramp_substeps"].as_u64().expect("ramp substeps");
+        assert!(
+            (3..99).contains(&substeps),
+            "{method}: {substeps} ramp substeps"
+        );
+        rows(&String::from_utf8_lossy(&out.stdout)).1
+    };
+    let (three, four) = (run("gauss3"), run("gauss4"));
+    assert_eq!(three.len(), 2001);
+    assert_eq!(three.len(), four.len());
+    for (a, b) in three.iter().zip(&four) {
+        assert!((a[1] - b[1]).abs() <= 2e-4 * 3.3, "{a:?} against {b:?}");
     }
 }
 

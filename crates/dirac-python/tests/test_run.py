@@ -61,10 +61,11 @@ def test_options_reach_the_run_as_on_the_command_line(cli):
 
 def test_start_ramp_reaches_the_run_as_on_the_command_line(cli, tmp_path):
     # A stiff two-section RC ladder started off its slow manifold (fast time constant ~1e-6 s,
-    # h = 0.01): the ramp's rows are the CLI's with --start-ramp, its 99 substeps are counted,
-    # and at the end the nodes sit at the quasi-static gap (~1e-6 V) where the plain run
+    # h = 0.01): the ramp's rows are the CLI's with --start-ramp, its substeps are counted, and
+    # at the end the nodes sit at the quasi-static gap (~1e-6 V) where the plain run
     # (start_ramp=False) rings. Left at None, a netlist with such a mode takes a ramp itself,
-    # sized to reach that mode (51 substeps), as the CLI does without a flag.
+    # as the CLI does without a flag; asked for or not, the ramp is sized to reach that mode
+    # (51 substeps, not the default 32 levels' 99).
     path = tmp_path / "stiff_rc.cir"
     path.write_text(
         "stiff RC ladder\nR1 0 n1 1\nC1 n1 0 1 IC=1\nR2 n1 n2 1e-3\nC2 n2 0 1e-3 IC=3\n"
@@ -73,7 +74,7 @@ def test_start_ramp_reaches_the_run_as_on_the_command_line(cli, tmp_path):
     expected = cli("run", path, "--quiet", "--start-ramp").stdout.decode()
     ramped = dirac.run(path, start_ramp=True)
     assert ramped.to_csv() == expected
-    assert ramped.summary.ramp_substeps == 99
+    assert ramped.summary.ramp_substeps == 51
     plain = dirac.run(path, start_ramp=False)
     assert plain.to_csv() == cli("run", path, "--quiet", "--no-start-ramp").stdout.decode()
     assert plain.summary.ramp_substeps == 0

@@ -271,9 +271,20 @@ impl NaturalModes {
     /// ([`crate::StartRamp::for_ratio`]).
     #[must_use]
     pub fn corner_ramp(&self, options: &IntegratorOptions) -> Option<crate::StartRamp> {
-        let tau = self.fastest(ModeKind::Decay)?.time_constant()?;
         self.leaves_ringing(options)
-            .then(|| crate::StartRamp::for_ratio(options.h / tau))
+            .then(|| self.ramp_to_fastest_decay(options))
+            .flatten()
+    }
+
+    /// The ramp whose smallest substeps reach the fastest damped mode at `options.h`
+    /// ([`crate::StartRamp::for_ratio`]), whether or not the method would leave that mode
+    /// ringing: the size of a start ramp asked for. A deeper ramp damps no mode more and takes
+    /// substeps below the round-off of the state's own time scale, where Newton cannot
+    /// converge (audit 43). `None` without a damped mode.
+    #[must_use]
+    pub fn ramp_to_fastest_decay(&self, options: &IntegratorOptions) -> Option<crate::StartRamp> {
+        let tau = self.fastest(ModeKind::Decay)?.time_constant()?;
+        Some(crate::StartRamp::for_ratio(options.h / tau))
     }
 
     /// The step-size warnings for a run with `options`: the fastest oscillation resolved by

@@ -424,26 +424,39 @@ impl Model {
         // faster than h) would write a trajectory that blows up: refused before a step is
         // taken. Both decisions read the modes of the start state at this h, which are kept for
         // the front end's warnings (with the ramps or without, they are the same).
+        // A start ramp asked for (`--start-ramp`, a scene's `start_ramp = true`) is sized the
+        // same way where the modes are known, whether or not the method would leave the mode
+        // ringing.
         let start_auto = plan.start_ramp_auto && plan.options.start_ramp.is_none();
+        let start_asked = plan.options.start_ramp.is_some();
         let corner_auto =
             plan.corner_ramp_auto && plan.options.corner_ramp.is_none() && plan.options.breakpoints;
         let modes = (matches!(plan.execution, Execution::Assembled(_))
-            && (start_auto || corner_auto || plan.refuse_unstable))
+            && (start_auto || start_asked || corner_auto || plan.refuse_unstable))
             .then(|| simulation.natural_modes().ok())
             .flatten();
-        if let Some(corner_ramp) = modes
-            .as_ref()
-            .filter(|_| start_auto || corner_auto)
-            .and_then(|m| m.corner_ramp(&plan.options))
-        {
+        if let Some(m) = &modes {
             let mut options = plan.options.clone();
-            if start_auto {
-                options = options.start_ramp(Some(corner_ramp));
+            let sized = start_asked
+                .then(|| m.ramp_to_fastest_decay(&plan.options))
+                .flatten();
+            if let Some(ramp) = sized {
+                options = options.start_ramp(Some(ramp));
             }
-            if corner_auto {
-                options = options.corner_ramp(Some(corner_ramp));
+            let corner = (start_auto || corner_auto)
+                .then(|| m.corner_ramp(&plan.options))
+                .flatten();
+            if let Some(ramp) = corner {
+                if start_auto {
+                    options = options.start_ramp(Some(ramp));
+                }
+                if corner_auto {
+                    options = options.corner_ramp(Some(ramp));
+                }
             }
-            simulation = prepared(options)?;
+            if sized.is_some() || corner.is_some() {
+                simulation = prepared(options)?;
+            }
         }
         let steps = usize::try_from(plan.steps()).unwrap_or(usize::MAX);
         if let Some(why) = modes

@@ -157,7 +157,8 @@ class Model:
             energy: also record the total energy for ``summary.energy_drift`` (costs a readout
                 of the velocities at every row).
             start_ramp: take the first step as geometrically growing substeps, which damp the
-                fast modes of a stiff start off its slow manifold (``dirac run --start-ramp``;
+                fast modes of a stiff start off its slow manifold, down to a substep that reaches
+                the fastest damped mode (``dirac run --start-ramp``;
                 ``None`` keeps the scene's ``start_ramp``; a netlist takes it, and ramps the
                 stretch after every source breakpoint, when its modal check finds a damped mode
                 the method would leave ringing; ``False`` turns both off).
