@@ -173,6 +173,21 @@ pub trait Model {
         1.0
     }
 
+    /// Whether [`Model::check_step`] may reject a step (the integrator skips the call when not).
+    fn has_step_check(&self) -> bool {
+        false
+    }
+
+    /// Whether a solved step from `q0` to `q1` lies on the branch of the step equations that
+    /// the motion follows. A nonlinear step can have roots that no motion takes (the discrete
+    /// rigid body's equations have one near a half turn per step besides the small rotation the
+    /// body makes); Newton may land on one from a good guess, and the step equations alone cannot
+    /// tell. `Err(reason)` rejects the step; the integrator takes it again as smaller pieces.
+    /// Only consulted when [`Model::has_step_check`] is true.
+    fn check_step(&self, _q0: &[f64], _q1: &[f64]) -> Result<(), String> {
+        Ok(())
+    }
+
     /// Name of coordinate `i`, for diagnostics and output headers.
     fn coordinate_name(&self, i: usize) -> String {
         format!("q{i}")
@@ -243,6 +258,12 @@ impl<M: Model + ?Sized> Model for &M {
     }
     fn update_fraction(&self, q: &[f64], v: &[f64], dq: &[f64], dv: &[f64]) -> f64 {
         (**self).update_fraction(q, v, dq, dv)
+    }
+    fn has_step_check(&self) -> bool {
+        (**self).has_step_check()
+    }
+    fn check_step(&self, q0: &[f64], q1: &[f64]) -> Result<(), String> {
+        (**self).check_step(q0, q1)
     }
     fn coordinate_name(&self, i: usize) -> String {
         (**self).coordinate_name(i)

@@ -76,6 +76,7 @@ struct HotPart {
     dim: usize,
     has_force: bool,
     has_update_limit: bool,
+    has_step_check: bool,
 }
 
 /// The parts that share one model object (instances of one definition, a netlist's elements of
@@ -131,6 +132,7 @@ pub struct AssembledModel {
     has_force: bool,
     linear: bool,
     has_update_limit: bool,
+    has_step_check: bool,
     /// Parts and couplings that depend on time, the only ones with source breakpoints (the
     /// query runs every step, and a ladder of 10⁵ sections has one source); none: autonomous.
     timed_parts: Vec<usize>,
@@ -392,6 +394,25 @@ impl Model for AssembledModel {
             ));
         }
         alpha
+    }
+
+    fn has_step_check(&self) -> bool {
+        self.has_step_check
+    }
+
+    /// Each part's check on its own coordinates; a rejection names the part.
+    fn check_step(&self, q0: &[f64], q1: &[f64]) -> Result<(), String> {
+        for p in self.parts.iter().filter(|p| p.has_step_check) {
+            let r = p.offset..p.offset + p.dim;
+            p.model.check_step(&q0[r.clone()], &q1[r]).map_err(|why| {
+                let name = &self.names[p.offset];
+                let part = name
+                    .rsplit_once('.')
+                    .map_or(name.as_str(), |(part, _)| part);
+                format!("part `{part}`: {why}")
+            })?;
+        }
+        Ok(())
     }
 
     fn coordinate_name(&self, i: usize) -> String {
@@ -946,6 +967,7 @@ impl Assembler {
                 dim: p.dim,
                 has_force: p.model.has_force(),
                 has_update_limit: p.model.has_update_limit(),
+                has_step_check: p.model.has_step_check(),
             })
             .collect();
         let timed_parts = (0..parts.len())
@@ -967,6 +989,7 @@ impl Assembler {
             has_force,
             linear,
             has_update_limit: parts.iter().any(|p| p.model.has_update_limit()),
+            has_step_check: parts.iter().any(|p| p.model.has_step_check()),
             timed_parts,
             timed_couplings,
             sole,
@@ -1167,6 +1190,12 @@ impl Model for FrozenCouplingModel {
     }
     fn update_fraction(&self, q: &[f64], v: &[f64], dq: &[f64], dv: &[f64]) -> f64 {
         self.inner.update_fraction(q, v, dq, dv)
+    }
+    fn has_step_check(&self) -> bool {
+        self.inner.has_step_check()
+    }
+    fn check_step(&self, q0: &[f64], q1: &[f64]) -> Result<(), String> {
+        self.inner.check_step(q0, q1)
     }
     fn coordinate_name(&self, i: usize) -> String {
         self.inner.coordinate_name(i)

@@ -85,6 +85,7 @@ fn numerical_fields(e: &RunError) -> (Option<usize>, Option<f64>, Option<f64>) {
         RunError::Sim(SimError::Newton {
             step, t, source, ..
         }) => (Some(*step), Some(*t), residual(source)),
+        RunError::Sim(SimError::StepRejected { step, t, .. }) => (Some(*step), Some(*t), None),
         RunError::Readout(r) => (r.step, Some(r.t), residual(&r.source)),
         RunError::SteadyState(SteadyStateError::NotConverged { source, .. }) => {
             (None, Some(0.0), residual(source))

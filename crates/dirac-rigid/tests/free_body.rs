@@ -131,3 +131,23 @@ fn dzhanibekov_flip_period_matches_the_elliptic_closed_form() {
         "not order 2: {errors:?}"
     );
 }
+
+/// A body's step is accepted while it turns the body by less than a quarter turn, about any
+/// axis, and rejected from a quarter turn on, naming the angle (`Model::check_step`; the
+/// discrete equations' spurious roots lie near half turns, the motion's near the identity).
+#[test]
+fn a_step_of_a_quarter_turn_or_more_is_rejected() {
+    use dirac_core::Model;
+    let body = RigidBody::principal(2.0, MOMENTS).expect("body");
+    let r0 = so3::from_axis_angle([0.3, -0.2, 1.0], 0.6);
+    let q0 = RigidBody::coordinates([0.1, 0.2, 0.3], &r0);
+    for (angle, accepted) in [(0.0, true), (1.5, true), (1.6, false), (3.0, false)] {
+        let turn = so3::from_axis_angle([1.0, 2.0, -2.0], angle);
+        let q1 = RigidBody::coordinates([0.1, 0.2, 0.3], &so3::mul(&r0, &turn));
+        let verdict = body.check_step(&q0, &q1);
+        assert_eq!(verdict.is_ok(), accepted, "{angle} rad: {verdict:?}");
+        if let Err(why) = verdict {
+            assert!(why.contains(&format!("{angle:.3}")), "{why}");
+        }
+    }
+}

@@ -18,6 +18,17 @@ pub enum SimError {
         /// A short hint naming the likely cause.
         likely_cause: String,
     },
+    /// A step solved to a root its model rejects ([`dirac_core::Model::check_step`]: a root of
+    /// the step equations that the motion does not take), even as the smallest pieces.
+    #[error("step {step} (t = {}): the step's solution was rejected: {reason}", Time(*.t))]
+    StepRejected {
+        /// Index of the step (0 is the first step).
+        step: usize,
+        /// Time at the start of the rejected (sub)step.
+        t: f64,
+        /// The model's reason, naming the part.
+        reason: String,
+    },
     /// The initial data violate a constraint that cannot be repaired by projecting velocities.
     #[error("inconsistent initial condition: {constraint} is violated by {residual:.3e}")]
     InconsistentInitialCondition {

@@ -491,9 +491,21 @@ struct Stage {
     /// Row-major `s × s` map from the last increments `Z^{l'}` to the predicted next ones:
     /// `ℓ_{l'}(1 + d_l) − δ_{l' s}` (empty unless the increments use the path polynomial).
     extrapolation: Vec<f64>,
+    /// For a model that checks its steps ([`Model::check_step`]): the guess of the last solve
+    /// (put back when its root is rejected, so the pieces of the cut start from it) and the
+    /// end position of the step being checked. Empty otherwise.
+    checked_guess: Vec<f64>,
+    checked_end: Vec<f64>,
 }
 
 impl Stage {
+    /// Keeps the guess `x` of the solve about to start, for a model that checks its steps.
+    fn keep_guess(&mut self) {
+        if !self.checked_guess.is_empty() {
+            self.checked_guess.copy_from_slice(&self.x);
+        }
+    }
+
     /// Pushes the current solution `x` to the front of `past`.
     fn remember(&mut self) {
         let u = self.x.len();
@@ -577,8 +589,17 @@ impl Stage {
                 }
             }
         }
+        let checked = |len: usize| {
+            if model.has_step_check() {
+                vec![0.0; len]
+            } else {
+                Vec::new()
+            }
+        };
         Self {
             extrapolation,
+            checked_guess: checked(unknowns),
+            checked_end: checked(model.dim()),
             fraction: h / options.h,
             aux: None,
             last_size: h,
@@ -1137,7 +1158,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                         ..
                     },
                 ..
-            }
+            } | SimError::StepRejected { .. }
         );
         if !retry || depth >= MAX_CUT_DEPTH {
             return Err(match error {
@@ -1152,6 +1173,14 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                     source,
                     likely_cause: format!(
                         "{likely_cause} (the step was cut {depth} times, to h/{}, without success)",
+                        1u64 << depth
+                    ),
+                },
+                SimError::StepRejected { step, t, reason } if depth > 0 => SimError::StepRejected {
+                    step,
+                    t,
+                    reason: format!(
+                        "{reason}; the step was cut {depth} times, to h/{}, without success",
                         1u64 << depth
                     ),
                 },
@@ -1266,11 +1295,17 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             newton.invalidate_factorisation();
             *aux_size = size;
         }
+        self.stages[i].keep_guess();
         let result = self.solve_stage(i, false, true);
         let stage = &mut self.stages[i];
         stage.step.set_step_size(nominal);
         stage.last_size = size;
         let stats = result?;
+        stage.step.set_step_size(size);
+        let checked = self.check_step(i);
+        let stage = &mut self.stages[i];
+        stage.step.set_step_size(nominal);
+        checked?;
         stage.step.set_step_size(size);
         stage
             .step
@@ -1284,6 +1319,28 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.reset_free_momenta();
         self.t += size;
         Ok(stats)
+    }
+
+    /// Stage `i`'s solved substep from the current state, judged by the model
+    /// ([`Model::check_step`]); a rejected solution is replaced by the guess it started from
+    /// (the cut's pieces scale it), and the state is untouched.
+    fn check_step(&mut self, i: usize) -> Result<(), SimError> {
+        let stage = &mut self.stages[i];
+        if stage.checked_guess.is_empty() {
+            return Ok(());
+        }
+        stage.step.end_position(&stage.x, &mut stage.checked_end);
+        match self.model.check_step(&self.q, &stage.checked_end) {
+            Ok(()) => Ok(()),
+            Err(reason) => {
+                stage.x.copy_from_slice(&stage.checked_guess);
+                Err(SimError::StepRejected {
+                    step: self.k,
+                    t: self.t,
+                    reason,
+                })
+            }
+        }
     }
 
     /// Adds every multiplier block of stage `stage`'s solution to `impulse`.
@@ -1443,7 +1500,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         if constant {
             stage.linear_end.guess.copy_from_slice(&stage.x);
         }
+        stage.keep_guess();
         let stats = self.solve_stage(i, constant, false)?;
+        self.check_step(i)?;
         let stage = &mut self.stages[i];
         if constant {
             let end = &mut stage.linear_end;

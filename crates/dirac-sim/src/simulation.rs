@@ -113,7 +113,8 @@ impl RunError {
     #[must_use]
     pub fn is_numerical(&self) -> bool {
         match self {
-            Self::Sim(SimError::Newton { .. }) | Self::Readout(_) => true,
+            Self::Sim(SimError::Newton { .. } | SimError::StepRejected { .. })
+            | Self::Readout(_) => true,
             Self::SteadyState(e) => e.is_numerical(),
             _ => false,
         }

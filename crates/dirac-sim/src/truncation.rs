@@ -8,7 +8,7 @@
 //! momentum with a mass, `∂²L/∂v² ≠ 0`). Branch charges of resistors and sources, which store no
 //! energy, are not judged: their offsets are arbitrary.
 
-use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model};
+use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model};
 use dirac_solve::Triplets;
 
 use crate::sharing::Sharing;
@@ -117,6 +117,23 @@ impl History {
         let mut forms = Triplets::default();
         forms.begin();
         constraints.forms(q, &mut forms);
+        // A coordinate in a holonomic row is judged by its position: its momentum carries the
+        // constraint's impulse, which depends on the substep's size (a body held at height z
+        // under gravity has p_z = −(s/2)·m·g after a substep of size s), so a refinement would
+        // itself move it and be refined again.
+        let mut held = vec![false; n];
+        for (a, j, value) in forms.iter() {
+            if value != 0.0 && constraints.kind(a) == ConstraintKind::Holonomic {
+                held[j] = true;
+            }
+        }
+        for &i in momenta.iter().filter(|&&i| held[i]) {
+            if !positions.contains(&i) {
+                positions.push(i);
+            }
+        }
+        positions.sort_unstable();
+        momenta.retain(|&i| !held[i]);
         let sharing = Sharing::find(n, constraints.count(), &hessian.vv, &jacobian.v, &forms);
         let mut sums = Vec::new();
         if !sharing.coords.is_empty() {

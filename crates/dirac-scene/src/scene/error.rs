@@ -317,7 +317,10 @@ impl SceneError {
     pub fn is_numerical(&self) -> bool {
         matches!(
             self,
-            Self::Sim(SimError::Newton { .. }) | Self::Run(RunError::Sim(SimError::Newton { .. }))
+            Self::Sim(SimError::Newton { .. } | SimError::StepRejected { .. })
+                | Self::Run(RunError::Sim(
+                    SimError::Newton { .. } | SimError::StepRejected { .. }
+                ))
         )
     }
 
