@@ -21,7 +21,7 @@
 //! compliance in every constraint row), decreased from 1e-2 to 0.
 
 use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
-use dirac_solve::{Newton, NewtonError, NewtonOptions, NonlinearSystem, Structure};
+use dirac_solve::{LinearSolver, Newton, NewtonError, NewtonOptions, NonlinearSystem, Structure};
 use thiserror::Error;
 
 use crate::linear::{AutoLu, SolverChoice};
@@ -115,6 +115,9 @@ impl SteadyState {
             if !c {
                 *x = q;
             }
+        }
+        if (0..m).any(|a| constraints.kind(a) == ConstraintKind::Holonomic) {
+            system.balance_multipliers(&mut x);
         }
         let options = NewtonOptions {
             max_iterations: 50,
@@ -408,6 +411,52 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
         }
     }
 
+    /// Sets the multipliers of `x` to those that balance the forces at its positions in least
+    /// squares, `min ‖∂L/∂q + f − Aᵀλ‖`: the augmented system `[[I, Aᵀ], [A, −δI]]` (`δ` tiny,
+    /// for redundant rows). A mechanism's positions are held only through its constraints'
+    /// curvature `λ·∂²g/∂q²`, which vanishes at `λ = 0`: from there the first Newton matrix of a
+    /// hanging pendulum is singular. Left at zero when the solve fails (Newton reports).
+    fn balance_multipliers(&mut self, x: &mut [f64]) {
+        let (n, m) = (self.n(), self.m());
+        let mut r = vec![0.0; x.len()];
+        self.residual(x, &mut r);
+        let largest = self
+            .forms
+            .iter()
+            .fold(0.0_f64, |big, (_, _, value)| big.max(value.abs()));
+        let delta = 1e-10 * largest * largest;
+        let (mut rows, mut cols, mut values) = (Vec::new(), Vec::new(), Vec::new());
+        let mut push = |i: usize, j: usize, value: f64| {
+            rows.push(i);
+            cols.push(j);
+            values.push(value);
+        };
+        for j in 0..n {
+            push(j, j, 1.0);
+        }
+        for (a, j, value) in self.forms.iter() {
+            push(j, n + a, value);
+            push(n + a, j, value);
+        }
+        for a in 0..m {
+            push(n + a, n + a, -delta);
+        }
+        let mut rhs = vec![0.0; n + m];
+        // The residual's force rows already subtract `Aᵀλ` of the multipliers in `x`: the
+        // solve gives their correction.
+        rhs[..n].copy_from_slice(&r[..n]);
+        let mut lu = AutoLu::for_size(SolverChoice::Auto, n + m);
+        let solved = lu
+            .analyse(n + m, &rows, &cols)
+            .and_then(|()| lu.factor(&values))
+            .and_then(|()| lu.solve_in_place(&mut rhs));
+        if solved.is_ok() && rhs.iter().all(|v| v.is_finite()) {
+            for (l, d) in x[n..n + m].iter_mut().zip(&rhs[n..]) {
+                *l += d;
+            }
+        }
+    }
+
     /// Structural analysis before Newton: an unknown no equation fixes is an error naming it.
     fn analyse(&mut self) -> Result<(), SteadyStateError> {
         let (n, m) = (self.n(), self.m());
@@ -422,7 +471,10 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             })
             .collect();
         self.load(&x);
-        self.stamp(&x[n..n + m]);
+        // Multipliers of one: the pattern must hold the constraints' curvature `λ·∂²g/∂q²`,
+        // which at λ = 0 has no entries (a rigid body's rotation is held by the curvature of
+        // its orthonormality and joint rows, which no other term reaches).
+        self.stamp(&vec![1.0; m]);
         let mut pattern = Vec::new();
         self.entries(|r, c, value, gmin| {
             if !gmin && value != 0.0 {
