@@ -80,7 +80,8 @@ pub struct SteadyState {
     pub cyclic: Vec<bool>,
     /// Newton updates spent, gmin stepping included.
     pub iterations: usize,
-    /// Gmin steps taken (0 when plain Newton converged).
+    /// Continuation solves taken: gmin steps, then, for a model with holonomic rows, stiffness
+    /// steps (0 when plain Newton converged).
     pub gmin_steps: usize,
 }
 
@@ -144,6 +145,18 @@ impl SteadyState {
                         Err(_) => break,
                     }
                 }
+                if last.is_err() && system.stiffen {
+                    system.gmin = 0.0;
+                    let steps;
+                    (last, steps) = stiffness_stepping(
+                        &mut system,
+                        &mut newton,
+                        &start,
+                        &mut x,
+                        &mut iterations,
+                    );
+                    gmin_steps += steps;
+                }
                 if let Err(source) = last {
                     let mut r = vec![0.0; size];
                     system.residual(&x, &mut r);
@@ -165,6 +178,56 @@ impl SteadyState {
             gmin_steps,
         })
     }
+}
+
+/// Springs of stiffness stepping, as multiples of the start's force scale per unit of its
+/// position scale, from stiff to none.
+const STIFFNESS_SCHEDULE: [f64; 10] = [1e2, 1e1, 1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 0.0];
+
+/// The mechanical counterpart of gmin stepping, for a model with holonomic rows whose Newton
+/// fails from its start (a pendulum chain released level: the potential's curvature along each
+/// hinge vanishes there, and the first Newton matrix is singular): a spring ties every
+/// non-cyclic coordinate to its start and is relaxed to none along [`STIFFNESS_SCHEDULE`], each
+/// solve from the last. The spring's scale is the start's largest unbalanced force per unit of
+/// its largest position. Returns the last solve's outcome and the number of solves.
+fn stiffness_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
+    system: &mut SteadySystem<'_, M, C>,
+    newton: &mut Newton<AutoLu>,
+    start: &[f64],
+    x: &mut [f64],
+    iterations: &mut usize,
+) -> (Result<dirac_solve::NewtonStats, NewtonError>, usize) {
+    let n = system.n();
+    x.copy_from_slice(start);
+    let mut r = vec![0.0; x.len()];
+    system.stiffness = 0.0;
+    system.residual(x, &mut r);
+    let force = r[..n].iter().fold(0.0_f64, |big, v| big.max(v.abs()));
+    let length = (0..n)
+        .filter(|&j| !system.cyclic[j])
+        .fold(0.0_f64, |big, j| big.max(start[j].abs()));
+    let scale = if force > 0.0 && length > 0.0 {
+        force / length
+    } else {
+        1.0
+    };
+    let mut last = Err(NewtonError::NonFiniteResidual {
+        equation: 0,
+        iterations: 0,
+    });
+    let mut steps = 0;
+    for &k in &STIFFNESS_SCHEDULE {
+        system.stiffness = k * scale;
+        newton.reset();
+        steps += 1;
+        last = newton.solve(system, x);
+        match &last {
+            Ok(stats) => *iterations += stats.iterations,
+            Err(_) => break,
+        }
+    }
+    system.stiffness = 0.0;
+    (last, steps)
 }
 
 /// Which coordinates nothing `q`-dependent contains: evaluated from the derivative values at the
@@ -243,6 +306,10 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     holds: &'a [(usize, f64)],
     cyclic: Vec<bool>,
     gmin: f64,
+    /// Whether the model has holonomic rows: then a spring `stiffness` ties every non-cyclic
+    /// coordinate to its start (stiffness stepping, the mechanical gmin stepping).
+    stiffen: bool,
+    stiffness: f64,
     q: Vec<f64>,
     v: Vec<f64>,
     lq: Vec<f64>,
@@ -274,8 +341,10 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             q0,
             t0,
             holds,
+            stiffen: (0..m).any(|a| constraints.kind(a) == ConstraintKind::Holonomic),
             cyclic,
             gmin: 0.0,
+            stiffness: 0.0,
             q: q0.to_vec(),
             v: vec![0.0; n],
             lq: vec![0.0; n],
@@ -403,6 +472,11 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
         for a in 0..m {
             if self.constraints.kind(a) == ConstraintKind::OneForm {
                 emit(n + a, n + a, self.gmin, true);
+            }
+        }
+        if self.stiffen {
+            for j in (0..n).filter(|&j| !self.cyclic[j]) {
+                emit(j, j, -self.stiffness, true);
             }
         }
         for (k, &(a, _)) in self.holds.iter().enumerate() {
@@ -605,6 +679,11 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for SteadySyste
         }
         for ((r, lq), f) in r.iter_mut().zip(&self.lq).zip(&self.f) {
             *r = lq + f;
+        }
+        if self.stiffness != 0.0 {
+            for j in (0..n).filter(|&j| !self.cyclic[j]) {
+                r[j] -= self.stiffness * (self.q[j] - self.q0[j]);
+            }
         }
         r[n..].fill(0.0);
         self.forms.begin();
