@@ -198,3 +198,25 @@ fn the_static_equilibrium_of_a_mechanism() {
         "{four_bar:?}"
     );
 }
+
+/// The heavy top's steady states form a continuum (it may be turned about the vertical): Newton
+/// reaches one, its equations hold to round-off (2.5e-27 against 0.41 at the start), and the
+/// matrix there is singular. `dirac op` says so and names the cause instead of "did not
+/// converge … try UIC" (exit 1: no isolated steady state to print).
+#[test]
+fn a_steady_state_that_is_not_isolated_is_named() {
+    let scene =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/heavy_top.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_dirac"))
+        .arg("op")
+        .arg(&scene)
+        .output()
+        .expect("runs");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(out.stdout.is_empty());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("no isolated steady state") && stderr.contains("symmetry"),
+        "{stderr}"
+    );
+}

@@ -21,7 +21,9 @@
 //! compliance in every constraint row), decreased from 1e-2 to 0.
 
 use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
-use dirac_solve::{LinearSolver, Newton, NewtonError, NewtonOptions, NonlinearSystem, Structure};
+use dirac_solve::{
+    LinearSolveError, LinearSolver, Newton, NewtonError, NewtonOptions, NonlinearSystem, Structure,
+};
 use thiserror::Error;
 
 use crate::linear::{AutoLu, SolverChoice};
@@ -46,6 +48,19 @@ pub enum SteadyStateError {
         /// What usually causes it.
         hint: String,
     },
+    /// The equations hold to round-off but their matrix is singular there: the steady state is
+    /// not isolated (a symmetry leaves a direction free).
+    #[error(
+        "no isolated steady state: the equations hold to {residual:.1e} (of {start:.1e} at the start) where their matrix is singular ({source}): a symmetry leaves the steady state free to move along some direction (a body turned about the axis of gravity, a shaft at any angle), or the point is a bifurcation; fix that direction (a spring, a joint) or start from given values (UIC)"
+    )]
+    NotIsolated {
+        /// The solver's report.
+        source: NewtonError,
+        /// The largest residual where it stopped.
+        residual: f64,
+        /// The largest residual at the start.
+        start: f64,
+    },
     /// Newton's method failed, even with gmin stepping.
     #[error(
         "steady state: Newton did not converge ({source}); largest residuals: {residuals}; try UIC (start from given values) or check the nonlinear parts' parameters"
@@ -63,7 +78,7 @@ impl SteadyStateError {
     /// state (bad input, exit code 2).
     #[must_use]
     pub fn is_numerical(&self) -> bool {
-        matches!(self, Self::NotConverged { .. })
+        matches!(self, Self::NotConverged { .. } | Self::NotIsolated { .. })
     }
 }
 
@@ -160,6 +175,27 @@ impl SteadyState {
                 if let Err(source) = last {
                     let mut r = vec![0.0; size];
                     system.residual(&x, &mut r);
+                    let largest = |r: &[f64]| r.iter().fold(0.0_f64, |big, v| big.max(v.abs()));
+                    let residual = largest(&r);
+                    let mut r0 = vec![0.0; size];
+                    system.residual(&start, &mut r0);
+                    let at_start = largest(&r0);
+                    let singular = matches!(
+                        source,
+                        NewtonError::Linear {
+                            source: LinearSolveError::NumericallySingular { .. },
+                            ..
+                        }
+                    );
+                    // Round-off of the start's residual: the equations hold, their matrix is
+                    // singular.
+                    if singular && residual <= 1e-12 * at_start {
+                        return Err(SteadyStateError::NotIsolated {
+                            source,
+                            residual,
+                            start: at_start,
+                        });
+                    }
                     return Err(SteadyStateError::NotConverged {
                         source,
                         residuals: system.worst_equations(&r, 3),
