@@ -4,8 +4,8 @@
 //! top's symmetry, stays 40 to round-off in every printed row (the CSV prints shortest round-trip
 //! decimals, so nothing is lost in the text).
 
-use std::path::PathBuf;
-use std::process::Command;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 /// Round-off on the spin over 4000 steps (measured 1.0e-14 relative).
 const SPIN: f64 = 1e-12;
@@ -13,23 +13,39 @@ const SPIN: f64 = 1e-12;
 /// Round-off of the state read out at t_0 (the rates solve a linear system; measured 1.6e-15).
 const ROW_ZERO: f64 = 1e-13;
 
+/// The bundled scene `name`.
+fn scene(name: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/scenes")
+        .join(name)
+}
+
+/// `dirac command path args…`.
+fn dirac(command: &str, path: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_dirac"))
+        .arg(command)
+        .arg(path)
+        .args(args)
+        .output()
+        .expect("runs")
+}
+
+/// The standard output of `out`, which must have succeeded (`context` names the run).
+fn stdout_of(out: &Output, context: &str) -> String {
+    assert!(
+        out.status.success(),
+        "{context}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout.clone()).expect("UTF-8")
+}
+
 /// Mutation seen to fail: `angular_velocity = [0.0, 0.0, 40.000001]` in the scene (row 0 reads
 /// 40.000001).
 #[test]
 fn heavy_top_runs_from_the_command_line() {
-    let scene =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/heavy_top.toml");
-    let out = Command::new(env!("CARGO_BIN_EXE_dirac"))
-        .arg("run")
-        .arg(&scene)
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8(out.stdout).expect("UTF-8");
+    let out = dirac("run", &scene("heavy_top.toml"), &[]);
+    let text = stdout_of(&out, "heavy_top.toml");
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().expect("header").split(',').collect();
     assert_eq!(
@@ -65,21 +81,12 @@ fn heavy_top_runs_from_the_command_line() {
 /// (measured within 0.31 J of its start; the spurious root put it 2.3 J off).
 #[test]
 fn a_long_step_does_not_land_on_a_spurious_rotation() {
-    let scene =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/four_bar.toml");
-    let out = Command::new(env!("CARGO_BIN_EXE_dirac"))
-        .arg("run")
-        .arg(&scene)
-        .args(["--h", "0.03", "--t-end", "1.2", "--signals", "energy"])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let out = dirac(
+        "run",
+        &scene("four_bar.toml"),
+        &["--h", "0.03", "--t-end", "1.2", "--signals", "energy"],
     );
-    let energies: Vec<f64> = String::from_utf8(out.stdout)
-        .expect("UTF-8")
+    let energies: Vec<f64> = stdout_of(&out, "four_bar.toml at h = 0.03")
         .lines()
         .skip(1)
         .map(|l| {
@@ -109,24 +116,18 @@ fn a_long_step_does_not_land_on_a_spurious_rotation() {
 /// h = 1e-3 refines nothing and writes the rows of the run without `--refine`.
 #[test]
 fn refinement_judges_a_held_body_by_its_position() {
-    let scene =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/four_bar.toml");
     let run = |refine: bool| {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_dirac"));
-        cmd.arg("run")
-            .arg(&scene)
-            .args(["--t-end", "1", "--json-summary"]);
+        let mut args = vec!["--t-end", "1", "--json-summary"];
         if refine {
-            cmd.arg("--refine");
+            args.push("--refine");
         }
-        let out = cmd.output().expect("runs");
-        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-        assert!(out.status.success(), "{stderr}");
-        let summary: serde_json::Value = stderr
+        let out = dirac("run", &scene("four_bar.toml"), &args);
+        let rows = stdout_of(&out, "four_bar.toml");
+        let summary: serde_json::Value = String::from_utf8_lossy(&out.stderr)
             .lines()
             .find_map(|l| serde_json::from_str(l).ok())
             .expect("a JSON summary");
-        (String::from_utf8(out.stdout).expect("UTF-8"), summary)
+        (rows, summary)
     };
     let (refined, summary) = run(true);
     let (plain, _) = run(false);
@@ -146,26 +147,13 @@ fn refinement_judges_a_held_body_by_its_position() {
 /// Newton reaches from the start is not asserted).
 #[test]
 fn the_static_equilibrium_of_a_mechanism() {
-    let scenes = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes");
     let level = std::env::temp_dir().join(format!("dirac-level-{}.toml", std::process::id()));
-    let text = std::fs::read_to_string(scenes.join("cartesian_pendulum.toml")).expect("scene");
+    let text = std::fs::read_to_string(scene("cartesian_pendulum.toml")).expect("scene");
     let released = "q0 = { x = 0.8414709848078965, y = -0.5403023058681398 }";
     assert!(text.contains(released));
     std::fs::write(&level, text.replace(released, "q0 = { x = 1.0, y = 0.0 }")).expect("written");
-    let op = |scene: &str| {
-        let path = scenes.join(scene);
-        let out = Command::new(env!("CARGO_BIN_EXE_dirac"))
-            .arg("op")
-            .arg(&path)
-            .output()
-            .expect("runs");
-        assert!(
-            out.status.success(),
-            "{scene}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8(out.stdout)
-            .expect("UTF-8")
+    let op = |path: &Path| {
+        stdout_of(&dirac("op", path, &[]), &path.display().to_string())
             .lines()
             .skip(1)
             .map(|l| {
@@ -174,11 +162,8 @@ fn the_static_equilibrium_of_a_mechanism() {
             })
             .collect::<Vec<_>>()
     };
-    for scene in [
-        "cartesian_pendulum.toml",
-        level.to_str().expect("UTF-8 path"),
-    ] {
-        let pendulum = op(scene);
+    for path in [scene("cartesian_pendulum.toml"), level] {
+        let pendulum = op(&path);
         let value = |name: &str| {
             pendulum
                 .iter()
@@ -186,11 +171,11 @@ fn the_static_equilibrium_of_a_mechanism() {
                 .map(|(_, v)| *v)
                 .expect(name)
         };
-        assert!(value("P.x").abs() < 1e-12, "{scene}: {pendulum:?}");
-        assert!((value("P.y") + 1.0).abs() < 1e-12, "{scene}: {pendulum:?}");
+        assert!(value("P.x").abs() < 1e-12, "{path:?}: {pendulum:?}");
+        assert!((value("P.y") + 1.0).abs() < 1e-12, "{path:?}: {pendulum:?}");
         assert!(value("P.x'").abs() < 1e-12 && value("P.y'").abs() < 1e-12);
     }
-    let four_bar = op("four_bar.toml");
+    let four_bar = op(&scene("four_bar.toml"));
     assert!(
         four_bar
             .iter()
@@ -205,13 +190,7 @@ fn the_static_equilibrium_of_a_mechanism() {
 /// converge … try UIC" (exit 1: no isolated steady state to print).
 #[test]
 fn a_steady_state_that_is_not_isolated_is_named() {
-    let scene =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenes/heavy_top.toml");
-    let out = Command::new(env!("CARGO_BIN_EXE_dirac"))
-        .arg("op")
-        .arg(&scene)
-        .output()
-        .expect("runs");
+    let out = dirac("op", &scene("heavy_top.toml"), &[]);
     assert_eq!(out.status.code(), Some(1));
     assert!(out.stdout.is_empty());
     let stderr = String::from_utf8_lossy(&out.stderr);

@@ -57,6 +57,23 @@ fn run_rows(path: &std::path::Path, method: &str, signals: &str) -> Vec<Vec<f64>
     rows(&String::from_utf8(out.stdout).unwrap()).1
 }
 
+/// `dirac run` with `args` and `--json-summary`, which must succeed: the CSV's header and rows,
+/// and the summary (`context` names the run in a failure).
+fn run_summarised(args: &[&str], context: &str) -> (Vec<String>, Vec<Vec<f64>>, serde_json::Value) {
+    let mut all = vec!["run"];
+    all.extend_from_slice(args);
+    all.push("--json-summary");
+    let out = dirac(&all);
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(out.status.success(), "{context}: {stderr}");
+    let summary: serde_json::Value = stderr
+        .lines()
+        .find_map(|l| serde_json::from_str(l).ok())
+        .expect("a JSON summary");
+    let (header, table) = rows(&String::from_utf8_lossy(&out.stdout));
+    (header, table, summary)
+}
+
 /// `dirac op --json` of the netlist `text` (written as `name`), each signal's value.
 fn operating_point(name: &str, text: &str) -> serde_json::Value {
     let json = dirac(&["op", deck(name, text).to_str().unwrap(), "--json"]);
@@ -960,16 +977,9 @@ fn a_stiff_uic_start_is_damped_as_spice_damps_it() {
 fn a_fast_mode_excited_at_a_source_corner_does_not_ring() {
     let deck = repo("examples/netlists/rc_fast_coarse_tstep.cir");
     let run = |extra: &[&str]| {
-        let mut args = vec!["run", deck.to_str().unwrap(), "--json-summary"];
+        let mut args = vec![deck.to_str().unwrap()];
         args.extend_from_slice(extra);
-        let out = dirac(&args);
-        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-        assert!(out.status.success(), "{stderr}");
-        let summary: serde_json::Value = stderr
-            .lines()
-            .find_map(|l| serde_json::from_str(l).ok())
-            .expect("a JSON summary");
-        let (header, table) = rows(&String::from_utf8(out.stdout).unwrap());
+        let (header, table, summary) = run_summarised(&args, "rc_fast_coarse_tstep.cir");
         let (vin, vout) = (index_of(&header, "v(in)"), index_of(&header, "v(out)"));
         let worst = table
             .iter()
@@ -1269,28 +1279,23 @@ fn an_explicit_start_ramp_reaches_the_fastest_mode_not_below() {
          RL vdd out 20k\nCA a 0 20f\n.tran 0.2n 400n\n.end\n",
     );
     let run = |method: &str| {
-        let out = dirac(&[
-            "run",
-            netlist.to_str().unwrap(),
-            "--method",
+        let (_, table, summary) = run_summarised(
+            &[
+                netlist.to_str().unwrap(),
+                "--method",
+                method,
+                "--start-ramp",
+                "--signals",
+                "v(out),v(a)",
+            ],
             method,
-            "--start-ramp",
-            "--signals",
-            "v(out),v(a)",
-            "--json-summary",
-        ]);
-        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-        assert!(out.status.success(), "{method}: {stderr}");
-        let summary: serde_json::Value = stderr
-            .lines()
-            .find_map(|l| serde_json::from_str(l).ok())
-            .expect("a JSON summary");
+        );
         let substeps = summary["ramp_substeps"].as_u64().expect("ramp substeps");
         assert!(
             (3..99).contains(&substeps),
             "{method}: {substeps} ramp substeps"
         );
-        rows(&String::from_utf8_lossy(&out.stdout)).1
+        table
     };
     let (three, four) = (run("gauss3"), run("gauss4"));
     assert_eq!(three.len(), 2001);
@@ -1335,24 +1340,18 @@ fn a_cmos_xor_gate_is_not_refined_by_the_split_of_its_node_charges() {
          .tran 0.05n 160n\n.end\n",
     );
     for method in ["midpoint", "gauss2"] {
-        let out = dirac(&[
-            "run",
-            netlist.to_str().unwrap(),
-            "--method",
+        let (_, rows, summary) = run_summarised(
+            &[
+                netlist.to_str().unwrap(),
+                "--method",
+                method,
+                "--signals",
+                "v(vdd),v(a),v(b)",
+            ],
             method,
-            "--signals",
-            "v(vdd),v(a),v(b)",
-            "--json-summary",
-        ]);
-        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-        assert!(out.status.success(), "{method}: {stderr}");
-        let summary: serde_json::Value = stderr
-            .lines()
-            .find_map(|l| serde_json::from_str(l).ok())
-            .expect("a JSON summary");
+        );
         let substeps = summary["substeps"].as_u64().unwrap_or(u64::MAX);
         assert!(substeps < 10_000, "{method}: {summary}");
-        let (_, rows) = rows(&String::from_utf8(out.stdout).unwrap());
         for row in &rows {
             let (a, b) = gate_drives(row[0]);
             assert!(
