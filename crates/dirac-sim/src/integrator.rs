@@ -1301,11 +1301,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         stage.step.set_step_size(nominal);
         stage.last_size = size;
         let stats = result?;
-        stage.step.set_step_size(size);
-        let checked = self.check_step(i);
+        self.check_step(i)?;
         let stage = &mut self.stages[i];
-        stage.step.set_step_size(nominal);
-        checked?;
         stage.step.set_step_size(size);
         stage
             .step
