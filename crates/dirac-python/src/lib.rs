@@ -90,6 +90,9 @@ fn numerical_fields(e: &RunError) -> (Option<usize>, Option<f64>, Option<f64>) {
         RunError::SteadyState(SteadyStateError::NotConverged { source, .. }) => {
             (None, Some(0.0), residual(source))
         }
+        RunError::SteadyState(SteadyStateError::NotIsolated { residual, .. }) => {
+            (None, Some(0.0), Some(*residual))
+        }
         _ => (None, None, None),
     }
 }
