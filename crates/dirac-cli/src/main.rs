@@ -461,9 +461,14 @@ impl Output {
     }
 
     fn commit(mut self) -> Result<(), Failure> {
-        self.writer
-            .flush()
-            .map_err(|e| Failure::Input(format!("writing output: {e}")))?;
+        match self.writer.flush() {
+            // Standard output whose reader went away (`dirac op … | head`): nothing to keep.
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe && self.temporary.is_none() => {
+                return Ok(());
+            }
+            Err(e) => return Err(Failure::Input(format!("writing output: {e}"))),
+            Ok(()) => {}
+        }
         if let Some((tmp, path)) = self.temporary.take() {
             let renamed = std::fs::rename(&tmp, &path)
                 .map_err(|e| Failure::Input(format!("{}: {e}", path.display())));
@@ -624,16 +629,16 @@ fn op(args: &OpArgs) -> Result<(), Failure> {
     out.commit()
 }
 
-/// Writes the operating point of `model` as a `signal,value` table or one JSON object.
+/// Writes the operating point of `model` as a `signal,value` table or one JSON object. A reader
+/// that went away (`dirac op … | head`) ends the output quietly.
 fn operating_point(model: &Model, json: bool, out: &mut impl Write) -> Result<(), Failure> {
     let values = model.operating_point()?;
-    let write = |e: std::io::Error| Failure::Input(format!("writing output: {e}"));
-    if json {
+    let text = if json {
         let mut map = serde_json::Map::new();
         for (name, value) in values {
             map.insert(name, value.into());
         }
-        writeln!(out, "{}", serde_json::Value::Object(map)).map_err(write)?;
+        format!("{}\n", serde_json::Value::Object(map))
     } else {
         let quote = |f: &str| {
             if f.contains(',') || f.contains('"') {
@@ -642,18 +647,17 @@ fn operating_point(model: &Model, json: bool, out: &mut impl Write) -> Result<()
                 f.to_string()
             }
         };
-        writeln!(out, "signal,value").map_err(write)?;
+        let mut text = "signal,value\n".to_string();
         for (name, value) in &values {
-            writeln!(
-                out,
-                "{},{}",
-                quote(name),
-                dirac_output::format_value(*value)
-            )
-            .map_err(write)?;
+            text += &format!("{},{}\n", quote(name), dirac_output::format_value(*value));
         }
+        text
+    };
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(Failure::Input(format!("writing output: {e}"))),
+        Ok(()) => Ok(()),
     }
-    Ok(())
 }
 
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
@@ -692,29 +696,40 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
             map.insert(c.execution.clone(), entry.into());
         }
         let json = serde_json::json!({ "file": model.name(), "representations": map });
-        println!("{json}");
+        print_out(&format!("{json}\n"))
     } else {
-        println!("{:<16} {:>22}", "representation", "max |x - monolithic|");
+        let mut text = format!("{:<16} {:>22}\n", "representation", "max |x - monolithic|");
         for c in &results {
             let name = &c.execution;
-            match c.max_abs_deviation {
-                Some(d) => println!("{name:<16} {d:>22.3e}"),
-                None => println!(
-                    "{name:<16} {:>22}  ({})",
+            text += &match c.max_abs_deviation {
+                Some(d) => format!("{name:<16} {d:>22.3e}\n"),
+                None => format!(
+                    "{name:<16} {:>22}  ({})\n",
                     "-",
                     c.note.as_deref().unwrap_or("")
                 ),
-            }
+            };
         }
+        print_out(&text)
     }
-    Ok(())
+}
+
+/// Writes `text` to standard output. A reader that went away (`dirac check … | head`) ends the
+/// output quietly, as it ends `dirac run`'s.
+fn print_out(text: &str) -> Result<(), Failure> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(Failure::Input(format!("writing output: {e}"))),
+        Ok(()) => Ok(()),
+    }
 }
 
 fn check(args: &CheckArgs) -> Result<(), Failure> {
     let model = load(&args.file)?;
     let graph = model.graph();
-    println!(
-        "{}: {} parts, {} connections",
+    let mut text = format!(
+        "{}: {} parts, {} connections\n",
         model.name(),
         graph.subsystems().len(),
         graph.connections().len()
@@ -728,14 +743,14 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
             .map_err(|e| Failure::Input(e.to_string()))?;
         let n = system.coordinates();
         let m = system.constraint_rows();
-        println!(
-            "  {representation:<11} {n} coordinates, {m} constraint rows, {} unknowns per midpoint step",
+        text += &format!(
+            "  {representation:<11} {n} coordinates, {m} constraint rows, {} unknowns per midpoint step\n",
             n + m
         );
     }
     let degenerate = model.degenerate_directions()?;
-    println!(
-        "  degenerate directions (no kinetic term): {}",
+    text += &format!(
+        "  degenerate directions (no kinetic term): {}\n",
         if degenerate.is_empty() {
             "none".to_string()
         } else {
@@ -747,22 +762,26 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         .iter()
         .map(|s| s.name.clone())
         .collect();
-    println!("  signals: {}", signals.join(", "));
+    text += &format!("  signals: {}\n", signals.join(", "));
     let start = match model.start() {
         Start::Given => "given values (UIC)",
         Start::SteadyState => "the operating point (steady state)",
     };
-    println!("  start: {start}");
+    text += &format!("  start: {start}\n");
     if let Some((h, t)) = model
         .circuit()
         .and_then(dirac_netlist::Circuit::tran_settings)
     {
-        println!("  .tran: h = {h}, t_end = {t} ({} steps)", (t / h).round());
+        text += &format!(
+            "  .tran: h = {h}, t_end = {t} ({} steps)\n",
+            (t / h).round()
+        );
     }
     for line in step_size_report(&model, args) {
-        println!("{line}");
+        text += &line;
+        text.push('\n');
     }
-    Ok(())
+    print_out(&text)
 }
 
 /// `dirac check`'s natural modes and step-size judgement (docs/math.md §8).

@@ -58,6 +58,34 @@ fn a_closed_pipe_ends_the_run_quietly() {
     assert!(stderr.is_empty(), "{stderr}");
 }
 
+/// `dirac check`, `op` and `compare` whose reader is gone before they write (`… | true`, or
+/// `dirac check big.cir | head -3` while the modal analysis runs): exit 0 and nothing on
+/// stderr. `check` panicked there ("failed printing to stdout: Broken pipe"), `op` exited 2
+/// with "writing output: Broken pipe".
+#[test]
+fn a_reader_gone_before_the_output_is_not_an_error() {
+    for args in [
+        vec!["check", "examples/netlists/seed_rlc.cir"],
+        vec!["op", "examples/netlists/ladder_subckt.cir"],
+        vec!["op", "examples/netlists/ladder_subckt.cir", "--json"],
+        vec!["compare", "examples/netlists/seed_rlc.cir"],
+    ] {
+        let mut child = dirac()
+            .arg(args[0])
+            .arg(repo(args[1]))
+            .args(&args[2..])
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("runs");
+        drop(child.stdout.take());
+        let output = child.wait_with_output().expect("exits");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(0), "{args:?}: {stderr}");
+        assert!(stderr.is_empty(), "{args:?}: {stderr}");
+    }
+}
+
 /// Ctrl-C (SIGINT sent to the child) during a run to a file stops it at the next row: exit 130,
 /// and neither the output nor its `.partial` file is left. Mutation: not installing the signal
 /// handler leaves the partial file and the child dies by the signal (no exit code).
