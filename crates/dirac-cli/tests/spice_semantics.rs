@@ -1259,6 +1259,40 @@ fn the_mosfet_deck_runs_under_gauss3_and_gauss4() {
     }
 }
 
+/// The DC operating point of a chain of 31 CMOS inverters (input at 0 V): plain Newton fails
+/// from zero, and gmin stepping follows a path in the conductance that turns back at
+/// g ≈ 5e-3, so `dirac op` stopped; ngspice-39 gets there by its own gmin stepping. Source
+/// stepping (the sources raised from zero, each stage settling in turn) now follows: every
+/// stage's output is at ngspice's values, 2.314685e-9 V low and 3.300000 V high (ngspice-39
+/// `.op`, `print` of its 7 digits).
+#[test]
+fn a_long_inverter_chain_has_its_operating_point() {
+    let mut text = String::from(
+        "* inverter chain\n\
+         .model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 PHI=0.7 LAMBDA=0.04 CGSO=0.3n CGDO=0.3n \
+         CGBO=0.1n CJ=0.5m MJ=0.5 CJSW=0.2n MJSW=0.33 PB=0.9 LD=0.05u)\n\
+         .model pch PMOS (LEVEL=1 VTO=-0.8 KP=50u GAMMA=0.57 PHI=0.8 LAMBDA=0.05 CGSO=0.3n CGDO=0.3n \
+         CGBO=0.1n CJ=0.8m MJ=0.5 CJSW=0.25n MJSW=0.33 PB=0.9 LD=0.05u)\n\
+         .subckt inv in out vdd\n\
+         MP out in vdd vdd pch L=0.5u W=4u AD=4p AS=4p PD=10u PS=10u\n\
+         MN out in 0 0 nch L=0.5u W=2u AD=2p AS=2p PD=6u PS=6u\n.ends\n\
+         VDD vdd 0 3.3\nVIN n0 0 PULSE(0 3.3 1n 0.2n 0.2n 5n 10n)\n",
+    );
+    for k in 0..31 {
+        text += &format!("X{k} n{k} n{} vdd inv\n", k + 1);
+    }
+    text += "CL n31 0 20f\n.tran 0.05n 20n\n.end\n";
+    let op = operating_point("chain31.cir", &text);
+    let expected: Vec<(String, f64)> = (1..=31)
+        .map(|k| {
+            let level = if k % 2 == 1 { 3.3 } else { 2.314685e-9 };
+            (format!("v(n{k})"), level)
+        })
+        .collect();
+    let expected: Vec<(&str, f64)> = expected.iter().map(|(s, v)| (s.as_str(), *v)).collect();
+    assert_values(&op, &expected, 1e-6);
+}
+
 /// `--start-ramp` asked for explicitly is sized as the automatic ramp is, to the fastest damped
 /// mode (audit 43): with the default 32 levels (`h·2⁻³²/3` = 1.6e-20 s here) Gauss 3 stopped at
 /// step 0 on this Wilson mirror (and on 22 more of the sweep's 28 MOSFET decks under Gauss 3 or

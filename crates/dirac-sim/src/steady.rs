@@ -100,10 +100,15 @@ pub struct SteadyState {
     pub gmin_steps: usize,
 }
 
-/// Conductances of gmin stepping, from large to none.
-const GMIN_SCHEDULE: [f64; 12] = [
-    1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 0.0,
-];
+/// Gmin stepping's first conductance (ngspice's `OldGmin`), its largest ratio between two
+/// steps, the conductance after which it steps to none, and the smallest ratio it backs off to
+/// before it gives up (ngspice's `dynamic_gmin`: 1e-2, `gminfactor` 10, `gmin` 1e-12, 1.00005).
+const GMIN_START: f64 = 1e-2;
+const GMIN_FACTOR: f64 = 10.0;
+const GMIN_LAST: f64 = 1e-12;
+const GMIN_SMALLEST_FACTOR: f64 = 1.00005;
+/// Most solves gmin stepping takes before it gives up.
+const GMIN_MOST_SOLVES: usize = 200;
 
 impl SteadyState {
     /// Solves for the steady state of `model` with `constraints` at `t0`, from the guess `q`
@@ -148,17 +153,20 @@ impl SteadyState {
         match plain {
             Ok(stats) => iterations += stats.iterations,
             Err(first) => {
-                x.clone_from(&start);
-                let mut last = Err(first);
-                for &g in &GMIN_SCHEDULE {
-                    system.gmin = g;
-                    newton.reset();
-                    gmin_steps += 1;
-                    last = newton.solve(&mut system, &mut x);
-                    match &last {
-                        Ok(stats) => iterations += stats.iterations,
-                        Err(_) => break,
-                    }
+                let mut last;
+                (last, gmin_steps) = gmin_stepping(
+                    &mut system,
+                    &mut newton,
+                    &start,
+                    &mut x,
+                    &mut iterations,
+                    first,
+                );
+                if last.is_err() && !system.stiffen {
+                    let steps;
+                    (last, steps) =
+                        source_stepping(&mut system, &mut newton, &mut x, &mut iterations, last);
+                    gmin_steps += steps;
                 }
                 if last.is_err() && system.stiffen {
                     system.gmin = 0.0;
@@ -214,6 +222,128 @@ impl SteadyState {
             gmin_steps,
         })
     }
+}
+
+/// Gmin stepping as ngspice's `dynamic_gmin` does it: a conductance `g` from every node to
+/// ground (a compliance in every one-form row), from [`GMIN_START`] down to none, each solve
+/// from the last converged one. After a success the next `g` is the last over `factor`, and
+/// `factor` grows by `√factor` (up to [`GMIN_FACTOR`]) when the solve was quick and shrinks to
+/// `√factor` when it was slow; after a failure the solve is redone from the last converged
+/// state at a `g` nearer to it (`factor` to its fourth root), until `factor` falls below
+/// [`GMIN_SMALLEST_FACTOR`] (or [`GMIN_MOST_SOLVES`] are spent). A fixed schedule of decades
+/// (the one before) failed on a chain of 31 CMOS inverters, which ngspice's adaptive steps
+/// take. Returns the outcome (the last failure, or `first`, plain Newton's, when the solves
+/// ran out while succeeding) and the number of solves.
+fn gmin_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
+    system: &mut SteadySystem<'_, M, C>,
+    newton: &mut Newton<AutoLu>,
+    start: &[f64],
+    x: &mut [f64],
+    iterations: &mut usize,
+    first: NewtonError,
+) -> (Result<dirac_solve::NewtonStats, NewtonError>, usize) {
+    let max_iterations = newton.options().max_iterations;
+    let mut good = start.to_vec();
+    let mut good_g = GMIN_START;
+    let mut factor = GMIN_FACTOR;
+    let mut g = GMIN_START / factor;
+    let mut steps = 0;
+    loop {
+        x.copy_from_slice(&good);
+        system.gmin = g;
+        newton.reset();
+        steps += 1;
+        let solved = newton.solve(system, x);
+        match solved {
+            Ok(stats) => {
+                *iterations += stats.iterations;
+                if g == 0.0 {
+                    return (Ok(stats), steps);
+                }
+                good.copy_from_slice(x);
+                good_g = g;
+                if stats.iterations <= max_iterations / 4 {
+                    factor = (factor * factor.sqrt()).min(GMIN_FACTOR);
+                }
+                if stats.iterations > 3 * max_iterations / 4 {
+                    factor = factor.sqrt();
+                }
+                g = if g <= GMIN_LAST {
+                    0.0
+                } else {
+                    (g / factor).max(GMIN_LAST)
+                };
+                if steps >= GMIN_MOST_SOLVES {
+                    system.gmin = 0.0;
+                    return (Err(first), steps);
+                }
+            }
+            Err(e) => {
+                if factor < GMIN_SMALLEST_FACTOR || steps >= GMIN_MOST_SOLVES {
+                    system.gmin = 0.0;
+                    return (Err(e), steps);
+                }
+                factor = factor.sqrt().sqrt();
+                g = good_g / factor;
+            }
+        }
+    }
+}
+
+/// Source stepping's first fraction of the sources, the smallest it backs off to before it
+/// gives up, and the most solves it takes.
+const SOURCE_FIRST_STEP: f64 = 0.1;
+const SOURCE_SMALLEST_STEP: f64 = 1e-6;
+const SOURCE_MOST_SOLVES: usize = 200;
+
+/// Source stepping, SPICE's fallback after gmin stepping: the equations' constant terms (the
+/// independent sources, `.ic` holds; `F(0)` with every unknown zero) are scaled by `α` from 0,
+/// where `x = 0` solves, to 1, each solve from the last converged one; the step in `α` grows by
+/// half after a success and is quartered after a failure. For a model without holonomic rows
+/// (their values at zero positions are not a source). Gmin stepping follows a path in the
+/// conductance that can turn back (a chain of 31 CMOS inverters: a fold at g ≈ 5e-3), where
+/// raising the supply from zero lets every stage settle in turn, as ngspice's `gillespie_src`
+/// does. Returns the outcome (the last failure, or `last` when the solves ran out while
+/// succeeding) and the number of solves.
+fn source_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
+    system: &mut SteadySystem<'_, M, C>,
+    newton: &mut Newton<AutoLu>,
+    x: &mut [f64],
+    iterations: &mut usize,
+    last: Result<dirac_solve::NewtonStats, NewtonError>,
+) -> (Result<dirac_solve::NewtonStats, NewtonError>, usize) {
+    system.gmin = 0.0;
+    let zero = vec![0.0; x.len()];
+    let mut sources = vec![0.0; x.len()];
+    system.residual(&zero, &mut sources);
+    let mut good = zero;
+    let (mut alpha, mut step, mut steps) = (0.0_f64, SOURCE_FIRST_STEP, 0);
+    let mut outcome = last;
+    while steps < SOURCE_MOST_SOLVES && step >= SOURCE_SMALLEST_STEP {
+        let next = (alpha + step).min(1.0);
+        system.source_offset = sources.iter().map(|f| (1.0 - next) * f).collect();
+        x.copy_from_slice(&good);
+        newton.reset();
+        steps += 1;
+        match newton.solve(system, x) {
+            Ok(stats) => {
+                *iterations += stats.iterations;
+                if next >= 1.0 {
+                    system.source_offset.clear();
+                    return (Ok(stats), steps);
+                }
+                good.copy_from_slice(x);
+                alpha = next;
+                step *= 1.5;
+            }
+            Err(e) => {
+                outcome = Err(e);
+                step /= 4.0;
+            }
+        }
+    }
+    system.source_offset.clear();
+    (outcome, steps)
 }
 
 /// Springs of stiffness stepping, as multiples of the start's force scale per unit of its
@@ -346,6 +476,9 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     /// coordinate to its start (stiffness stepping, the mechanical gmin stepping).
     stiffen: bool,
     stiffness: f64,
+    /// Source stepping's offset `(1 − α)·F(0)` subtracted from the residual (empty when off):
+    /// at `α = 0` the sources (every constant term of the equations) are off and `x = 0` solves.
+    source_offset: Vec<f64>,
     q: Vec<f64>,
     v: Vec<f64>,
     lq: Vec<f64>,
@@ -381,6 +514,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             cyclic,
             gmin: 0.0,
             stiffness: 0.0,
+            source_offset: Vec::new(),
             q: q0.to_vec(),
             v: vec![0.0; n],
             lq: vec![0.0; n],
@@ -741,6 +875,9 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for SteadySyste
         for (k, &(a, value)) in self.holds.iter().enumerate() {
             r[n + a] += x[n + m + k];
             r[n + m + k] = lambda[a] - value;
+        }
+        for (r, offset) in r.iter_mut().zip(&self.source_offset) {
+            *r -= offset;
         }
     }
 
