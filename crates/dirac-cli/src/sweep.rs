@@ -33,7 +33,8 @@ pub struct SweepArgs {
     /// Netlist or scene to sweep (not with --merge).
     #[arg(required_unless_present = "merge")]
     file: Option<PathBuf>,
-    /// A swept parameter and its values, `<part>.<parameter>=<values>` (repeatable).
+    /// A swept parameter and its values, `<part>.<parameter>=<values>` or a netlist's top-level
+    /// `.param` name, `<name>=<values>` (repeatable).
     #[arg(long = "param", value_name = "NAME=VALUES")]
     params: Vec<String>,
     /// What each run returns, `<reduction>(<signal>)` with final, min, max, peak, mean or rms

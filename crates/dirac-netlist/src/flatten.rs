@@ -1542,12 +1542,19 @@ fn tran(parsed: &Parsed, scope: &Scope<'_>) -> Result<Option<Tran>, NetlistError
 }
 
 /// Expands subcircuits and evaluates parameters.
-pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
+pub(crate) fn flatten(parsed: Parsed, set: &[(String, f64)]) -> Result<Netlist, NetlistError> {
     let global = Scope::new(None);
     global.temperature.set(temperatures(&parsed.options).0);
     global.define_functions(&parsed.top.funcs);
     for (name, e) in &parsed.top.params {
-        global.define(&name.norm, Slot::Pending(e.clone()));
+        let given = set
+            .iter()
+            .rev()
+            .find(|(n, _)| n.eq_ignore_ascii_case(&name.norm));
+        global.define(
+            &name.norm,
+            given.map_or_else(|| Slot::Pending(e.clone()), |&(_, v)| Slot::Value(v)),
+        );
     }
     let mut out = Out {
         warnings: parsed.warnings.clone(),
@@ -1568,8 +1575,13 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
     };
     expand(&root, &mut out)?;
     // Evaluate the top-level parameters nobody used, so their errors are not hidden.
+    let mut parameters: Vec<(String, f64)> = Vec::new();
     for (name, _) in &parsed.top.params {
-        global.lookup(&name.norm, name.pos)?;
+        let value = global.lookup(&name.norm, name.pos)?;
+        match parameters.iter_mut().find(|(n, _)| *n == name.norm) {
+            Some(entry) => entry.1 = value,
+            None => parameters.push((name.norm.clone(), value)),
+        }
     }
     let tran = tran(&parsed, &global)?;
     if let (Some(t), Some(card)) = (&tran, &parsed.tran) {
@@ -1714,6 +1726,7 @@ pub(crate) fn flatten(parsed: Parsed) -> Result<Netlist, NetlistError> {
         op: parsed.op,
         options: parsed.options,
         outputs: parsed.outputs,
+        parameters,
         warnings,
         files: Vec::new(),
     })

@@ -530,6 +530,9 @@ pub struct Netlist {
     pub options: Vec<OptionCard>,
     /// Signals named by `.print`, `.probe`, `.save` and `.plot`, in card order.
     pub outputs: Vec<OutputRequest>,
+    /// The top-level `.param` values (names lowercase, in card order), after any value set by
+    /// [`parse_netlist_with`]: the parameters a sweep can set by name.
+    pub parameters: Vec<(String, f64)>,
     /// Things accepted but ignored.
     pub warnings: Vec<Warning>,
     /// The netlist's name as given to [`parse_netlist`], then the path of each file its `.include`
@@ -657,11 +660,27 @@ impl Netlist {
 ///
 /// The first problem found, as a [`NetlistError`]; see [`ErrorKind`] for the kinds.
 pub fn parse_netlist(source: &str, file_name: &str) -> Result<Netlist, NetlistError> {
+    parse_netlist_with(source, file_name, &[])
+}
+
+/// [`parse_netlist`] with top-level `.param` values set by name (case-insensitive), as a sweep
+/// (ngspice's `.step param`) sets them: each replaces its card's expression, and everything
+/// that depends on it is evaluated with the new value. A name that is no top-level `.param` is
+/// ignored ([`Netlist::parameters`] lists them).
+///
+/// # Errors
+///
+/// As [`parse_netlist`].
+pub fn parse_netlist_with(
+    source: &str,
+    file_name: &str,
+    parameters: &[(String, f64)],
+) -> Result<Netlist, NetlistError> {
     let lexed = lexer::lex(source, file_name)?;
     let files = lexed.files.clone();
     let in_files = |e: NetlistError| e.in_files(&files);
     let parsed = parser::parse(lexed).map_err(in_files)?;
-    let mut netlist = flatten::flatten(parsed).map_err(in_files)?;
+    let mut netlist = flatten::flatten(parsed, parameters).map_err(in_files)?;
     netlist.warnings = std::mem::take(&mut netlist.warnings)
         .into_iter()
         .map(|w| w.in_files(&files))

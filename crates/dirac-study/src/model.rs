@@ -5,6 +5,7 @@ use std::path::Path;
 use dirac_graph::Interconnection;
 use dirac_netlist::{
     Circuit, ControlledSource, Element, Netlist, SourceSpec, build_circuit, parse_netlist,
+    parse_netlist_with,
 };
 use dirac_scene::{BuiltScene, Scene, SceneError};
 use dirac_sim::{Execution, Signal, Start};
@@ -75,7 +76,10 @@ pub(crate) enum Built {
 /// (`dirac convert`): `R1.r`, `L1.l`, `C1.c`, `L1.ic`, `C1.ic`, `K1.k`, `D1.is`, `D1.n`, `D1.rs`,
 /// `V1.waveform` (a DC value) and `V1.waveform.<key>` for `SIN` (`offset`, `amplitude`,
 /// `frequency`, `delay`, `damping`, `phase`) and `PULSE` (`v1`, `v2`, `delay`, `rise`, `fall`,
-/// `width`, `period`); element names are case-insensitive and hierarchical (`X1.R2.r`).
+/// `width`, `period`); element names are case-insensitive and hierarchical (`X1.R2.r`). A
+/// netlist's top-level `.param` is set by its own name (`wn`, as ngspice's `.step param wn`):
+/// the text is read again with that value, so every expression that uses it follows (a
+/// MOSFET's `W={wn}` and the junction areas computed from it).
 #[derive(Debug, Clone)]
 pub struct Model {
     name: String,
@@ -360,6 +364,34 @@ impl Model {
             return Err(bad("parameters must be finite".into()));
         }
         match &mut self.built {
+            Built::Netlist { netlist, circuit }
+                if netlist
+                    .parameters
+                    .iter()
+                    .any(|(n, _)| n.eq_ignore_ascii_case(name)) =>
+            {
+                // A `.param`: the text read again with every `.param` set so far and this one,
+                // then the element values set so far, in their order.
+                let is_param = |n: &str| {
+                    netlist
+                        .parameters
+                        .iter()
+                        .any(|(p, _)| p.eq_ignore_ascii_case(n))
+                };
+                let mut params: Vec<(String, f64)> = self
+                    .overrides
+                    .iter()
+                    .filter(|(n, _)| is_param(n))
+                    .cloned()
+                    .collect();
+                params.push((name.to_string(), value));
+                let mut changed = parse_netlist_with(&self.text, &self.name, &params)?;
+                for (n, v) in self.overrides.iter().filter(|(n, _)| !is_param(n)) {
+                    *netlist_slot(&mut changed, n)?.value = *v;
+                }
+                **circuit = build_circuit(&changed, &self.name)?;
+                *netlist = Box::new(changed);
+            }
             Built::Netlist { netlist, circuit } => {
                 let mut changed = netlist.clone();
                 let slot = netlist_slot(&mut changed, name)?;
@@ -573,10 +605,16 @@ fn netlist_slot<'a>(netlist: &'a mut Netlist, name: &str) -> Result<NetlistSlot<
         .map(|(i, _)| i);
     let Some(index) = found else {
         let names: Vec<&str> = netlist.origins.iter().map(|o| o.name.as_str()).collect();
+        let params: Vec<&str> = netlist.parameters.iter().map(|(p, _)| p.as_str()).collect();
         return Err(unknown(format!(
-            "no element is named `{}`; the elements are {}",
+            "no element is named `{}`; the elements are {}{}",
             name.rsplit_once('.').map_or(name, |(e, _)| e),
-            names.join(", ")
+            names.join(", "),
+            if params.is_empty() {
+                String::new()
+            } else {
+                format!(", and the top-level .param names {}", params.join(", "))
+            }
         )));
     };
     let element_name = netlist.origins[index].name.clone();
@@ -661,7 +699,7 @@ fn netlist_slot<'a>(netlist: &'a mut Netlist, name: &str) -> Result<NetlistSlot<
 
 fn netlist_parameters(netlist: &Netlist) -> Vec<(String, f64)> {
     let mut copy = netlist.clone();
-    let mut out = Vec::new();
+    let mut out = netlist.parameters.clone();
     for (element, origin) in netlist.elements.iter().zip(&netlist.origins) {
         for key in element_keys(element) {
             let name = format!("{}.{key}", origin.name);

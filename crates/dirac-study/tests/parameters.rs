@@ -85,3 +85,47 @@ fn sweep_points_are_single_runs_and_shards_tile_the_plan() {
     assert_eq!(tiles.last().map(|r| r.end), Some(plan.len()));
     assert!(tiles.windows(2).all(|w| w[0].end == w[1].start));
 }
+
+/// A top-level `.param` is set by its own name, and every expression that uses it follows: an
+/// NMOS (`VTO = 0.7`, `KP = 110u`, `LAMBDA = 0.04`, `L = 1u`) with `W = {wn}` pulls its 10 kΩ load
+/// from 3.3 V; at `wn` = 1, 2 and 4 µm its drain sits at ngspice-39's `.op` values 2.907068,
+/// 2.524899 and 1.791124 V (the deck with `.param wn=` changed, 7 digits). An element value set
+/// before the `.param` (the load) survives the text's second reading; an unknown name lists
+/// the `.param` names.
+#[test]
+fn a_param_sets_every_expression_that_uses_it() {
+    let deck = "* nmos with W from a param\n.param wn=2u\n.param wd={wn}\n\
+                .model nch NMOS (LEVEL=1 VTO=0.7 KP=110u LAMBDA=0.04)\n\
+                VDD vdd 0 3.3\nVG g 0 1.5\nRL vdd d 10k\nM1 d g 0 0 nch L=1u W={wd}\n.op\n.end\n";
+    let model = Model::netlist(deck, "mosw.cir").expect("reads");
+    let drain = |m: &Model| {
+        m.operating_point()
+            .expect("operating point")
+            .into_iter()
+            .find(|(n, _)| n == "v(d)")
+            .map(|(_, v)| v)
+            .expect("v(d)")
+    };
+    for (w, ngspice) in [(1e-6, 2.907068), (2e-6, 2.524899), (4e-6, 1.791124)] {
+        let set = model
+            .with_parameters(&["wn".into()], &[w])
+            .expect("wn is a .param");
+        let v = drain(&set);
+        assert!(
+            (v / ngspice - 1.0).abs() < 1e-6,
+            "wn = {w}: {v} against {ngspice}"
+        );
+    }
+    // The load doubled first, then the width: both hold (a 20 kΩ load at W = 1 µm reads less
+    // than 2.907068 V).
+    let both = model
+        .with_parameters(&["RL.r".into(), "wn".into()], &[20e3, 1e-6])
+        .expect("both set");
+    assert_eq!(both.overrides().len(), 2);
+    assert!(drain(&both) < 2.9, "{}", drain(&both));
+    let unknown = model
+        .with_parameters(&["wx".into()], &[1e-6])
+        .expect_err("no such parameter")
+        .to_string();
+    assert!(unknown.contains(".param names wn, wd"), "{unknown}");
+}
