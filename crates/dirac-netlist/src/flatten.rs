@@ -249,6 +249,8 @@ struct Out {
     warnings: Vec<Warning>,
     /// Elements and instances created inside subcircuits so far.
     expanded: usize,
+    /// MOSFET instance parameters set by name (`"x1.m2.w"`, lowercase), over the card's.
+    instance_values: Vec<(String, f64)>,
 }
 
 impl Out {
@@ -630,6 +632,25 @@ fn instance_temperature(
     dtemp.map(|d| Ok(circuit + scope.eval(d)?)).transpose()
 }
 
+/// The instance parameters of a MOSFET that can be set by name, as its card writes them.
+pub const MOSFET_INSTANCE_KEYS: [&str; 9] = ["l", "w", "ad", "as", "pd", "ps", "nrd", "nrs", "m"];
+
+/// The field of `geometry` an instance parameter `key` (lowercase) sets.
+fn geometry_slot<'g>(geometry: &'g mut MosfetGeometry, key: &str) -> Option<&'g mut f64> {
+    Some(match key {
+        "l" => &mut geometry.l,
+        "w" => &mut geometry.w,
+        "ad" => &mut geometry.ad,
+        "as" => &mut geometry.as_,
+        "pd" => &mut geometry.pd,
+        "ps" => &mut geometry.ps,
+        "nrd" => &mut geometry.nrd,
+        "nrs" => &mut geometry.nrs,
+        "m" => &mut geometry.m,
+        _ => return None,
+    })
+}
+
 /// An `M` card's instance parameters as a geometry (ngspice's defaults for the rest) and its
 /// own temperature, if `temp=` or `dtemp=` gives one.
 fn mosfet_geometry(
@@ -641,24 +662,13 @@ fn mosfet_geometry(
     let mut g = out.mos_defaults;
     let (mut temp, mut dtemp) = (None, None);
     for (name, e) in params {
-        let slot = match name.norm.as_str() {
-            "temp" => {
-                temp = Some(e);
-                continue;
-            }
-            "dtemp" => {
-                dtemp = Some(e);
-                continue;
-            }
-            "l" => &mut g.l,
-            "w" => &mut g.w,
-            "ad" => &mut g.ad,
-            "as" => &mut g.as_,
-            "pd" => &mut g.pd,
-            "ps" => &mut g.ps,
-            "nrd" => &mut g.nrd,
-            "nrs" => &mut g.nrs,
-            "m" => &mut g.m,
+        if let Some(slot) = geometry_slot(&mut g, &name.norm) {
+            *slot = scope.eval(e)?;
+            continue;
+        }
+        match name.norm.as_str() {
+            "temp" => temp = Some(e),
+            "dtemp" => dtemp = Some(e),
             "icvds" | "icvgs" | "icvbs" | "ic" => {
                 out.warnings.push(Warning::new(
                     name.pos,
@@ -668,7 +678,6 @@ fn mosfet_geometry(
                         name.orig, element.orig
                     ),
                 ));
-                continue;
             }
             _ => {
                 return Err(NetlistError::new(
@@ -682,8 +691,7 @@ fn mosfet_geometry(
                     ),
                 ));
             }
-        };
-        *slot = scope.eval(e)?;
+        }
     }
     Ok((
         g,
@@ -708,7 +716,18 @@ fn mosfet_elements(
     let mut parts = Vec::new();
     let (def, mscope) = ctx.model(model, "MOSFET", element)?;
     let card = mosfet_model(def, mscope, element, model, out)?;
-    let (geometry, temp) = mosfet_geometry(params, ctx.scope, element, out)?;
+    let (mut geometry, temp) = mosfet_geometry(params, ctx.scope, element, out)?;
+    for (name, value) in &out.instance_values {
+        let Some(key) = name
+            .strip_prefix(full.as_str())
+            .and_then(|rest| rest.strip_prefix('.'))
+        else {
+            continue;
+        };
+        if let Some(slot) = geometry_slot(&mut geometry, key) {
+            *slot = *value;
+        }
+    }
     let celsius = temp.unwrap_or(out.temperatures.0);
     let device = Mosfet::at_temperature(&card, &geometry, celsius).map_err(|e| {
         NetlistError::bad_value(
@@ -1560,6 +1579,11 @@ pub(crate) fn flatten(parsed: Parsed, set: &[(String, f64)]) -> Result<Netlist, 
         warnings: parsed.warnings.clone(),
         temperatures: temperatures(&parsed.options),
         mos_defaults: mos_defaults(&parsed.options),
+        instance_values: set
+            .iter()
+            .filter(|(n, _)| n.contains('.'))
+            .map(|(n, v)| (n.to_ascii_lowercase(), *v))
+            .collect(),
         ..Out::default()
     };
     let globals: HashSet<String> = parsed.globals.iter().cloned().collect();

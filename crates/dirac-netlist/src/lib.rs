@@ -116,6 +116,7 @@ pub use circuit::{Circuit, CircuitError, DeviceConditions, build_circuit, wavefo
 use dirac_components::{BehaviouralSource, MosfetChannel};
 pub use dirac_components::{Expression, Output};
 pub use error::{ErrorKind, NetlistError, Pos, Warning};
+pub use flatten::MOSFET_INSTANCE_KEYS;
 pub use parser::{OptionCard, OutputRequest};
 pub use source::SourceSpec;
 pub use units::{parse_spice_number, parse_spice_quantity};
@@ -663,10 +664,12 @@ pub fn parse_netlist(source: &str, file_name: &str) -> Result<Netlist, NetlistEr
     parse_netlist_with(source, file_name, &[])
 }
 
-/// [`parse_netlist`] with top-level `.param` values set by name (case-insensitive), as a sweep
-/// (ngspice's `.step param`) sets them: each replaces its card's expression, and everything
-/// that depends on it is evaluated with the new value. A name that is no top-level `.param` is
-/// ignored ([`Netlist::parameters`] lists them).
+/// [`parse_netlist`] with values set by name (case-insensitive), as a sweep sets them: a
+/// top-level `.param` (ngspice's `.step param`) replaces its card's expression, and everything
+/// that depends on it is evaluated with the new value; `<mosfet>.<key>` (hierarchical,
+/// `x1.m2.w`, with a key of [`MOSFET_INSTANCE_KEYS`]) replaces that card's instance parameter
+/// before its junctions and capacitances are derived from it. Any other name is ignored
+/// ([`Netlist::parameters`] lists the `.param` names).
 ///
 /// # Errors
 ///

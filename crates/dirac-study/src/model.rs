@@ -4,8 +4,8 @@ use std::path::Path;
 
 use dirac_graph::Interconnection;
 use dirac_netlist::{
-    Circuit, ControlledSource, Element, Netlist, SourceSpec, build_circuit, parse_netlist,
-    parse_netlist_with,
+    Circuit, ControlledSource, Element, MOSFET_INSTANCE_KEYS, Netlist, SourceSpec, build_circuit,
+    parse_netlist, parse_netlist_with,
 };
 use dirac_scene::{BuiltScene, Scene, SceneError};
 use dirac_sim::{Execution, Signal, Start};
@@ -77,9 +77,10 @@ pub(crate) enum Built {
 /// `V1.waveform` (a DC value) and `V1.waveform.<key>` for `SIN` (`offset`, `amplitude`,
 /// `frequency`, `delay`, `damping`, `phase`) and `PULSE` (`v1`, `v2`, `delay`, `rise`, `fall`,
 /// `width`, `period`); element names are case-insensitive and hierarchical (`X1.R2.r`). A
-/// netlist's top-level `.param` is set by its own name (`wn`, as ngspice's `.step param wn`):
-/// the text is read again with that value, so every expression that uses it follows (a
-/// MOSFET's `W={wn}` and the junction areas computed from it).
+/// netlist's top-level `.param` is set by its own name (`wn`, as ngspice's `.step param wn`)
+/// and a MOSFET's instance parameters as `M1.w` (`l`, `w`, `ad`, `as`, `pd`, `ps`, `nrd`,
+/// `nrs`, `m`): the text is read again with that value, so every expression that uses it
+/// follows (a MOSFET's `W={wn}` and the junctions and capacitances derived from it).
 #[derive(Debug, Clone)]
 pub struct Model {
     name: String,
@@ -364,29 +365,24 @@ impl Model {
             return Err(bad("parameters must be finite".into()));
         }
         match &mut self.built {
-            Built::Netlist { netlist, circuit }
-                if netlist
-                    .parameters
-                    .iter()
-                    .any(|(n, _)| n.eq_ignore_ascii_case(name)) =>
-            {
-                // A `.param`: the text read again with every `.param` set so far and this one,
-                // then the element values set so far, in their order.
-                let is_param = |n: &str| {
-                    netlist
-                        .parameters
-                        .iter()
-                        .any(|(p, _)| p.eq_ignore_ascii_case(n))
-                };
-                let mut params: Vec<(String, f64)> = self
+            Built::Netlist { netlist, circuit } if read_again(netlist, name) => {
+                // A `.param` or a MOSFET's instance parameter: the text read again with every
+                // such value set so far and this one, then the element values set so far, in
+                // their order.
+                let mut again: Vec<(String, f64)> = self
                     .overrides
                     .iter()
-                    .filter(|(n, _)| is_param(n))
+                    .filter(|(n, _)| read_again(netlist, n))
                     .cloned()
                     .collect();
-                params.push((name.to_string(), value));
-                let mut changed = parse_netlist_with(&self.text, &self.name, &params)?;
-                for (n, v) in self.overrides.iter().filter(|(n, _)| !is_param(n)) {
+                again.push((name.to_string(), value));
+                let mut changed = parse_netlist_with(&self.text, &self.name, &again)
+                    .map_err(|e| bad(e.to_string()))?;
+                for (n, v) in self
+                    .overrides
+                    .iter()
+                    .filter(|(n, _)| !read_again(netlist, n))
+                {
                     *netlist_slot(&mut changed, n)?.value = *v;
                 }
                 **circuit = build_circuit(&changed, &self.name)?;
@@ -487,6 +483,32 @@ fn without_location(e: &SceneError) -> String {
     }
 }
 
+/// Whether the netlist parameter `name` is set by reading the text again: a top-level `.param`
+/// (everything that uses it follows) or a MOSFET's instance parameter (its junctions and
+/// capacitances are derived from the geometry when the card is read).
+fn read_again(netlist: &Netlist, name: &str) -> bool {
+    if netlist
+        .parameters
+        .iter()
+        .any(|(p, _)| p.eq_ignore_ascii_case(name))
+    {
+        return true;
+    }
+    let lower = name.to_ascii_lowercase();
+    netlist.elements.iter().any(|e| {
+        matches!(
+            e,
+            Element::Controlled {
+                source: ControlledSource::Mosfet { .. },
+                ..
+            }
+        ) && lower
+            .strip_prefix(e.name())
+            .and_then(|rest| rest.strip_prefix('.'))
+            .is_some_and(|key| MOSFET_INSTANCE_KEYS.contains(&key))
+    })
+}
+
 /// A range a netlist value must lie in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Requirement {
@@ -535,8 +557,9 @@ fn element_keys(element: &Element) -> Vec<&'static str> {
             ControlledSource::Vcvs { .. } | ControlledSource::Cccs { .. } => vec!["gain"],
             ControlledSource::Vccs { .. } => vec!["gm"],
             ControlledSource::Ccvs { .. } => vec!["r"],
-            // An expression or a device model has no one number to sweep.
-            ControlledSource::Behavioural { .. } | ControlledSource::Mosfet { .. } => Vec::new(),
+            // An expression has no one number to sweep.
+            ControlledSource::Behavioural { .. } => Vec::new(),
+            ControlledSource::Mosfet { .. } => MOSFET_INSTANCE_KEYS.to_vec(),
         },
         Element::V { source, .. } | Element::I { source, .. } => match source {
             SourceSpec::Dc(_) => vec!["waveform"],

@@ -91,7 +91,7 @@ fn sweep_points_are_single_runs_and_shards_tile_the_plan() {
 /// from 3.3 V; at `wn` = 1, 2 and 4 µm its drain sits at ngspice-39's `.op` values 2.907068,
 /// 2.524899 and 1.791124 V (the deck with `.param wn=` changed, 7 digits). An element value set
 /// before the `.param` (the load) survives the text's second reading; an unknown name lists
-/// the `.param` names.
+/// the `.param` names. The card's own `W` set by name (`M1.w`) reads the same values.
 #[test]
 fn a_param_sets_every_expression_that_uses_it() {
     let deck = "* nmos with W from a param\n.param wn=2u\n.param wd={wn}\n\
@@ -128,4 +128,21 @@ fn a_param_sets_every_expression_that_uses_it() {
         .expect_err("no such parameter")
         .to_string();
     assert!(unknown.contains(".param names wn, wd"), "{unknown}");
+    // The card's own width, set by name (`M1.w`), reads the same values.
+    let card = Model::netlist(&deck.replace("W={wd}", "W=2u"), "mosw2.cir").expect("reads");
+    for (w, ngspice) in [(1e-6, 2.907068), (4e-6, 1.791124)] {
+        let set = card
+            .with_parameters(&["M1.w".into()], &[w])
+            .expect("M1.w is an instance parameter");
+        let v = drain(&set);
+        assert!(
+            (v / ngspice - 1.0).abs() < 1e-6,
+            "M1.w = {w}: {v} against {ngspice}"
+        );
+    }
+    let zero = card
+        .with_parameters(&["M1.w".into()], &[0.0])
+        .expect_err("W = 0")
+        .to_string();
+    assert!(zero.contains("must be positive"), "{zero}");
 }
