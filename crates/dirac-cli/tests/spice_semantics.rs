@@ -17,6 +17,17 @@ fn scratch(name: &str) -> PathBuf {
     dir.join(name)
 }
 
+/// The level-1 NMOS `nch` and PMOS `pch` models of the CMOS decks (the session-22 sweep's).
+const CMOS_MODELS: &str = ".model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 PHI=0.7 LAMBDA=0.04 \
+     CGSO=0.3n CGDO=0.3n CGBO=0.1n CJ=0.5m MJ=0.5 CJSW=0.2n MJSW=0.33 PB=0.9 LD=0.05u)\n\
+     .model pch PMOS (LEVEL=1 VTO=-0.8 KP=50u GAMMA=0.57 PHI=0.8 LAMBDA=0.05 CGSO=0.3n CGDO=0.3n \
+     CGBO=0.1n CJ=0.8m MJ=0.5 CJSW=0.25n MJSW=0.33 PB=0.9 LD=0.05u)\n";
+
+/// A CMOS inverter `inv in out vdd` on [`CMOS_MODELS`].
+const INVERTER: &str = ".subckt inv in out vdd\n\
+     MP out in vdd vdd pch L=0.5u W=4u AD=4p AS=4p PD=10u PS=10u\n\
+     MN out in 0 0 nch L=0.5u W=2u AD=2p AS=2p PD=6u PS=6u\n.ends\n";
+
 /// Writes `text` as the netlist `name` in the scratch directory.
 fn deck(name: &str, text: &str) -> PathBuf {
     let path = scratch(name);
@@ -1267,16 +1278,8 @@ fn the_mosfet_deck_runs_under_gauss3_and_gauss4() {
 /// `.op`, `print` of its 7 digits).
 #[test]
 fn a_long_inverter_chain_has_its_operating_point() {
-    let mut text = String::from(
-        "* inverter chain\n\
-         .model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 PHI=0.7 LAMBDA=0.04 CGSO=0.3n CGDO=0.3n \
-         CGBO=0.1n CJ=0.5m MJ=0.5 CJSW=0.2n MJSW=0.33 PB=0.9 LD=0.05u)\n\
-         .model pch PMOS (LEVEL=1 VTO=-0.8 KP=50u GAMMA=0.57 PHI=0.8 LAMBDA=0.05 CGSO=0.3n CGDO=0.3n \
-         CGBO=0.1n CJ=0.8m MJ=0.5 CJSW=0.25n MJSW=0.33 PB=0.9 LD=0.05u)\n\
-         .subckt inv in out vdd\n\
-         MP out in vdd vdd pch L=0.5u W=4u AD=4p AS=4p PD=10u PS=10u\n\
-         MN out in 0 0 nch L=0.5u W=2u AD=2p AS=2p PD=6u PS=6u\n.ends\n\
-         VDD vdd 0 3.3\nVIN n0 0 PULSE(0 3.3 1n 0.2n 0.2n 5n 10n)\n",
+    let mut text = format!(
+        "* inverter chain\n{CMOS_MODELS}{INVERTER}VDD vdd 0 3.3\nVIN n0 0 PULSE(0 3.3 1n 0.2n 0.2n 5n 10n)\n"
     );
     for k in 0..31 {
         text += &format!("X{k} n{k} n{} vdd inv\n", k + 1);
@@ -1303,14 +1306,14 @@ fn a_long_inverter_chain_has_its_operating_point() {
 fn an_explicit_start_ramp_reaches_the_fastest_mode_not_below() {
     let netlist = deck(
         "wilson.cir",
-        "* Wilson current mirror, reference current pulsed
-         .model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 PHI=0.7 LAMBDA=0.04 CGSO=0.3n CGDO=0.3n \
-         CGBO=0.1n CJ=0.5m MJ=0.5 CJSW=0.2n MJSW=0.33 PB=0.9 LD=0.05u)\n\
+        &format!(
+            "* Wilson current mirror, reference current pulsed\n{CMOS_MODELS}\
          VDD vdd 0 3.3\nIREF vdd a PULSE(10u 40u 20n 10n 10n 80n 200n)\n\
          M1 a b 0 0 nch L=1u W=8u AD=8p AS=8p PD=18u PS=18u\n\
          M2 b b 0 0 nch L=1u W=8u AD=8p AS=8p PD=18u PS=18u\n\
          M3 out a b 0 nch L=1u W=8u AD=8p AS=8p PD=18u PS=18u\n\
-         RL vdd out 20k\nCA a 0 20f\n.tran 0.2n 400n\n.end\n",
+         RL vdd out 20k\nCA a 0 20f\n.tran 0.2n 400n\n.end\n"
+        ),
     );
     let run = |method: &str| {
         let (_, table, summary) = run_summarised(
@@ -1353,14 +1356,8 @@ fn an_explicit_start_ramp_reaches_the_fastest_mode_not_below() {
 fn a_cmos_xor_gate_is_not_refined_by_the_split_of_its_node_charges() {
     let netlist = deck(
         "xor.cir",
-        "* static CMOS XOR\n\
-         .model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 PHI=0.7 LAMBDA=0.04 CGSO=0.3n CGDO=0.3n \
-         CGBO=0.1n CJ=0.5m MJ=0.5 CJSW=0.2n MJSW=0.33 PB=0.9 LD=0.05u)\n\
-         .model pch PMOS (LEVEL=1 VTO=-0.8 KP=50u GAMMA=0.57 PHI=0.8 LAMBDA=0.05 CGSO=0.3n CGDO=0.3n \
-         CGBO=0.1n CJ=0.8m MJ=0.5 CJSW=0.25n MJSW=0.33 PB=0.9 LD=0.05u)\n\
-         .subckt inv in out vdd\n\
-         MP out in vdd vdd pch L=0.5u W=4u AD=4p AS=4p PD=10u PS=10u\n\
-         MN out in 0 0 nch L=0.5u W=2u AD=2p AS=2p PD=6u PS=6u\n.ends\n\
+        &format!(
+            "* static CMOS XOR\n{CMOS_MODELS}{INVERTER}\
          VDD vdd 0 3.3\nVA a 0 PULSE(0 3.3 10n 1n 1n 20n 40n)\nVB b 0 PULSE(0 3.3 20n 1n 1n 40n 80n)\n\
          XI1 a ab vdd inv\nXI2 b bb vdd inv\n\
          MP1 p1 a vdd vdd pch L=0.5u W=8u AD=8p AS=8p PD=18u PS=18u\n\
@@ -1371,7 +1368,8 @@ fn a_cmos_xor_gate_is_not_refined_by_the_split_of_its_node_charges() {
          MN2 n1 b 0 0 nch L=0.5u W=4u AD=4p AS=4p PD=10u PS=10u\n\
          MN3 out ab n2 0 nch L=0.5u W=4u AD=4p AS=4p PD=10u PS=10u\n\
          MN4 n2 bb 0 0 nch L=0.5u W=4u AD=4p AS=4p PD=10u PS=10u\nCL out 0 20f\n\
-         .tran 0.05n 160n\n.end\n",
+         .tran 0.05n 160n\n.end\n"
+        ),
     );
     for method in ["midpoint", "gauss2"] {
         let (_, rows, summary) = run_summarised(
@@ -1408,17 +1406,15 @@ fn a_cmos_xor_gate_is_not_refined_by_the_split_of_its_node_charges() {
 fn source_nodes_read_their_source_after_ramped_corners() {
     let netlist = deck(
         "nor2.cir",
-        "* CMOS NOR2 driven by pulses\n\
-         .model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 PHI=0.7 LAMBDA=0.04 CGSO=0.3n CGDO=0.3n \
-         CGBO=0.1n CJ=0.5m MJ=0.5 CJSW=0.2n MJSW=0.33 PB=0.9 LD=0.05u)\n\
-         .model pch PMOS (LEVEL=1 VTO=-0.8 KP=50u GAMMA=0.57 PHI=0.8 LAMBDA=0.05 CGSO=0.3n CGDO=0.3n \
-         CGBO=0.1n CJ=0.8m MJ=0.5 CJSW=0.25n MJSW=0.33 PB=0.9 LD=0.05u)\n\
+        &format!(
+            "* CMOS NOR2 driven by pulses\n{CMOS_MODELS}\
          VDD vdd 0 3.3\nVA a 0 PULSE(0 3.3 10n 1n 1n 20n 40n)\nVB b 0 PULSE(0 3.3 20n 1n 1n 40n 80n)\n\
          MP1 mid a vdd vdd pch L=0.5u W=8u AD=8p AS=8p PD=18u PS=18u\n\
          MP2 out b mid vdd pch L=0.5u W=8u AD=8p AS=8p PD=18u PS=18u\n\
          MN1 out a 0 0 nch L=0.5u W=2u AD=2p AS=2p PD=6u PS=6u\n\
          MN2 out b 0 0 nch L=0.5u W=2u AD=2p AS=2p PD=6u PS=6u\nCL out 0 20f\n\
-         .tran 0.05n 160n\n.end\n",
+         .tran 0.05n 160n\n.end\n"
+        ),
     );
     let out = dirac(&["run", netlist.to_str().unwrap(), "--signals", "v(a),v(b)"]);
     assert!(

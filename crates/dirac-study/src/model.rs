@@ -386,7 +386,7 @@ impl Model {
                     *netlist_slot(&mut changed, n)?.value = *v;
                 }
                 **circuit = build_circuit(&changed, &self.name)?;
-                *netlist = Box::new(changed);
+                **netlist = changed;
             }
             Built::Netlist { netlist, circuit } => {
                 let mut changed = netlist.clone();
