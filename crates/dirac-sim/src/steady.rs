@@ -17,12 +17,14 @@
 //! injection current into that node's KCL row. Singular exactly where SPICE's is: a structural
 //! analysis names the node with no DC path or the equations that cannot hold together before
 //! Newton starts. Newton's method runs with the models' own update limits (SPICE's junction
-//! limiting) and, when it fails, gmin stepping: a conductance `g` from every node to ground (a
-//! compliance in every constraint row), decreased from 1e-2 to 0.
+//! limiting) and, when it fails, continuation: gmin stepping (a conductance `g` from every node
+//! to ground, a compliance in every one-form row, decreased to 0), then source stepping for a
+//! circuit or stiffness stepping for a model with holonomic rows.
 
 use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
 use dirac_solve::{
-    LinearSolveError, LinearSolver, Newton, NewtonError, NewtonOptions, NonlinearSystem, Structure,
+    LinearSolveError, LinearSolver, Newton, NewtonError, NewtonOptions, NewtonStats,
+    NonlinearSystem, Structure,
 };
 use thiserror::Error;
 
@@ -95,8 +97,8 @@ pub struct SteadyState {
     pub cyclic: Vec<bool>,
     /// Newton updates spent, gmin stepping included.
     pub iterations: usize,
-    /// Continuation solves taken: gmin steps, then, for a model with holonomic rows, stiffness
-    /// steps (0 when plain Newton converged).
+    /// Continuation solves taken: gmin, source or stiffness steps (0 when plain Newton
+    /// converged).
     pub gmin_steps: usize,
 }
 
@@ -137,7 +139,7 @@ impl SteadyState {
                 *x = q;
             }
         }
-        if (0..m).any(|a| constraints.kind(a) == ConstraintKind::Holonomic) {
+        if system.holonomic {
             system.balance_multipliers(&mut x);
         }
         let options = NewtonOptions {
@@ -153,33 +155,25 @@ impl SteadyState {
         match plain {
             Ok(stats) => iterations += stats.iterations,
             Err(first) => {
-                let mut last;
-                (last, gmin_steps) = gmin_stepping(
-                    &mut system,
-                    &mut newton,
-                    &start,
-                    &mut x,
-                    &mut iterations,
-                    first,
-                );
-                if last.is_err() && !system.stiffen {
-                    let steps;
-                    (last, steps) =
-                        source_stepping(&mut system, &mut newton, &mut x, &mut iterations, last);
-                    gmin_steps += steps;
+                let mut steps = Steps {
+                    solves: 0,
+                    iterations: &mut iterations,
+                };
+                // Gmin acts on one-form rows only: without them every gmin solve would be plain
+                // Newton's again.
+                let one_forms = (0..m).any(|a| constraints.kind(a) == ConstraintKind::OneForm);
+                let mut last = if one_forms {
+                    gmin_stepping(&mut system, &mut newton, &start, &mut x, &mut steps, first)
+                } else {
+                    Err(first)
+                };
+                if last.is_err() && !system.holonomic {
+                    last = source_stepping(&mut system, &mut newton, &mut x, &mut steps, last);
                 }
-                if last.is_err() && system.stiffen {
-                    system.gmin = 0.0;
-                    let steps;
-                    (last, steps) = stiffness_stepping(
-                        &mut system,
-                        &mut newton,
-                        &start,
-                        &mut x,
-                        &mut iterations,
-                    );
-                    gmin_steps += steps;
+                if last.is_err() && system.holonomic {
+                    last = stiffness_stepping(&mut system, &mut newton, &start, &mut x, &mut steps);
                 }
+                gmin_steps = steps.solves;
                 if let Err(source) = last {
                     let mut r = vec![0.0; size];
                     system.residual(&x, &mut r);
@@ -224,6 +218,30 @@ impl SteadyState {
     }
 }
 
+/// The solves a continuation took and the Newton updates of those that converged.
+struct Steps<'i> {
+    solves: usize,
+    iterations: &'i mut usize,
+}
+
+impl Steps<'_> {
+    /// One continuation solve from `x` (Newton restarted), counted.
+    fn solve<M: Model + ?Sized, C: Constraints + ?Sized>(
+        &mut self,
+        system: &mut SteadySystem<'_, M, C>,
+        newton: &mut Newton<AutoLu>,
+        x: &mut [f64],
+    ) -> Result<NewtonStats, NewtonError> {
+        newton.reset();
+        self.solves += 1;
+        let solved = newton.solve(system, x);
+        if let Ok(stats) = &solved {
+            *self.iterations += stats.iterations;
+        }
+        solved
+    }
+}
+
 /// Gmin stepping as ngspice's `dynamic_gmin` does it: a conductance `g` from every node to
 /// ground (a compliance in every one-form row), from [`GMIN_START`] down to none, each solve
 /// from the last converged one. After a success the next `g` is the last over `factor`, and
@@ -233,33 +251,26 @@ impl SteadyState {
 /// [`GMIN_SMALLEST_FACTOR`] (or [`GMIN_MOST_SOLVES`] are spent). A fixed schedule of decades
 /// (the one before) failed on a chain of 31 CMOS inverters, which ngspice's adaptive steps
 /// take. Returns the outcome (the last failure, or `first`, plain Newton's, when the solves
-/// ran out while succeeding) and the number of solves.
+/// ran out while succeeding) and leaves `g` at none.
 fn gmin_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     system: &mut SteadySystem<'_, M, C>,
     newton: &mut Newton<AutoLu>,
     start: &[f64],
     x: &mut [f64],
-    iterations: &mut usize,
+    steps: &mut Steps<'_>,
     first: NewtonError,
-) -> (Result<dirac_solve::NewtonStats, NewtonError>, usize) {
+) -> Result<NewtonStats, NewtonError> {
     let max_iterations = newton.options().max_iterations;
     let mut good = start.to_vec();
     let mut good_g = GMIN_START;
     let mut factor = GMIN_FACTOR;
     let mut g = GMIN_START / factor;
-    let mut steps = 0;
-    loop {
+    let outcome = loop {
         x.copy_from_slice(&good);
         system.gmin = g;
-        newton.reset();
-        steps += 1;
-        let solved = newton.solve(system, x);
-        match solved {
+        match steps.solve(system, newton, x) {
+            Ok(stats) if g == 0.0 => break Ok(stats),
             Ok(stats) => {
-                *iterations += stats.iterations;
-                if g == 0.0 {
-                    return (Ok(stats), steps);
-                }
                 good.copy_from_slice(x);
                 good_g = g;
                 if stats.iterations <= max_iterations / 4 {
@@ -273,21 +284,21 @@ fn gmin_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
                 } else {
                     (g / factor).max(GMIN_LAST)
                 };
-                if steps >= GMIN_MOST_SOLVES {
-                    system.gmin = 0.0;
-                    return (Err(first), steps);
+                if steps.solves >= GMIN_MOST_SOLVES {
+                    break Err(first);
                 }
             }
             Err(e) => {
-                if factor < GMIN_SMALLEST_FACTOR || steps >= GMIN_MOST_SOLVES {
-                    system.gmin = 0.0;
-                    return (Err(e), steps);
+                if factor < GMIN_SMALLEST_FACTOR || steps.solves >= GMIN_MOST_SOLVES {
+                    break Err(e);
                 }
                 factor = factor.sqrt().sqrt();
                 g = good_g / factor;
             }
         }
-    }
+    };
+    system.gmin = 0.0;
+    outcome
 }
 
 /// Source stepping's first fraction of the sources, the smallest it backs off to before it
@@ -304,34 +315,31 @@ const SOURCE_MOST_SOLVES: usize = 200;
 /// conductance that can turn back (a chain of 31 CMOS inverters: a fold at g ≈ 5e-3), where
 /// raising the supply from zero lets every stage settle in turn, as ngspice's `gillespie_src`
 /// does. Returns the outcome (the last failure, or `last` when the solves ran out while
-/// succeeding) and the number of solves.
+/// succeeding).
 fn source_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     system: &mut SteadySystem<'_, M, C>,
     newton: &mut Newton<AutoLu>,
     x: &mut [f64],
-    iterations: &mut usize,
-    last: Result<dirac_solve::NewtonStats, NewtonError>,
-) -> (Result<dirac_solve::NewtonStats, NewtonError>, usize) {
-    system.gmin = 0.0;
+    steps: &mut Steps<'_>,
+    last: Result<NewtonStats, NewtonError>,
+) -> Result<NewtonStats, NewtonError> {
     let zero = vec![0.0; x.len()];
     let mut sources = vec![0.0; x.len()];
     system.residual(&zero, &mut sources);
+    system.sources = sources;
     let mut good = zero;
-    let (mut alpha, mut step, mut steps) = (0.0_f64, SOURCE_FIRST_STEP, 0);
-    let mut outcome = last;
-    while steps < SOURCE_MOST_SOLVES && step >= SOURCE_SMALLEST_STEP {
+    let (mut alpha, mut step, mut outcome) = (0.0_f64, SOURCE_FIRST_STEP, last);
+    let before = steps.solves;
+    while steps.solves - before < SOURCE_MOST_SOLVES && step >= SOURCE_SMALLEST_STEP {
         let next = (alpha + step).min(1.0);
-        system.source_offset = sources.iter().map(|f| (1.0 - next) * f).collect();
+        system.source_weight = 1.0 - next;
         x.copy_from_slice(&good);
-        newton.reset();
-        steps += 1;
-        match newton.solve(system, x) {
-            Ok(stats) => {
-                *iterations += stats.iterations;
-                if next >= 1.0 {
-                    system.source_offset.clear();
-                    return (Ok(stats), steps);
-                }
+        match steps.solve(system, newton, x) {
+            Ok(stats) if next >= 1.0 => {
+                outcome = Ok(stats);
+                break;
+            }
+            Ok(_) => {
                 good.copy_from_slice(x);
                 alpha = next;
                 step *= 1.5;
@@ -342,31 +350,30 @@ fn source_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
             }
         }
     }
-    system.source_offset.clear();
-    (outcome, steps)
+    system.sources.clear();
+    outcome
 }
 
-/// Springs of stiffness stepping, as multiples of the start's force scale per unit of its
-/// position scale, from stiff to none.
-const STIFFNESS_SCHEDULE: [f64; 10] = [1e2, 1e1, 1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 0.0];
+/// Springs of stiffness stepping before the last solve without one, as multiples of the
+/// start's force scale per unit of its position scale, from stiff to soft.
+const STIFFNESS_SCHEDULE: [f64; 9] = [1e2, 1e1, 1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
 
 /// The mechanical counterpart of gmin stepping, for a model with holonomic rows whose Newton
-/// fails from its start (a pendulum chain released level: the potential's curvature along each
-/// hinge vanishes there, and the first Newton matrix is singular): a spring ties every
-/// non-cyclic coordinate to its start and is relaxed to none along [`STIFFNESS_SCHEDULE`], each
-/// solve from the last. The spring's scale is the start's largest unbalanced force per unit of
-/// its largest position. Returns the last solve's outcome and the number of solves.
+/// fails from its start (a pendulum released level: gravity normal to its rod, a balancing
+/// multiplier of zero, a singular first matrix): a spring ties every non-cyclic coordinate to
+/// its start and is relaxed along [`STIFFNESS_SCHEDULE`], then removed, each solve from the
+/// last. The spring's scale is the start's largest unbalanced force per unit of its largest
+/// position. Returns the first failure or the last solve's outcome.
 fn stiffness_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     system: &mut SteadySystem<'_, M, C>,
     newton: &mut Newton<AutoLu>,
     start: &[f64],
     x: &mut [f64],
-    iterations: &mut usize,
-) -> (Result<dirac_solve::NewtonStats, NewtonError>, usize) {
+    steps: &mut Steps<'_>,
+) -> Result<NewtonStats, NewtonError> {
     let n = system.n();
     x.copy_from_slice(start);
     let mut r = vec![0.0; x.len()];
-    system.stiffness = 0.0;
     system.residual(x, &mut r);
     let force = r[..n].iter().fold(0.0_f64, |big, v| big.max(v.abs()));
     let length = (0..n)
@@ -377,23 +384,15 @@ fn stiffness_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     } else {
         1.0
     };
-    let mut last = Err(NewtonError::NonFiniteResidual {
-        equation: 0,
-        iterations: 0,
-    });
-    let mut steps = 0;
     for &k in &STIFFNESS_SCHEDULE {
         system.stiffness = k * scale;
-        newton.reset();
-        steps += 1;
-        last = newton.solve(system, x);
-        match &last {
-            Ok(stats) => *iterations += stats.iterations,
-            Err(_) => break,
+        if let Err(e) = steps.solve(system, newton, x) {
+            system.stiffness = 0.0;
+            return Err(e);
         }
     }
     system.stiffness = 0.0;
-    (last, steps)
+    steps.solve(system, newton, x)
 }
 
 /// Which coordinates nothing `q`-dependent contains: evaluated from the derivative values at the
@@ -474,11 +473,13 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     gmin: f64,
     /// Whether the model has holonomic rows: then a spring `stiffness` ties every non-cyclic
     /// coordinate to its start (stiffness stepping, the mechanical gmin stepping).
-    stiffen: bool,
+    holonomic: bool,
     stiffness: f64,
-    /// Source stepping's offset `(1 − α)·F(0)` subtracted from the residual (empty when off):
-    /// at `α = 0` the sources (every constant term of the equations) are off and `x = 0` solves.
-    source_offset: Vec<f64>,
+    /// Source stepping's `F(0)` (empty when off), of which `source_weight = 1 − α` is taken
+    /// out of the residual: at `α = 0` the sources (every constant term of the equations) are
+    /// off and `x = 0` solves.
+    sources: Vec<f64>,
+    source_weight: f64,
     q: Vec<f64>,
     v: Vec<f64>,
     lq: Vec<f64>,
@@ -510,11 +511,12 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             q0,
             t0,
             holds,
-            stiffen: (0..m).any(|a| constraints.kind(a) == ConstraintKind::Holonomic),
+            holonomic: (0..m).any(|a| constraints.kind(a) == ConstraintKind::Holonomic),
             cyclic,
             gmin: 0.0,
             stiffness: 0.0,
-            source_offset: Vec::new(),
+            sources: Vec::new(),
+            source_weight: 0.0,
             q: q0.to_vec(),
             v: vec![0.0; n],
             lq: vec![0.0; n],
@@ -644,7 +646,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
                 emit(n + a, n + a, self.gmin, true);
             }
         }
-        if self.stiffen {
+        if self.holonomic {
             for j in (0..n).filter(|&j| !self.cyclic[j]) {
                 emit(j, j, -self.stiffness, true);
             }
@@ -876,8 +878,8 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for SteadySyste
             r[n + a] += x[n + m + k];
             r[n + m + k] = lambda[a] - value;
         }
-        for (r, offset) in r.iter_mut().zip(&self.source_offset) {
-            *r -= offset;
+        for (r, f) in r.iter_mut().zip(&self.sources) {
+            *r -= self.source_weight * f;
         }
     }
 
