@@ -6,6 +6,7 @@
 //! factorisation is computed once for the whole run.
 
 mod composition;
+mod derivatives;
 mod error;
 mod explicit;
 mod integrator;

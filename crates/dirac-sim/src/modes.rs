@@ -22,6 +22,7 @@ use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model, NoConstra
 use nalgebra::{Complex, DMatrix, DVector, Schur, SymmetricEigen};
 use thiserror::Error;
 
+use crate::derivatives::Derivatives;
 use crate::integrator::{Integrator, IntegratorOptions};
 
 /// Most coordinates a modal analysis takes: the dense eigenproblem costs `O(n³)` (about 0.1 s at
@@ -592,17 +593,11 @@ impl Linearisation {
     ) -> Self {
         let n = model.dim();
         let rows = constraints.count();
-        let mut hessian = LagrangianHessian::default();
-        hessian.begin();
-        model.lagrangian_hessian(q, v, &mut hessian);
-        let mut jacobian = ForceJacobian::default();
-        jacobian.begin();
-        if model.has_force() {
-            model.force_jacobian(q, v, t, &mut jacobian);
-        }
-        let mut forms = Triplets::new();
-        forms.begin();
-        constraints.forms(q, &mut forms);
+        let Derivatives {
+            hessian,
+            force: jacobian,
+            forms,
+        } = Derivatives::at(model, constraints, q, v, t);
         let mut curvature = Triplets::new();
         curvature.begin();
         if !constraints.is_constant() && lambda.len() == rows {

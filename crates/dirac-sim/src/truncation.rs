@@ -8,9 +8,10 @@
 //! momentum with a mass, `∂²L/∂v² ≠ 0`). Branch charges of resistors and sources, which store no
 //! energy, are not judged: their offsets are arbitrary.
 
-use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model};
+use dirac_core::{ConstraintKind, Constraints, Model};
 use dirac_solve::Triplets;
 
+use crate::derivatives::Derivatives;
 use crate::sharing::Sharing;
 
 /// Tolerances of the truncation-error test, with SPICE's names and defaults (ngspice 39 manual,
@@ -94,9 +95,11 @@ impl History {
         v: &[f64],
         t: f64,
     ) -> Self {
-        let mut hessian = LagrangianHessian::default();
-        hessian.begin();
-        model.lagrangian_hessian(q, v, &mut hessian);
+        let Derivatives {
+            hessian,
+            force: jacobian,
+            forms,
+        } = Derivatives::at(model, constraints, q, v, t);
         let n = q.len();
         let diagonal = |block: &Triplets| {
             let mut on = vec![false; n];
@@ -109,14 +112,6 @@ impl History {
         };
         let mut positions = diagonal(&hessian.qq);
         let mut momenta = diagonal(&hessian.vv);
-        let mut jacobian = ForceJacobian::default();
-        jacobian.begin();
-        if model.has_force() {
-            model.force_jacobian(q, v, t, &mut jacobian);
-        }
-        let mut forms = Triplets::default();
-        forms.begin();
-        constraints.forms(q, &mut forms);
         // A coordinate in a holonomic row is judged by its position: its momentum carries the
         // constraint's impulse, which depends on the substep's size (a body held at height z
         // under gravity has p_z = −(s/2)·m·g after a substep of size s), so a refinement would
