@@ -629,8 +629,8 @@ fn op(args: &OpArgs) -> Result<(), Failure> {
     out.commit()
 }
 
-/// Writes the operating point of `model` as a `signal,value` table or one JSON object. A reader
-/// that went away (`dirac op … | head`) ends the output quietly.
+/// Writes the operating point of `model` as a `signal,value` table or one JSON object
+/// ([`write_text`]).
 fn operating_point(model: &Model, json: bool, out: &mut impl Write) -> Result<(), Failure> {
     let values = model.operating_point()?;
     let text = if json {
@@ -653,11 +653,7 @@ fn operating_point(model: &Model, json: bool, out: &mut impl Write) -> Result<()
         }
         text
     };
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        Err(e) => Err(Failure::Input(format!("writing output: {e}"))),
-        Ok(()) => Ok(()),
-    }
+    write_text(out, &text)
 }
 
 fn compare(args: &CompareArgs) -> Result<(), Failure> {
@@ -714,10 +710,14 @@ fn compare(args: &CompareArgs) -> Result<(), Failure> {
     }
 }
 
-/// Writes `text` to standard output. A reader that went away (`dirac check … | head`) ends the
-/// output quietly, as it ends `dirac run`'s.
+/// Writes `text` to standard output (see [`write_text`]).
 fn print_out(text: &str) -> Result<(), Failure> {
-    let mut out = std::io::stdout().lock();
+    write_text(&mut std::io::stdout().lock(), text)
+}
+
+/// Writes `text` to `out` and flushes it. A reader that went away (`dirac check … | head`)
+/// ends the output quietly, as it ends `dirac run`'s.
+fn write_text(out: &mut impl Write, text: &str) -> Result<(), Failure> {
     match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
         Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
         Err(e) => Err(Failure::Input(format!("writing output: {e}"))),
