@@ -16,6 +16,7 @@ mod dense;
 mod error;
 mod newton;
 mod ordering;
+mod pivoting;
 mod sparse;
 mod structure;
 mod triplets;

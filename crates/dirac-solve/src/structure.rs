@@ -153,7 +153,7 @@ impl Structure {
             row_idx[fill[c] as usize] = r as u32;
             fill[c] += 1;
         }
-        crate::sparse::structural_rank_check(n, &col_ptr, &row_idx).is_ok()
+        crate::sparse::maximum_matching(n, &col_ptr, &row_idx, false).is_ok()
     }
 
     /// The structural rank: the size of a maximum matching.
