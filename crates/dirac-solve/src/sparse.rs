@@ -26,7 +26,7 @@ use crate::triplets::PatternMismatch;
 /// * The first [`factor`](LinearSolver::factor) after `analyse` sizes the `L`/`U` storage and
 ///   chooses the column order by the fill of the values Newton actually factorises, with their
 ///   pivots (no factorisation of generic values is spent on the choice): COLAMD's first; where
-///   that fills in more than `SYMMETRIC_TRY_FILL` (4) times the matrix, AMD's order for pivots on a
+///   that fills in more than `SYMMETRIC_TRY_FILL` (2) times the matrix, AMD's order for pivots on a
 ///   maximum matching that keeps the diagonal, kept if it fills in less by more than
 ///   `SPLIT_MAX_FILL` (KLU's strategy: 5–7× less fill on CMOS netlists, audit item 47); where
 ///   there is a split order, that, kept if its fill stays within `SPLIT_MAX_FILL` of the order
@@ -558,13 +558,15 @@ impl Factors {
 }
 
 /// The first factorisation must fill in more than this multiple of the matrix's entries for the
-/// symmetric order to be tried (its AMD order and one more factorisation in the first `factor`).
-/// Measured `nnz(L + U) / nnz(A)` with COLAMD's order: 1.6–2.5 on RLC ladders (midpoint to
-/// Gauss 4) and 2.1–2.6 on the rigid chains and the motor arm, where the symmetric order never
-/// filled in 1.25× less (the try cost a Gauss 4 run of the 1000-section ladder 12 %); 5.7–12.4
-/// on the step and operating-point matrices of CMOS inverter chains, where it filled in 3.8–7.3×
-/// less.
-const SYMMETRIC_TRY_FILL: f64 = 4.0;
+/// symmetric order to be tried (its AMD order and one more factorisation in the first `factor`,
+/// once per pattern). Measured `nnz(L + U) / nnz(A)` with COLAMD's order: 5.7–12.4 on the step
+/// and operating-point matrices of CMOS inverter chains (the symmetric order filled in 3.8–7.3×
+/// less) and 2.1–3.7 on `cmos_ring.cir`'s (1.3–2.4× less); 2.0–2.5 on RLC ladders under Gauss 2
+/// to 4 and 2.6 on the rigid chain, where it did not gain 1.25×, and the try costs a short run:
+/// 5 % of 50 Gauss 2 steps of the 1000-section ladder, 12 % of 5 Gauss 4 steps. AMD's own count
+/// of its fill (with every pivot on its pair) does not tell these apart: it overestimates the
+/// factorisation's fill by 1.24–1.72× on both kinds.
+const SYMMETRIC_TRY_FILL: f64 = 2.0;
 
 /// Patterns with fewer unknowns keep COLAMD's order without trying the split: their dependency
 /// chains are short, and the second factorisation of the first `factor` would be set-up cost
