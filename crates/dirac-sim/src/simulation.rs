@@ -1738,13 +1738,22 @@ impl Agreement {
 
     /// Warns, per signal, of the rows that took the steps' value.
     fn warn(&self, signals: &[Signal], per_signal: &[Vec<Entry>], warnings: &mut Vec<String>) {
+        // Few values, usually none, took the steps' value: look those up per signal, not every
+        // value read (a 1000-section ladder reads thousands of values for thousands of signals).
+        let taken: Vec<(&Entry, &(usize, f64, f64, f64))> = self
+            .entries
+            .iter()
+            .zip(&self.replaced)
+            .filter(|(_, r)| r.0 > 0)
+            .collect();
+        if taken.is_empty() {
+            return;
+        }
         for (signal, entries) in signals.iter().zip(per_signal) {
-            let found = self
-                .entries
+            let found = taken
                 .iter()
-                .zip(&self.replaced)
-                .filter(|(e, r)| entries.contains(e) && r.0 > 0)
-                .map(|(_, r)| *r)
+                .filter(|(e, _)| entries.contains(e))
+                .map(|(_, r)| **r)
                 .max_by_key(|r| r.0);
             if let Some((rows, first, difference, scale)) = found {
                 warnings.push(format!(
