@@ -1596,6 +1596,9 @@ struct Agreement {
     /// [`means_average_out`] for the run's method, asked once a signal first takes the steps'
     /// value.
     alternates: Option<bool>,
+    /// Per value, for the row being checked: the steps' value and the state's, where both are
+    /// read (kept between rows for its storage).
+    row: Vec<Option<(FromMeans, f64)>>,
 }
 
 impl Agreement {
@@ -1606,6 +1609,7 @@ impl Agreement {
             entries: read.to_vec(),
             rates_scale: 0.0,
             alternates: None,
+            row: Vec::with_capacity(read.len()),
         }
     }
 
@@ -1681,23 +1685,40 @@ impl Agreement {
             replaced,
             rates_scale,
             alternates,
+            row,
         } = self;
-        for ((&entry, scale), replaced) in entries.iter().zip(scale).zip(replaced) {
-            if completed.contains(&entry) {
-                continue;
+        // The row's values and the scales first: a rate is judged against the largest rate
+        // read so far, this row's included, whatever the order the rates are listed in (a
+        // chain's rate that is zero by symmetry, listed before the others, was judged against
+        // round-off alone at the first row compared).
+        row.clear();
+        for (&entry, scale) in entries.iter().zip(scale.iter_mut()) {
+            let read = (!completed.contains(&entry))
+                .then(|| Self::from_steps(k, entry, means))
+                .flatten()
+                .zip(values_at.get(entry));
+            if let Some((steps, _)) = &read {
+                *scale = scale.max(steps.value.abs());
+                if let Entry::Velocity(_) = entry {
+                    *rates_scale = rates_scale.max(*scale);
+                }
             }
-            let Some(FromMeans {
-                value: steps,
-                margin,
-                local,
-            }) = Self::from_steps(k, entry, means)
+            row.push(read);
+        }
+        for (((&entry, scale), replaced), read) in
+            entries.iter().zip(scale).zip(replaced).zip(row.drain(..))
+        {
+            let Some((
+                FromMeans {
+                    value: steps,
+                    margin,
+                    local,
+                },
+                state,
+            )) = read
             else {
                 continue;
             };
-            let Some(state) = values_at.get(entry) else {
-                continue;
-            };
-            *scale = scale.max(steps.abs());
             let difference = (state - steps).abs();
             // Once a signal's state has been found carrying such a mode, it is trusted less; under
             // a second-order method that makes the mode alternate, the steps' means average it
@@ -1715,12 +1736,9 @@ impl Agreement {
             // below by the round-off of the largest rate read.
             let size = match entry {
                 Entry::Effort(_) => *scale,
-                Entry::Velocity(_) => {
-                    *rates_scale = rates_scale.max(*scale);
-                    local
-                        .max(LOCAL_FLOOR * *scale)
-                        .max(RATE_ROUND_OFF * *rates_scale)
-                }
+                Entry::Velocity(_) => local
+                    .max(LOCAL_FLOOR * *scale)
+                    .max(RATE_ROUND_OFF * *rates_scale),
             };
             if difference > share * size && difference > margin {
                 values_at.set(entry, steps);
