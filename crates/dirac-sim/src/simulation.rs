@@ -1579,6 +1579,10 @@ impl FromMeans {
 /// Share of `h` by which a breakpoint may sit outside a step and still count as on its end.
 const BREAKPOINT_MARGIN: f64 = 1e-9;
 
+/// Rows of a value that took the steps' value, the first time, the largest difference and the
+/// size it was judged against there.
+type Replaced = (usize, f64, f64, f64);
+
 /// Per value read (a potential or a rate): its value from the state at `t_k` against its value
 /// from the adjacent steps' means where those are a smooth sample (see
 /// [`Agreement::from_steps`] and [`AGREEMENT`]); a row where they disagree beyond it takes the
@@ -1590,7 +1594,7 @@ struct Agreement {
     scale: Vec<f64>,
     /// Per value: rows that took the steps' value, the first time, the largest difference and
     /// the size it was judged against there.
-    replaced: Vec<(usize, f64, f64, f64)>,
+    replaced: Vec<Replaced>,
     /// The largest `|value|` from the steps so far of any rate read.
     rates_scale: f64,
     /// [`means_average_out`] for the run's method, asked once a signal first takes the steps'
@@ -1758,7 +1762,7 @@ impl Agreement {
     fn warn(&self, signals: &[Signal], per_signal: &[Vec<Entry>], warnings: &mut Vec<String>) {
         // Few values, usually none, took the steps' value: look those up per signal, not every
         // value read (a 1000-section ladder reads thousands of values for thousands of signals).
-        let taken: Vec<(&Entry, &(usize, f64, f64, f64))> = self
+        let taken: Vec<(&Entry, &Replaced)> = self
             .entries
             .iter()
             .zip(&self.replaced)

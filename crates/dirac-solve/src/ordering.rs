@@ -62,11 +62,13 @@ pub(crate) fn colamd_order(
 /// diagonal; the order is AMD's for the pattern of that matrix plus its transpose, the order a
 /// symmetric elimination with those diagonal pivots fills in least (KLU's order after its
 /// maximum transversal). It pays only where the factorisation keeps the paired rows as pivots
-/// (`Pivoting::Preferred`).
+/// (`pivoting::factorise` with preferred rows). Also returns AMD's count of the fill
+/// `nnz(L) + nnz(U)` (each with its diagonal) of that order: a Cholesky factor's of the
+/// symmetrised pattern, an upper bound where every pivot stays on its pair.
 pub(crate) fn symmetric_order(
     pattern: SymbolicSparseColMatRef<'_, u32>,
     matched: &[u32],
-) -> Result<Vec<u32>, LinearSolveError> {
+) -> Result<(Vec<u32>, usize), LinearSolveError> {
     let n = pattern.ncols();
     let mut column_of_row = vec![0_u32; n];
     for (c, &r) in matched.iter().enumerate() {
@@ -85,7 +87,7 @@ pub(crate) fn symmetric_order(
     ))
     .map_err(|_| LinearSolveError::Backend("out of memory for the column order".into()))?;
     let (mut fwd, mut inv) = (vec![0_u32; n], vec![0_u32; n]);
-    amd::order_maybe_unsorted(
+    let count = amd::order_maybe_unsorted(
         &mut fwd,
         &mut inv,
         paired,
@@ -93,7 +95,9 @@ pub(crate) fn symmetric_order(
         MemStack::new(&mut mem),
     )
     .map_err(|e| LinearSolveError::Backend(format!("column order: {e}")))?;
-    Ok(fwd)
+    // AMD's divisions of an LDLᵀ factorisation: one per entry below L's diagonal.
+    let below = count.n_div as usize;
+    Ok((fwd, 2 * (below + n)))
 }
 
 /// COLAMD's order `fwd` split so that independent dependency chains alternate, or `None` if no

@@ -35,8 +35,6 @@ pub(crate) struct Workspace {
     resume: Vec<u32>,
     /// `mark[i] == stamp` once row `i` is in the current column's reach.
     mark: Vec<u32>,
-    /// The current column's entries of `U`, sorted by row before they are stored.
-    upper: Vec<(u32, f64)>,
 }
 
 impl Workspace {
@@ -48,7 +46,6 @@ impl Workspace {
             path: Vec::with_capacity(n),
             resume: Vec::with_capacity(n),
             mark: vec![0; n],
-            upper: Vec::with_capacity(n),
         }
     }
 }
@@ -107,7 +104,15 @@ fn eliminate(
         // The reach of the column's rows through L, in topological order at reach[top..].
         let mut top = n;
         for &r in &a.row_idx[start..end] {
-            if ws.mark[r as usize] != stamp {
+            if ws.mark[r as usize] == stamp {
+                continue;
+            }
+            if pinv[r as usize] == UNPIVOTED {
+                // A row not yet pivoted reaches nothing further.
+                ws.mark[r as usize] = stamp;
+                top -= 1;
+                ws.reach[top] = r;
+            } else {
                 top = reach_from(r, stamp, top, out, pinv, ws);
             }
         }
@@ -127,11 +132,11 @@ fn eliminate(
                 }
             }
         }
-        // Rows already pivoted go to U, the others are candidates for the pivot.
+        // Rows already pivoted go to U, in the reach's topological order (the order a
+        // refactorisation eliminates them in); the others are candidates for the pivot.
         let mut pivot_row = UNPIVOTED;
         let mut candidates = false;
         let mut largest = 0.0_f64;
-        ws.upper.clear();
         for &i in &ws.reach[top..] {
             let xi = x[i as usize];
             match pinv[i as usize] {
@@ -142,7 +147,10 @@ fn eliminate(
                         pivot_row = i;
                     }
                 }
-                step => ws.upper.push((step, xi)),
+                step => {
+                    out.u_row.push(step);
+                    out.u_val.push(xi);
+                }
             }
         }
         if pivot_row == UNPIVOTED {
@@ -163,11 +171,6 @@ fn eliminate(
         let pivot = x[pivot_row as usize];
         pinv[pivot_row as usize] = k as u32;
         row_perm[k] = pivot_row;
-        ws.upper.sort_unstable_by_key(|&(row, _)| row);
-        for &(row, value) in &ws.upper {
-            out.u_row.push(row);
-            out.u_val.push(value);
-        }
         out.u_row.push(k as u32);
         out.u_val.push(pivot);
         out.u_ptr.push(out.u_row.len() as u32);

@@ -108,40 +108,30 @@ type ColumnOrder = (Vec<u32>, Option<Vec<u32>>);
 
 impl Ordered {
     /// Storage for factors with column order `order` (`order[k]` eliminated at step `k`).
-    fn new(order: Vec<u32>) -> Self {
+    fn new((order, preferred): ColumnOrder) -> Self {
         let n = order.len();
-        let mut ordered = Self {
-            col_fwd: Vec::new(),
-            col_inv: vec![0; n],
+        let mut col_inv = vec![0; n];
+        for (k, &c) in order.iter().enumerate() {
+            col_inv[c as usize] = k as u32;
+        }
+        Self {
+            col_fwd: order,
+            col_inv,
             row_perm: vec![0; n],
             row_perm_inv: vec![0; n],
-            preferred: None,
+            preferred,
             own: Triangular {
                 u_inv: Vec::with_capacity(n),
                 ..Triangular::default()
             },
-        };
-        ordered.reorder((order, None));
-        ordered
-    }
-
-    /// Takes `order` as the column order (the factors no longer belong to it) and returns the
-    /// previous one.
-    fn reorder(&mut self, (order, preferred): ColumnOrder) -> ColumnOrder {
-        for (k, &c) in order.iter().enumerate() {
-            self.col_inv[c as usize] = k as u32;
         }
-        self.own.valid = false;
-        (
-            std::mem::replace(&mut self.col_fwd, order),
-            std::mem::replace(&mut self.preferred, preferred),
-        )
     }
 }
 
 /// `P A Q = L U` in pivot order: `L` unit lower triangular with its diagonal stored first in each
 /// column, `U` upper triangular with its diagonal stored last and the other rows of a column in
-/// increasing order (the order a left-looking refactorisation eliminates them in).
+/// a topological order of `L`'s dependencies (each row after every row whose column of `L`
+/// reaches it: the order a left-looking refactorisation eliminates them in).
 #[derive(Clone, Default)]
 pub(crate) struct Triangular {
     pub(crate) l_ptr: Vec<u32>,
@@ -161,6 +151,17 @@ impl Triangular {
     /// `nnz(L) + nnz(U)`.
     fn fill(&self) -> usize {
         self.l_val.len() + self.u_val.len()
+    }
+
+    /// Reserves the storage `other`'s factors take (a factorisation that fills in about as much
+    /// then grows none of it).
+    fn reserve_like(&mut self, other: &Self) {
+        self.l_row.reserve(other.l_row.len());
+        self.l_val.reserve(other.l_val.len());
+        self.u_row.reserve(other.u_row.len());
+        self.u_val.reserve(other.u_val.len());
+        self.l_ptr.reserve(other.l_ptr.len());
+        self.u_ptr.reserve(other.u_ptr.len());
     }
 }
 
@@ -319,7 +320,7 @@ impl LinearSolver for SparseLu {
         self.factors = Some(Factors {
             matrix: SparseColMat::new(pattern, vec![0.0; nnz]),
             slots,
-            order: Ordered::new(colamd),
+            order: Ordered::new((colamd, None)),
             split,
             symmetric: true,
             lu: Workspace::new(n),
@@ -367,7 +368,7 @@ impl LinearSolver for SparseLu {
                 f.try_symmetric()?;
             }
             if let Some(split) = f.split.take() {
-                f.try_split(split, self.split_max_fill)?;
+                f.try_split(split, self.split_max_fill);
             }
         }
         let tol = self.pivot_tol * largest;
@@ -505,68 +506,93 @@ impl Factors {
         pivoting::factorise(&a, &mut self.order, &mut self.lu)
     }
 
-    /// Factorises the same values with `order` in the same storage and keeps it if `keep`
-    /// accepts its fill `nnz(L) + nnz(U)` against the current order's; otherwise (or if it
-    /// fails, which the current order did not) the current order is factorised again. Both fills
-    /// are those of the values Newton actually factorises, with their pivots.
-    fn try_order(
-        &mut self,
-        order: ColumnOrder,
-        keep: impl Fn(usize, usize) -> bool,
-    ) -> Result<(), LinearSolveError> {
-        let fill = self.order.own.fill();
-        let previous = self.order.reorder(order);
-        let kept = self.factorise().is_ok() && keep(self.order.own.fill(), fill);
+    /// Factorises the same values with `order` and keeps it if `keep` accepts its fill
+    /// `nnz(L) + nnz(U)` against the current order's; otherwise (or if it fails, which the
+    /// current order did not) the current order and its factors stay. Both fills are those of
+    /// the values Newton actually factorises, with their pivots.
+    fn try_order(&mut self, order: ColumnOrder, keep: impl Fn(usize, usize) -> bool) {
+        let mut candidate = Ordered::new(order);
+        candidate.own.reserve_like(&self.order.own);
+        let previous = std::mem::replace(&mut self.order, candidate);
+        let kept = self.factorise().is_ok() && keep(self.order.own.fill(), previous.own.fill());
         if !kept {
-            self.order.reorder(previous);
-            self.factorise()?;
+            self.order = previous;
         }
-        Ok(())
     }
 
     /// After the first factorisations, tries the `split` order and keeps it if its fill is at
     /// most `max_fill` times the current one's (COLAMD's, or the symmetric order's where that
     /// was kept).
-    fn try_split(&mut self, split: Vec<u32>, max_fill: f64) -> Result<(), LinearSolveError> {
+    fn try_split(&mut self, split: Vec<u32>, max_fill: f64) {
         self.try_order((split, None), |fill, current| {
             fill as f64 <= max_fill * current as f64
-        })
+        });
     }
 
     /// After a first factorisation with COLAMD's order that filled in more than
     /// [`SYMMETRIC_TRY_FILL`] times the matrix, tries AMD's order on a maximum matching that
     /// keeps the diagonal where it can, pivoting on the matched rows while they pass the
     /// threshold test (KLU's strategy, `ordering::symmetric_order`), and keeps it if it fills
-    /// in less by more than [`SPLIT_MAX_FILL`] (the margin the split is kept within). COLAMD orders the columns for whatever row partial pivoting then takes; on step
-    /// matrices whose pattern is nearly symmetric (circuits: a node's equation and its potential)
-    /// a diagonal pivot is usually acceptable and AMD's order for it fills in far less: 8–16×
-    /// the matrix against 1.5–2× on CMOS netlists (audit item 47).
+    /// in less by more than [`SPLIT_MAX_FILL`] (the margin the split is kept within). COLAMD
+    /// orders the columns for whatever row partial pivoting then takes; on step matrices whose
+    /// pattern is nearly symmetric (circuits: a node's equation and its potential) a diagonal
+    /// pivot is usually acceptable and AMD's order for it fills in far less: 8–16× the matrix
+    /// against 1.5–2× on CMOS netlists (audit item 47). AMD's order is computed only where
+    /// COLAMD's pivots fall on the matching's pairs in at least [`SYMMETRIC_ON_PAIR_MIN`] of the
+    /// columns, and factorised only where AMD's own count of its fill is at most
+    /// [`SYMMETRIC_COUNT_MAX`] times the current fill.
     fn try_symmetric(&mut self) -> Result<(), LinearSolveError> {
         let (pattern, _) = self.matrix.parts();
-        if (self.order.own.fill() as f64) <= SYMMETRIC_TRY_FILL * pattern.row_idx().len() as f64 {
+        let current = self.order.own.fill() as f64;
+        if current <= SYMMETRIC_TRY_FILL * pattern.row_idx().len() as f64 {
             return Ok(());
         }
         let n = pattern.ncols();
         let Ok(matched) = maximum_matching(n, pattern.col_ptr(), pattern.row_idx(), true) else {
             return Ok(()); // the analysis found a matching; none here means nothing to try
         };
-        let order = symmetric_order(pattern, &matched)?;
+        let o = &self.order;
+        let on_pair = o.col_fwd.iter().zip(&o.row_perm);
+        let on_pair = on_pair.filter(|&(&c, &r)| matched[c as usize] == r).count();
+        if (on_pair as f64) < SYMMETRIC_ON_PAIR_MIN * n as f64 {
+            return Ok(());
+        }
+        let (order, counted) = symmetric_order(pattern, &matched)?;
+        if counted as f64 > SYMMETRIC_COUNT_MAX * current {
+            return Ok(());
+        }
         self.try_order((order, Some(matched)), |fill, current| {
             fill as f64 * SPLIT_MAX_FILL < current as f64
-        })
+        });
+        Ok(())
     }
 }
 
 /// The first factorisation must fill in more than this multiple of the matrix's entries for the
-/// symmetric order to be tried (its AMD order and one more factorisation in the first `factor`,
-/// once per pattern). Measured `nnz(L + U) / nnz(A)` with COLAMD's order: 5.7–12.4 on the step
-/// and operating-point matrices of CMOS inverter chains (the symmetric order filled in 3.8–7.3×
-/// less) and 2.1–3.7 on `cmos_ring.cir`'s (1.3–2.4× less); 2.0–2.5 on RLC ladders under Gauss 2
-/// to 4 and 2.6 on the rigid chain, where it did not gain 1.25×, and the try costs a short run:
-/// 5 % of 50 Gauss 2 steps of the 1000-section ladder, 12 % of 5 Gauss 4 steps. AMD's own count
-/// of its fill (with every pivot on its pair) does not tell these apart: it overestimates the
-/// factorisation's fill by 1.24–1.72× on both kinds.
+/// symmetric order to be tried (its AMD order, and one more factorisation in the first `factor`
+/// unless [`SYMMETRIC_COUNT_MAX`] rules it out; once per pattern). Measured `nnz(L + U) / nnz(A)`
+/// with COLAMD's order: 5.7–12.4 on the step and operating-point matrices of CMOS inverter chains
+/// (the symmetric order filled in 3.8–7.3× less) and 2.1–3.7 on `cmos_ring.cir`'s (1.3–2.4×
+/// less); 2.0–2.5 on RLC ladders under Gauss 2 to 4 and 2.6 on the rigid chain, where it did not
+/// gain 1.25×.
 const SYMMETRIC_TRY_FILL: f64 = 2.0;
+
+/// AMD's count of the symmetric order's fill (that of a Cholesky factor of the symmetrised
+/// pattern, so an overestimate for an unsymmetric one) above which the order is not factorised:
+/// the count exceeded the factorisation's fill by 1.24–1.72× on the matrices of
+/// [`SYMMETRIC_TRY_FILL`], so above 1.4 times the current fill a gain of 1.25× is unlikely. The
+/// ladders' counts were 1.51× COLAMD's fill (the try's factorisation had cost a 5-step Gauss 4
+/// run of the 1000-section ladder 12 %); `cmos_ring.cir`'s, which gain, 0.60–1.19×.
+const SYMMETRIC_COUNT_MAX: f64 = 1.4;
+
+/// Share of the columns whose pivot under COLAMD's order lies on the matching's pair below which
+/// the symmetric order is not computed. AMD models an elimination with every pivot on its pair;
+/// where partial pivoting put few pivots there (RLC ladders under Gauss 2 and 4: 0.30; the rigid
+/// chains and the motor arm, whose multiplier columns have no diagonal: 0.13–0.22), it has not
+/// filled in 1.25× less on any matrix measured, and its order cost as much as half the first
+/// factorisation (1.6 ms of AMD against 2.7 ms on the 1000-section ladder's Gauss 2 step, 5.4
+/// against 10.5 under Gauss 4). The CMOS matrices that gain had 0.49–0.82.
+const SYMMETRIC_ON_PAIR_MIN: f64 = 0.4;
 
 /// Patterns with fewer unknowns keep COLAMD's order without trying the split: their dependency
 /// chains are short, and the second factorisation of the first `factor` would be set-up cost
