@@ -32,7 +32,7 @@
 //! current source); [`Readout::velocity_determined`] and [`Readout::multiplier_determined`] say so,
 //! and the caller reads those from the steps instead.
 
-use dirac_core::{Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
+use dirac_core::{Constraints, Model, Triplets};
 use dirac_solve::{
     LinearSolveError, Newton, NewtonError, NewtonOptions, NewtonStats, NonlinearSystem, Precision,
     Structure,
@@ -40,6 +40,7 @@ use dirac_solve::{
 
 use std::sync::Arc;
 
+use crate::derivatives::Derivatives;
 use crate::linear::{AutoLu, SolverChoice};
 use crate::sharing::Sharing;
 
@@ -174,9 +175,8 @@ struct Work {
     lq: Vec<f64>,
     lv: Vec<f64>,
     f: Vec<f64>,
-    hessian: LagrangianHessian,
-    force_jacobian: ForceJacobian,
-    forms: Triplets,
+    /// `∂²L`, the force Jacobian and the forms at the state being read.
+    at: Derivatives,
     contracted: Triplets,
     /// The positions shifted by the sharing unknowns of `full` ([`Work::take_shifted`]).
     shifted: Vec<f64>,
@@ -527,24 +527,24 @@ impl Readout {
         for &r in &self.plan.overdetermined {
             match layout.kind(r) {
                 ReadoutRow::Force(i) => {
-                    for (row, j, _) in self.work.hessian.qq.iter() {
+                    for (row, j, _) in self.work.at.hessian.qq.iter() {
                         if row == i {
                             push(Unknown::Position(j));
                         }
                     }
-                    for (row, j, _) in self.work.force_jacobian.q.iter() {
+                    for (row, j, _) in self.work.at.force.q.iter() {
                         if row == i {
                             push(Unknown::Position(j));
                         }
                     }
                 }
                 ReadoutRow::Momentum(i) => {
-                    for (j, col, _) in self.work.hessian.qv.iter() {
+                    for (j, col, _) in self.work.at.hessian.qv.iter() {
                         if col == i {
                             push(Unknown::Position(j));
                         }
                     }
-                    for (row, j, _) in self.work.hessian.vv.iter() {
+                    for (row, j, _) in self.work.at.hessian.vv.iter() {
                         if row == i {
                             push(Unknown::Velocity(j));
                         }
@@ -570,10 +570,11 @@ impl Readout {
                 (ReadoutRow::Force(i), Unknown::Position(j)) => {
                     for (row, col, value) in self
                         .work
+                        .at
                         .hessian
                         .qq
                         .iter()
-                        .chain(self.work.force_jacobian.q.iter())
+                        .chain(self.work.at.force.q.iter())
                     {
                         if row == i && col == j {
                             worst = worst.max(value.abs());
@@ -581,14 +582,14 @@ impl Readout {
                     }
                 }
                 (ReadoutRow::Momentum(i), Unknown::Position(j)) => {
-                    for (row, col, value) in self.work.hessian.qv.iter() {
+                    for (row, col, value) in self.work.at.hessian.qv.iter() {
                         if row == j && col == i {
                             worst = worst.max(value.abs());
                         }
                     }
                 }
                 (ReadoutRow::Momentum(i), Unknown::Velocity(j)) => {
-                    for (row, col, value) in self.work.hessian.vv.iter() {
+                    for (row, col, value) in self.work.at.hessian.vv.iter() {
                         if row == i && col == j {
                             worst = worst.max(value.abs());
                         }
@@ -748,7 +749,7 @@ impl ReadoutPlan {
     ) -> Self {
         let n = model.dim();
         let m = constraints.count();
-        let sharing = Sharing::find(n, m, &work.hessian.vv, &work.force_jacobian.v, &work.forms);
+        let sharing = Sharing::find(n, m, &work.at.hessian.vv, &work.at.force.v, &work.at.forms);
         let layout = Layout {
             n,
             m,
@@ -961,23 +962,23 @@ impl Layout<'_> {
         }
         let sharing = self.sharing;
         if !sharing.coords.is_empty() {
-            for (i, k, value) in sharing.impulses(&work.force_jacobian.v) {
+            for (i, k, value) in sharing.impulses(&work.at.force.v) {
                 r1[i] -= value * delta[k];
             }
-            for (l, k, value) in sharing.flows(&work.forms) {
+            for (l, k, value) in sharing.flows(&work.at.forms) {
                 r5[l] += value * delta[k];
             }
         }
-        for (row, j, value) in work.forms.iter() {
+        for (row, j, value) in work.at.forms.iter() {
             r1[j] -= value * gamma[row];
             r2[row] += value * v[j];
             r3[j] += value * lambda[row];
             r4[row] += value * a[j];
         }
-        for (i, j, value) in work.hessian.vv.iter() {
+        for (i, j, value) in work.at.hessian.vv.iter() {
             r3[i] += value * a[j];
         }
-        for (j, i, value) in work.hessian.qv.iter() {
+        for (j, i, value) in work.at.hessian.qv.iter() {
             r3[i] += value * v[j];
         }
         for (row, l, value) in work.contracted.iter() {
@@ -990,20 +991,20 @@ impl Layout<'_> {
         let (n, m) = (self.n, self.m);
         let (v0, g0, a0, l0) = (0, n, n + m, 2 * n + m);
         let (r1, r2, r3, r4) = (0, n, n + m, 2 * n + m);
-        for (i, j, value) in work.hessian.vv.iter() {
+        for (i, j, value) in work.at.hessian.vv.iter() {
             emit(r1 + i, v0 + j, value);
             emit(r3 + i, a0 + j, value);
         }
-        for (j, i, value) in work.hessian.qv.iter() {
+        for (j, i, value) in work.at.hessian.qv.iter() {
             // ∂/∂v of ∂²L/∂v∂q·v (third derivatives of L left out: the readout's Newton is then
             // a chord method in that term, converging to the same solution) and of −∂L/∂q.
             emit(r3 + i, v0 + j, value);
             emit(r3 + j, v0 + i, -value);
         }
-        for (i, j, value) in work.force_jacobian.v.iter() {
+        for (i, j, value) in work.at.force.v.iter() {
             emit(r3 + i, v0 + j, -value);
         }
-        for (a, j, value) in work.forms.iter() {
+        for (a, j, value) in work.at.forms.iter() {
             emit(r1 + j, g0 + a, -value);
             emit(r2 + a, v0 + j, value);
             emit(r3 + j, l0 + a, value);
@@ -1019,20 +1020,20 @@ impl Layout<'_> {
         // The shifts: positions move the terms that depend on them (second derivatives of the
         // constraints left out, a chord in that term as above), rates push momenta.
         let (d0, r5) = (2 * n + 2 * m, 2 * n + 2 * m);
-        for (j, i, value) in work.hessian.qv.iter() {
+        for (j, i, value) in work.at.hessian.qv.iter() {
             if let Some(k) = sharing.shift(j) {
                 emit(r1 + i, d0 + k, value);
             }
         }
-        for (i, j, value) in work.hessian.qq.iter().chain(work.force_jacobian.q.iter()) {
+        for (i, j, value) in work.at.hessian.qq.iter().chain(work.at.force.q.iter()) {
             if let Some(k) = sharing.shift(j) {
                 emit(r3 + i, d0 + k, -value);
             }
         }
-        for (i, k, value) in sharing.impulses(&work.force_jacobian.v) {
+        for (i, k, value) in sharing.impulses(&work.at.force.v) {
             emit(r1 + i, d0 + k, -value);
         }
-        for (l, k, value) in sharing.flows(&work.forms) {
+        for (l, k, value) in sharing.flows(&work.at.forms) {
             emit(r5 + l, d0 + k, value);
         }
     }
@@ -1088,17 +1089,7 @@ impl Work {
         v: &[f64],
         t: f64,
     ) {
-        self.hessian.begin();
-        model.lagrangian_hessian(q, v, &mut self.hessian);
-        self.hessian.freeze();
-        self.force_jacobian.begin();
-        if model.has_force() {
-            model.force_jacobian(q, v, t, &mut self.force_jacobian);
-        }
-        self.force_jacobian.freeze();
-        self.forms.begin();
-        constraints.forms(q, &mut self.forms);
-        self.forms.freeze();
+        self.at.stamp(model, constraints, q, v, t);
         self.contracted.begin();
         constraints.contracted_derivative(q, v, &mut self.contracted);
         self.contracted.freeze();
