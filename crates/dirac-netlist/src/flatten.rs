@@ -632,23 +632,37 @@ fn instance_temperature(
     dtemp.map(|d| Ok(circuit + scope.eval(d)?)).transpose()
 }
 
+/// The field of a MOSFET's geometry each instance parameter sets, by its name on the card.
+type GeometryField = (&'static str, fn(&mut MosfetGeometry) -> &mut f64);
+
+/// The instance parameters of a MOSFET that can be set by name, with the field each sets.
+const MOSFET_INSTANCE_FIELDS: [GeometryField; 9] = [
+    ("l", |g| &mut g.l),
+    ("w", |g| &mut g.w),
+    ("ad", |g| &mut g.ad),
+    ("as", |g| &mut g.as_),
+    ("pd", |g| &mut g.pd),
+    ("ps", |g| &mut g.ps),
+    ("nrd", |g| &mut g.nrd),
+    ("nrs", |g| &mut g.nrs),
+    ("m", |g| &mut g.m),
+];
+
 /// The instance parameters of a MOSFET that can be set by name, as its card writes them.
-pub const MOSFET_INSTANCE_KEYS: [&str; 9] = ["l", "w", "ad", "as", "pd", "ps", "nrd", "nrs", "m"];
+pub const MOSFET_INSTANCE_KEYS: [&str; 9] = {
+    let mut keys = [""; 9];
+    let mut i = 0;
+    while i < keys.len() {
+        keys[i] = MOSFET_INSTANCE_FIELDS[i].0;
+        i += 1;
+    }
+    keys
+};
 
 /// The field of `geometry` an instance parameter `key` (lowercase) sets.
 fn geometry_slot<'g>(geometry: &'g mut MosfetGeometry, key: &str) -> Option<&'g mut f64> {
-    Some(match key {
-        "l" => &mut geometry.l,
-        "w" => &mut geometry.w,
-        "ad" => &mut geometry.ad,
-        "as" => &mut geometry.as_,
-        "pd" => &mut geometry.pd,
-        "ps" => &mut geometry.ps,
-        "nrd" => &mut geometry.nrd,
-        "nrs" => &mut geometry.nrs,
-        "m" => &mut geometry.m,
-        _ => return None,
-    })
+    let (_, field) = MOSFET_INSTANCE_FIELDS.iter().find(|(k, _)| *k == key)?;
+    Some(field(geometry))
 }
 
 /// An `M` card's instance parameters as a geometry (ngspice's defaults for the rest) and its
