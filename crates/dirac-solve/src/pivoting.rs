@@ -104,15 +104,7 @@ fn eliminate(
         // The reach of the column's rows through L, in topological order at reach[top..].
         let mut top = n;
         for &r in &a.row_idx[start..end] {
-            if ws.mark[r as usize] == stamp {
-                continue;
-            }
-            if pinv[r as usize] == UNPIVOTED {
-                // A row not yet pivoted reaches nothing further.
-                ws.mark[r as usize] = stamp;
-                top -= 1;
-                ws.reach[top] = r;
-            } else {
+            if ws.mark[r as usize] != stamp {
                 top = reach_from(r, stamp, top, out, pinv, ws);
             }
         }
