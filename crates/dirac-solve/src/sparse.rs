@@ -404,11 +404,9 @@ impl LinearSolver for SparseLu {
         let Some(f) = self.factors.as_mut() else {
             return Ok(()); // 0×0
         };
-        // P A Q = L U: gather by the row permutation, solve with the unit
-        // lower factor (its diagonal stored first in each column) and the upper factor (diagonal
-        // stored last), scatter by the column permutation. Written out here rather than through
-        // `solve_in_place_with_conj`, which copies the right-hand side twice and re-validates
-        // both permutations on every call.
+        // P A Q = L U: gather by the row permutation, solve with the unit lower factor (its
+        // diagonal stored first in each column) and the upper factor (diagonal stored last),
+        // scatter by the column permutation.
         let w: &mut [f64] = &mut f.work;
         for (wi, &p) in w.iter_mut().zip(&f.order.row_perm) {
             *wi = rhs[p as usize];
@@ -450,7 +448,7 @@ impl LinearSolver for SparseLu {
 /// and keeps it only while every multiplier satisfies `|L_ij| ≤ 1/PIVOT_THRESHOLD`: each kept
 /// pivot is at least [`PIVOT_THRESHOLD`] times the largest candidate of its column, the test of
 /// threshold partial pivoting. Returns whether it kept them; otherwise `f.own` is invalid until
-/// the next pivoting factorisation is captured.
+/// the next pivoting factorisation.
 fn refactor(f: &mut Factors) -> bool {
     let o = &mut f.order;
     let t = &mut o.own;
@@ -637,10 +635,11 @@ fn slot_map(
 /// its own row, and augmenting paths only move a pair where they must (the symmetric order's
 /// pairing, `ordering::symmetric_order`).
 ///
-/// faer's numeric LU reports structural singularity only when no candidate pivot row is left,
-/// which depends on the column order and misses some cases: on random 30×30 patterns with a
-/// planted deficiency it let 11 % through, returning NaN or finite garbage (|x| ~ 1e18). This is Duff's augmenting-path algorithm (MC21, as in
-/// CSparse's `cs_maxtrans`) with a cheap-assignment lookahead, written without recursion.
+/// A pivoting LU reports structural singularity only when no candidate pivot row is left, which
+/// depends on the column order and misses some cases: on random 30×30 patterns with a planted
+/// deficiency faer's let 11 % through, returning NaN or finite garbage (|x| ~ 1e18). This is
+/// Duff's augmenting-path algorithm (MC21, as in CSparse's `cs_maxtrans`) with a
+/// cheap-assignment lookahead, written without recursion.
 pub(crate) fn maximum_matching(
     n: usize,
     col_ptr: &[u32],
