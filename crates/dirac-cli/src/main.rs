@@ -632,7 +632,11 @@ fn op(args: &OpArgs) -> Result<(), Failure> {
 /// Writes the operating point of `model` as a `signal,value` table or one JSON object
 /// ([`write_text`]).
 fn operating_point(model: &Model, json: bool, out: &mut impl Write) -> Result<(), Failure> {
-    let values = model.operating_point()?;
+    let point = model.operating_point()?;
+    for w in &point.warnings {
+        eprintln!("warning: {w}");
+    }
+    let values = point.values;
     let text = if json {
         let mut map = serde_json::Map::new();
         for (name, value) in values {

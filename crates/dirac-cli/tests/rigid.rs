@@ -166,16 +166,7 @@ fn the_static_equilibrium_of_a_mechanism() {
     let released = "q0 = { x = 0.8414709848078965, y = -0.5403023058681398 }";
     assert!(text.contains(released));
     std::fs::write(&level, text.replace(released, "q0 = { x = 1.0, y = 0.0 }")).expect("written");
-    let op = |path: &Path| {
-        stdout_of(&dirac("op", path, &[]), &path.display().to_string())
-            .lines()
-            .skip(1)
-            .map(|l| {
-                let (name, value) = l.split_once(',').expect("signal,value");
-                (name.to_string(), value.parse::<f64>().expect("number"))
-            })
-            .collect::<Vec<_>>()
-    };
+    let op = |path: &Path| op_values(path).0;
     for path in [scene("cartesian_pendulum.toml"), level] {
         let pendulum = op(&path);
         let value = |name: &str| {
@@ -198,18 +189,76 @@ fn the_static_equilibrium_of_a_mechanism() {
     );
 }
 
-/// The heavy top's steady states form a continuum (it may be turned about the vertical): Newton
-/// reaches one, its equations hold to round-off (2.5e-27 against 0.41 at the start), and the
-/// matrix there is singular. `dirac op` says so and names the cause instead of "did not
-/// converge … try UIC" (exit 1: no isolated steady state to print).
+/// `op`'s values as `(signal, value)`, with its stderr.
+fn op_values(path: &Path) -> (Vec<(String, f64)>, String) {
+    let out = dirac("op", path, &[]);
+    let values = stdout_of(&out, &path.display().to_string())
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let (name, value) = l.split_once(',').expect("signal,value");
+            (name.to_string(), value.parse::<f64>().expect("number"))
+        })
+        .collect();
+    (values, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// The heavy top's steady states form a continuum (it may be turned about the vertical), so
+/// Newton's matrix is singular at every one of them: `dirac op` stopped there with "no isolated
+/// steady state". Stiffness stepping's proximal iteration (a soft spring whose anchor follows
+/// the solution) now settles on one, and `op` prints it with a warning that it is not isolated.
+/// What must hold at any equilibrium of a top on a spherical pivot, whatever Newton reaches: the
+/// centre of mass on the vertical through the pivot, at its distance 0.15 m (upright or hanging),
+/// at rest, the pivot carrying the weight `m g` = 1.2 · 9.81 N.
 #[test]
-fn a_steady_state_that_is_not_isolated_is_named() {
-    let out = dirac("op", &scene("heavy_top.toml"), &[]);
-    assert_eq!(out.status.code(), Some(1));
-    assert!(out.stdout.is_empty());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+fn a_steady_state_that_is_not_isolated_is_found_and_named() {
+    let (top, stderr) = op_values(&scene("heavy_top.toml"));
+    let value = |name: &str| {
+        top.iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+            .expect(name)
+    };
     assert!(
-        stderr.contains("no isolated steady state") && stderr.contains("symmetry"),
+        stderr.contains("not isolated") && stderr.contains("symmetry"),
         "{stderr}"
+    );
+    assert!(
+        value("top.x").abs() < 1e-12 && value("top.y").abs() < 1e-12,
+        "{top:?}"
+    );
+    assert!((value("top.z").abs() - 0.15).abs() < 1e-12, "{top:?}");
+    for w in ["top.w1", "top.w2", "top.w3", "top.wz"] {
+        assert!(value(w).abs() < 1e-12, "{top:?}");
+    }
+    assert!((value("pivot.fz") - 1.2 * 9.81).abs() < 1e-9, "{top:?}");
+}
+
+/// The bundled pendulum chain (ten links of 0.7 kg on hinges about y, each hinge 0.3 m from the
+/// last link's centre of mass, the first at its own) stopped `dirac op` with a singular matrix
+/// at the end of stiffness stepping, 4.5e-6 N from balance: the last link's centre of mass sits
+/// on its hinge, so it may hang at any angle. Its equilibrium hangs straight down, every link's
+/// centre of mass 0.3 m below the last (potential energy `−m g 0.3 (0 + 1 + … + 9)`), and the
+/// proximal iteration leaves the free angle where it started (4.0 rad about y).
+#[test]
+fn the_hanging_chain_has_its_equilibrium() {
+    let (chain, stderr) = op_values(&scene("pendulum_chain.toml"));
+    let value = |name: &str| {
+        chain
+            .iter()
+            .find(|(n, _)| n == name)
+            .map(|(_, v)| *v)
+            .expect(name)
+    };
+    assert!(stderr.contains("not isolated"), "{stderr}");
+    assert!(value("link9.x").abs() < 1e-12, "{chain:?}");
+    assert!((value("link9.z") + 2.7).abs() < 1e-12, "{chain:?}");
+    assert!(
+        (value("energy") + 0.7 * 9.81 * 0.3 * 45.0).abs() < 1e-9,
+        "{chain:?}"
+    );
+    assert!(
+        (value("link9.r11") - 4.0_f64.cos()).abs() < 1e-9,
+        "{chain:?}"
     );
 }

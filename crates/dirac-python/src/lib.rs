@@ -458,10 +458,12 @@ impl PyModel {
         Ok(d)
     }
 
-    /// The operating point (steady state with the sources at t = 0): `(signal, value)` pairs.
-    fn operating_point(&self, py: Python<'_>) -> PyResult<Vec<(String, f64)>> {
+    /// The operating point (steady state with the sources at t = 0): `(signal, value)` pairs
+    /// and the set-up's warnings.
+    fn operating_point(&self, py: Python<'_>) -> PyResult<(Vec<(String, f64)>, Vec<String>)> {
         let model = &self.inner;
-        py.detach(|| model.operating_point()).map_err(to_py)
+        let point = py.detach(|| model.operating_point()).map_err(to_py)?;
+        Ok((point.values, point.warnings))
     }
 }
 

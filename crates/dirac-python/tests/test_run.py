@@ -48,6 +48,18 @@ def test_package_writes_the_cli_csv(path, cli):
     assert model.run().to_csv() == expected
 
 
+def test_an_operating_point_that_is_not_isolated_warns():
+    """The heavy top may be turned about the vertical at its equilibrium: ``dirac op`` warns that
+    the steady state is not isolated, the package issues that warning as a RuntimeWarning, and
+    the point is an equilibrium (centre of mass on the vertical through the pivot, 0.15 m from
+    it)."""
+    model = dirac.load(EXAMPLES / "scenes" / "heavy_top.toml")
+    with pytest.warns(RuntimeWarning, match="not isolated"):
+        point = model.operating_point()
+    assert abs(point["top.x"]) < 1e-12 and abs(point["top.y"]) < 1e-12
+    assert abs(abs(point["top.z"]) - 0.15) < 1e-12
+
+
 def test_options_reach_the_run_as_on_the_command_line(cli):
     path = EXAMPLES / "netlists" / "seed_rlc.cir"
     expected = cli(

@@ -496,6 +496,11 @@ impl Simulation {
                 self.t0,
                 &holds,
             )?;
+            if !steady.isolated {
+                self.warnings.push(
+                    "the steady state is not isolated: its Newton matrix is singular there, so a symmetry leaves it free to move along some direction (a body turned about the axis of gravity, a link spun about its own axis); this is the equilibrium the proximal iteration of stiffness stepping reached from the start".to_string(),
+                );
+            }
             q.clone_from(&steady.q);
             v.clone_from(&steady.v);
             integrator.initialise(&q, &v, self.t0)?;

@@ -100,6 +100,11 @@ pub struct SteadyState {
     /// Continuation solves taken: gmin, source or stiffness steps (0 when plain Newton
     /// converged).
     pub gmin_steps: usize,
+    /// Whether the steady state is isolated (its Newton matrix regular). A mechanism with a
+    /// symmetry (a heavy top turned about the vertical, a link spun about its own axis) has a
+    /// continuum of equilibria; the one given is where the proximal iteration of stiffness
+    /// stepping settles from the start.
+    pub isolated: bool,
 }
 
 /// Gmin stepping's first conductance (ngspice's `OldGmin`), its largest ratio between two
@@ -152,6 +157,7 @@ impl SteadyState {
         let start = x.clone();
         let plain = newton.solve(&mut system, &mut x);
         let mut gmin_steps = 0;
+        let mut isolated = true;
         match plain {
             Ok(stats) => iterations += stats.iterations,
             Err(first) => {
@@ -171,7 +177,11 @@ impl SteadyState {
                     last = source_stepping(&mut system, &mut newton, &mut x, &mut steps, last);
                 }
                 if last.is_err() && system.holonomic {
-                    last = stiffness_stepping(&mut system, &mut newton, &start, &mut x, &mut steps);
+                    last = stiffness_stepping(&mut system, &mut newton, &start, &mut x, &mut steps)
+                        .map(|(stats, regular)| {
+                            isolated = regular;
+                            stats
+                        });
                 }
                 gmin_steps = steps.solves;
                 if let Err(source) = last {
@@ -214,6 +224,7 @@ impl SteadyState {
             cyclic,
             iterations,
             gmin_steps,
+            isolated,
         })
     }
 }
@@ -357,20 +368,31 @@ fn source_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
 /// Springs of stiffness stepping before the last solve without one, as multiples of the
 /// start's force scale per unit of its position scale, from stiff to soft.
 const STIFFNESS_SCHEDULE: [f64; 9] = [1e2, 1e1, 1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-5, 1e-6];
+/// Most solves of the proximal iteration after stiffness stepping.
+const PROXIMAL_MOST_SOLVES: usize = 50;
 
 /// The mechanical counterpart of gmin stepping, for a model with holonomic rows whose Newton
 /// fails from its start (a pendulum released level: gravity normal to its rod, a balancing
 /// multiplier of zero, a singular first matrix): a spring ties every non-cyclic coordinate to
 /// its start and is relaxed along [`STIFFNESS_SCHEDULE`], then removed, each solve from the
 /// last. The spring's scale is the start's largest unbalanced force per unit of its largest
-/// position. Returns the first failure or the last solve's outcome.
+/// position.
+///
+/// Where the solve without a spring fails (a continuum of equilibria: a hanging chain whose
+/// links may spin about their own axes makes that matrix singular), the softest spring stays
+/// and its anchor follows the solution: each solve ties the coordinates to the last one (the
+/// proximal point iteration; Adams' static solver adds a fraction of the mass matrix for the
+/// same reason). At its fixed point the spring is slack, so the equations hold without it, and
+/// along the free directions nothing moves. It stops once a solve moves no position by more
+/// than Newton's update tolerance of the largest; a last solve without the spring then tells
+/// whether the point is isolated. Returns the outcome and whether the steady state is isolated.
 fn stiffness_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     system: &mut SteadySystem<'_, M, C>,
     newton: &mut Newton<AutoLu>,
     start: &[f64],
     x: &mut [f64],
     steps: &mut Steps<'_>,
-) -> Result<NewtonStats, NewtonError> {
+) -> Result<(NewtonStats, bool), NewtonError> {
     let n = system.n();
     x.copy_from_slice(start);
     let mut r = vec![0.0; x.len()];
@@ -384,15 +406,66 @@ fn stiffness_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     } else {
         1.0
     };
+    let outcome = relax_springs(system, newton, x, steps, scale);
+    system.stiffness = 0.0;
+    system.anchor.copy_from_slice(system.q0);
+    outcome
+}
+
+/// [`stiffness_stepping`]'s solves, from the spring at the start's anchor to none.
+fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
+    system: &mut SteadySystem<'_, M, C>,
+    newton: &mut Newton<AutoLu>,
+    x: &mut [f64],
+    steps: &mut Steps<'_>,
+    scale: f64,
+) -> Result<(NewtonStats, bool), NewtonError> {
     for &k in &STIFFNESS_SCHEDULE {
         system.stiffness = k * scale;
-        if let Err(e) = steps.solve(system, newton, x) {
-            system.stiffness = 0.0;
-            return Err(e);
+        steps.solve(system, newton, x)?;
+    }
+    let softest = system.stiffness;
+    let held = x.to_vec();
+    system.stiffness = 0.0;
+    let failure = match steps.solve(system, newton, x) {
+        Ok(stats) => return Ok((stats, true)),
+        Err(e) => e,
+    };
+    x.copy_from_slice(&held);
+    system.stiffness = softest;
+    let tolerance = newton.options().update_tol;
+    let mut converged = None;
+    for _ in 0..PROXIMAL_MOST_SOLVES {
+        for j in (0..system.n()).filter(|&j| !system.cyclic[j]) {
+            system.anchor[j] = x[j];
+        }
+        let stats = steps.solve(system, newton, x)?;
+        let (mut moved, mut largest) = (0.0_f64, 0.0_f64);
+        for j in (0..system.n()).filter(|&j| !system.cyclic[j]) {
+            moved = moved.max((x[j] - system.anchor[j]).abs());
+            largest = largest.max(x[j].abs());
+        }
+        if moved <= tolerance * largest {
+            converged = Some(stats);
+            break;
         }
     }
+    let Some(stats) = converged else {
+        return Err(failure);
+    };
     system.stiffness = 0.0;
-    steps.solve(system, newton, x)
+    let settled = x.to_vec();
+    match steps.solve(system, newton, x) {
+        Ok(stats) => Ok((stats, true)),
+        Err(NewtonError::Linear {
+            source: LinearSolveError::NumericallySingular { .. },
+            ..
+        }) => {
+            x.copy_from_slice(&settled);
+            Ok((stats, false))
+        }
+        Err(e) => Err(e),
+    }
 }
 
 /// Which coordinates nothing `q`-dependent contains: evaluated from the derivative values at the
@@ -475,6 +548,9 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     /// coordinate to its start (stiffness stepping, the mechanical gmin stepping).
     holonomic: bool,
     stiffness: f64,
+    /// The positions the spring ties the coordinates to: the start, then (the proximal
+    /// iteration) the last solve's.
+    anchor: Vec<f64>,
     /// Source stepping's `F(0)` (empty when off), of which `source_weight = 1 − α` is taken
     /// out of the residual: at `α = 0` the sources (every constant term of the equations) are
     /// off and `x = 0` solves.
@@ -515,6 +591,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             cyclic,
             gmin: 0.0,
             stiffness: 0.0,
+            anchor: q0.to_vec(),
             sources: Vec::new(),
             source_weight: 0.0,
             q: q0.to_vec(),
@@ -854,7 +931,7 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for SteadySyste
         }
         if self.stiffness != 0.0 {
             for j in (0..n).filter(|&j| !self.cyclic[j]) {
-                r[j] -= self.stiffness * (self.q[j] - self.q0[j]);
+                r[j] -= self.stiffness * (self.q[j] - self.anchor[j]);
             }
         }
         r[n..].fill(0.0);

@@ -186,6 +186,15 @@ impl Sink for FromTime<'_> {
     }
 }
 
+/// An operating point: each signal's value at the steady state, and what the set-up warned of.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OperatingPoint {
+    /// `(signal, value)` in the order of the model's signals.
+    pub values: Vec<(String, f64)>,
+    /// The set-up's warnings (for a mechanism: a steady state that is not isolated).
+    pub warnings: Vec<String>,
+}
+
 /// One representation's deviation from the monolithic run (`dirac compare`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Comparison {
@@ -484,11 +493,12 @@ impl Model {
     }
 
     /// The operating point (steady state with the sources at `t = 0`): a netlist's node voltages
-    /// and inductor and source currents as SPICE's `.op` prints them, a scene's signals.
+    /// and inductor and source currents as SPICE's `.op` prints them, a scene's signals, with
+    /// the set-up's warnings (a steady state that is not isolated, dropped redundant rows).
     ///
     /// # Errors
     /// A model without a steady state, or Newton failing to find it.
-    pub fn operating_point(&self) -> Result<Vec<(String, f64)>, StudyError> {
+    pub fn operating_point(&self) -> Result<OperatingPoint, StudyError> {
         let settings = RunSettings {
             h: Some(1.0),
             t_end: Some(0.0),
@@ -522,11 +532,14 @@ impl Model {
             }
         };
         let (trajectory, _) = simulation.run(0.0, &signals)?;
-        Ok(signals
-            .iter()
-            .zip(trajectory.row(0))
-            .map(|(s, v)| (s.name.clone(), *v))
-            .collect())
+        Ok(OperatingPoint {
+            values: signals
+                .iter()
+                .zip(trajectory.row(0))
+                .map(|(s, v)| (s.name.clone(), *v))
+                .collect(),
+            warnings: simulation.warnings().to_vec(),
+        })
     }
 
     /// Runs every representation (and for a scene both staggered splittings) with the file's

@@ -101,6 +101,7 @@ fn a_param_sets_every_expression_that_uses_it() {
     let drain = |m: &Model| {
         m.operating_point()
             .expect("operating point")
+            .values
             .into_iter()
             .find(|(n, _)| n == "v(d)")
             .map(|(_, v)| v)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from typing import Dict, Iterable, List, Mapping, NamedTuple, Optional, Union
 
 from . import _dirac
@@ -225,8 +226,13 @@ class Model:
         return self._inner.check()
 
     def operating_point(self) -> Dict[str, float]:
-        """The steady state with the sources at t = 0 (``dirac op``)."""
-        return dict(self._inner.operating_point())
+        """The steady state with the sources at t = 0 (``dirac op``). The set-up's warnings
+        (a steady state that is not isolated, redundant rows dropped) are issued as
+        ``RuntimeWarning``."""
+        values, notes = self._inner.operating_point()
+        for note in notes:
+            warnings.warn(note, RuntimeWarning, stacklevel=2)
+        return dict(values)
 
 
 def load(path: PathLike) -> Model:
