@@ -97,6 +97,9 @@ fn numerical_fields(e: &RunError) -> (Option<usize>, Option<f64>, Option<f64>) {
     }
 }
 
+/// An operating point as `(signal, value)` pairs, with the set-up's warnings.
+type PointAndWarnings = (Vec<(String, f64)>, Vec<String>);
+
 /// The Python exception for `e`: `SimulationError` for a numerical failure, `InputError` else.
 fn to_py(e: StudyError) -> PyErr {
     Python::attach(|py| match exception(py, &e) {
@@ -460,7 +463,7 @@ impl PyModel {
 
     /// The operating point (steady state with the sources at t = 0): `(signal, value)` pairs
     /// and the set-up's warnings.
-    fn operating_point(&self, py: Python<'_>) -> PyResult<(Vec<(String, f64)>, Vec<String>)> {
+    fn operating_point(&self, py: Python<'_>) -> PyResult<PointAndWarnings> {
         let model = &self.inner;
         let point = py.detach(|| model.operating_point()).map_err(to_py)?;
         Ok((point.values, point.warnings))
