@@ -415,6 +415,18 @@ impl Model for AssembledModel {
         Ok(())
     }
 
+    /// The largest turn of any part's body.
+    fn step_turn(&self, q0: &[f64], q1: &[f64]) -> f64 {
+        self.parts
+            .iter()
+            .filter(|p| p.has_step_check)
+            .map(|p| {
+                let r = p.offset..p.offset + p.dim;
+                p.model.step_turn(&q0[r.clone()], &q1[r])
+            })
+            .fold(0.0, f64::max)
+    }
+
     fn coordinate_name(&self, i: usize) -> String {
         self.names[i].clone()
     }
@@ -1196,6 +1208,9 @@ impl Model for FrozenCouplingModel {
     }
     fn check_step(&self, q0: &[f64], q1: &[f64]) -> Result<(), String> {
         self.inner.check_step(q0, q1)
+    }
+    fn step_turn(&self, q0: &[f64], q1: &[f64]) -> f64 {
+        self.inner.step_turn(q0, q1)
     }
     fn coordinate_name(&self, i: usize) -> String {
         self.inner.coordinate_name(i)

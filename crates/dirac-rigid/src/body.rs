@@ -342,21 +342,25 @@ impl Model for RigidBody {
     /// that turns a body by more than a quarter turn is accurate, so the bound rejects only
     /// spurious roots and steps too long to be of use; the integrator cuts either.
     fn check_step(&self, q0: &[f64], q1: &[f64]) -> Result<(), String> {
+        let turn = self.step_turn(q0, q1);
+        if turn < std::f64::consts::FRAC_PI_2 {
+            Ok(())
+        } else {
+            Err(format!(
+                "turned by {turn:.3} rad in one step (a quarter turn or more: a root of the step \
+                 equations that the motion does not take, or a step too long for the rotation)"
+            ))
+        }
+    }
+
+    /// The angle of `R₀ᵀR₁`, from its trace `1 + 2 cos θ`.
+    fn step_turn(&self, q0: &[f64], q1: &[f64]) -> f64 {
         let (r0, r1) = (Self::rotation(q0), Self::rotation(q1));
         let trace: f64 = (0..3)
             .flat_map(|i| (0..3).map(move |j| (i, j)))
             .map(|(i, j)| r0[i][j] * r1[i][j])
             .sum();
-        let cos = (trace - 1.0) / 2.0;
-        if cos > 0.0 {
-            Ok(())
-        } else {
-            Err(format!(
-                "turned by {:.3} rad in one step (a quarter turn or more: a root of the step \
-                 equations that the motion does not take, or a step too long for the rotation)",
-                cos.clamp(-1.0, 1.0).acos()
-            ))
-        }
+        ((trace - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
     }
 
     fn coordinate_name(&self, i: usize) -> String {
