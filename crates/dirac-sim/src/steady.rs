@@ -21,13 +21,14 @@
 //! to ground, a compliance in every one-form row, decreased to 0), then source stepping for a
 //! circuit or stiffness stepping for a model with holonomic rows.
 
-use dirac_core::{ConstraintKind, Constraints, ForceJacobian, LagrangianHessian, Model, Triplets};
+use dirac_core::{ConstraintKind, Constraints, Model, Triplets};
 use dirac_solve::{
     LinearSolveError, LinearSolver, Newton, NewtonError, NewtonOptions, NewtonStats,
     NonlinearSystem, Structure,
 };
 use thiserror::Error;
 
+use crate::derivatives::Derivatives;
 use crate::linear::{AutoLu, SolverChoice};
 
 /// A steady state that could not be found.
@@ -488,34 +489,24 @@ fn classify<M: Model + ?Sized, C: Constraints + ?Sized>(
         .collect();
     let zeros = vec![0.0; n];
     for (qq, vv) in [(q, &zeros[..]), (&perturbed[..], &rates[..])] {
-        let mut hessian = LagrangianHessian::default();
-        hessian.begin();
-        model.lagrangian_hessian(qq, vv, &mut hessian);
-        for (i, j, value) in hessian.qq.iter() {
+        let derivatives = Derivatives::at(model, constraints, qq, vv, t0);
+        for (i, j, value) in derivatives.hessian.qq.iter() {
             if value != 0.0 {
                 cyclic[i] = false;
                 cyclic[j] = false;
             }
         }
-        for (i, _, value) in hessian.qv.iter() {
+        for (i, _, value) in derivatives.hessian.qv.iter() {
             if value != 0.0 {
                 cyclic[i] = false;
             }
         }
-        if model.has_force() {
-            let mut jacobian = ForceJacobian::default();
-            jacobian.begin();
-            model.force_jacobian(qq, vv, t0, &mut jacobian);
-            for (_, j, value) in jacobian.q.iter() {
-                if value != 0.0 {
-                    cyclic[j] = false;
-                }
+        for (_, j, value) in derivatives.force.q.iter() {
+            if value != 0.0 {
+                cyclic[j] = false;
             }
         }
-        let mut forms = Triplets::new();
-        forms.begin();
-        constraints.forms(qq, &mut forms);
-        for (a, j, value) in forms.iter() {
+        for (a, j, value) in derivatives.forms.iter() {
             if value != 0.0 && constraints.kind(a) == ConstraintKind::Holonomic {
                 cyclic[j] = false;
             }
@@ -561,9 +552,8 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     lq: Vec<f64>,
     lv: Vec<f64>,
     f: Vec<f64>,
-    hessian: LagrangianHessian,
-    force_jacobian: ForceJacobian,
-    forms: Triplets,
+    /// The Lagrangian Hessian, force Jacobian and constraint forms at the loaded state.
+    derivatives: Derivatives,
     curvature: Triplets,
     contracted: Triplets,
     g: Vec<f64>,
@@ -599,9 +589,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             lq: vec![0.0; n],
             lv: vec![0.0; n],
             f: vec![0.0; n],
-            hessian: LagrangianHessian::default(),
-            force_jacobian: ForceJacobian::default(),
-            forms: Triplets::new(),
+            derivatives: Derivatives::default(),
             curvature: Triplets::new(),
             contracted: Triplets::new(),
             g: vec![0.0; m],
@@ -645,57 +633,40 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
         }
     }
 
-    /// Stamps every derivative at the loaded state.
+    /// Stamps every derivative at the loaded state: [`Derivatives::stamp`], the constraints'
+    /// curvature `λ·∂²g/∂q²` and their contracted derivative.
     fn stamp(&mut self, lambda: &[f64]) {
-        self.hessian.begin();
-        self.model
-            .lagrangian_hessian(&self.q, &self.v, &mut self.hessian);
-        self.force_jacobian.begin();
-        if self.model.has_force() {
-            self.model
-                .force_jacobian(&self.q, &self.v, self.t0, &mut self.force_jacobian);
-        }
-        self.forms.begin();
-        self.constraints.forms(&self.q, &mut self.forms);
+        self.derivatives
+            .stamp(self.model, self.constraints, &self.q, &self.v, self.t0);
         self.curvature.begin();
         self.constraints
             .multiplier_hessian(&self.q, lambda, &mut self.curvature);
+        self.curvature.freeze();
         self.contracted.begin();
         self.constraints
             .contracted_derivative(&self.q, &self.v, &mut self.contracted);
-        for t in [
-            &mut self.hessian.qq,
-            &mut self.hessian.qv,
-            &mut self.hessian.vv,
-            &mut self.force_jacobian.q,
-            &mut self.force_jacobian.v,
-            &mut self.forms,
-            &mut self.curvature,
-            &mut self.contracted,
-        ] {
-            t.freeze();
-        }
+        self.contracted.freeze();
     }
 
     /// Calls `emit(row, col, value)` for every Jacobian entry; the gmin entries are flagged.
     fn entries(&self, mut emit: impl FnMut(usize, usize, f64, bool)) {
         let (n, m) = (self.n(), self.m());
-        for (i, j, value) in self.hessian.qq.iter() {
+        for (i, j, value) in self.derivatives.hessian.qq.iter() {
             if !self.cyclic[j] {
                 emit(i, j, value, false);
             }
         }
-        for (i, j, value) in self.hessian.qv.iter() {
+        for (i, j, value) in self.derivatives.hessian.qv.iter() {
             if self.cyclic[j] {
                 emit(i, j, value, false);
             }
         }
-        for (i, j, value) in self.force_jacobian.q.iter() {
+        for (i, j, value) in self.derivatives.force.q.iter() {
             if !self.cyclic[j] {
                 emit(i, j, value, false);
             }
         }
-        for (i, j, value) in self.force_jacobian.v.iter() {
+        for (i, j, value) in self.derivatives.force.v.iter() {
             if self.cyclic[j] {
                 emit(i, j, value, false);
             }
@@ -705,7 +676,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
                 emit(j, l, -value, false);
             }
         }
-        for (a, j, value) in self.forms.iter() {
+        for (a, j, value) in self.derivatives.forms.iter() {
             emit(j, n + a, -value, false);
             // Holonomic rows g(q) = 0 act on positions, one-forms A v = 0 on rates.
             let holonomic = self.constraints.kind(a) == ConstraintKind::Holonomic;
@@ -744,6 +715,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
         let mut r = vec![0.0; x.len()];
         self.residual(x, &mut r);
         let largest = self
+            .derivatives
             .forms
             .iter()
             .fold(0.0_f64, |big, (_, _, value)| big.max(value.abs()));
@@ -757,7 +729,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
         for j in 0..n {
             push(j, j, 1.0);
         }
-        for (a, j, value) in self.forms.iter() {
+        for (a, j, value) in self.derivatives.forms.iter() {
             push(j, n + a, value);
             push(n + a, j, value);
         }
@@ -935,10 +907,11 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for SteadySyste
             }
         }
         r[n..].fill(0.0);
-        self.forms.begin();
-        self.constraints.forms(&self.q, &mut self.forms);
-        self.forms.freeze();
-        for (a, j, value) in self.forms.iter() {
+        let forms = &mut self.derivatives.forms;
+        forms.begin();
+        self.constraints.forms(&self.q, forms);
+        forms.freeze();
+        for (a, j, value) in self.derivatives.forms.iter() {
             r[j] -= value * lambda[a];
             if self.constraints.kind(a) == ConstraintKind::OneForm {
                 r[n + a] += value * self.v[j];
