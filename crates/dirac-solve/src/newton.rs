@@ -757,6 +757,9 @@ impl<S: LinearSolver> Newton<S> {
 
     /// Factorises the stamped Jacobian.
     fn factor(&mut self) -> Result<(), LinearSolveError> {
+        // A failed attempt leaves no factorisation (the solver may have overwritten its factors):
+        // the next solve refactorises.
+        self.factored = false;
         // Row equilibration: scale every row to unit max-norm so partial pivoting compares like
         // with like (momentum equations and constraint rows differ in units by ~M/h).
         self.row_scale.fill(0.0);
@@ -1250,6 +1253,77 @@ mod tests {
                 ..
             }
         ));
+    }
+
+    /// `F(x) = x³ − b` componentwise on two unknowns, whose Jacobian is stamped as the singular
+    /// `[[1, 1], [1, 1]]` while `broken` is set.
+    struct Breakable {
+        b: f64,
+        broken: bool,
+    }
+    impl NonlinearSystem for Breakable {
+        fn len(&self) -> usize {
+            2
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            for (r, x) in r.iter_mut().zip(x) {
+                *r = x * x * x - self.b;
+            }
+        }
+        fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+            for (i, xi) in x.iter().enumerate() {
+                for j in 0..2 {
+                    let value = if self.broken {
+                        1.0
+                    } else if i == j {
+                        3.0 * xi * xi
+                    } else {
+                        0.0
+                    };
+                    jac.add(i, j, value);
+                }
+            }
+        }
+    }
+
+    /// A factorisation that fails leaves Newton without one: the next solve refactorises. It
+    /// used to keep the flag of the factorisation before, so the next solve reused factors the
+    /// failed attempt had overwritten: the sparse LU refused ("solve called without a
+    /// successful factorisation", seen on a rigid chain's cut step at h = 0.05), the dense LU
+    /// solved with a half-eliminated matrix.
+    #[test]
+    fn a_failed_factorisation_is_not_reused() {
+        fn check<S: LinearSolver>(solver: S, name: &str) {
+            let mut newton = Newton::new(solver, NewtonOptions::default());
+            let mut system = Breakable {
+                b: 8.0,
+                broken: false,
+            };
+            let mut x = [1.5, 2.5];
+            newton.solve(&mut system, &mut x).unwrap();
+            // The kept factorisation (at x = 2) takes x from 2 towards the root −2 of b = −8
+            // slowly, so Newton refactorises, at the singular stamp.
+            system.b = -8.0;
+            system.broken = true;
+            assert!(matches!(
+                newton.solve(&mut system, &mut x),
+                Err(NewtonError::Linear {
+                    source: LinearSolveError::NumericallySingular { .. },
+                    ..
+                })
+            ));
+            system.b = 8.0;
+            system.broken = false;
+            let mut x = [1.5, 2.5];
+            let solved = newton.solve(&mut system, &mut x);
+            assert!(solved.is_ok(), "{name}: {solved:?}");
+            assert!(
+                x.iter().all(|v| (v - 2.0).abs() <= 4.0 * f64::EPSILON),
+                "{name}: {x:?}"
+            );
+        }
+        check(DenseLu::new(), "dense");
+        check(crate::SparseLu::new(), "sparse");
     }
 
     /// `F(x) = s (x³ − 8)` with `s = 1e-20`: every residual is far below any absolute tolerance,
