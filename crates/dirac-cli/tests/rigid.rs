@@ -195,13 +195,7 @@ fn the_static_equilibrium_of_a_mechanism() {
     let op = |path: &Path| op_values(path).0;
     for path in [scene("cartesian_pendulum.toml"), level] {
         let pendulum = op(&path);
-        let value = |name: &str| {
-            pendulum
-                .iter()
-                .find(|(n, _)| n == name)
-                .map(|(_, v)| *v)
-                .expect(name)
-        };
+        let value = |name: &str| signal(&pendulum, name);
         assert!(value("P.x").abs() < 1e-12, "{path:?}: {pendulum:?}");
         assert!((value("P.y") + 1.0).abs() < 1e-12, "{path:?}: {pendulum:?}");
         assert!(value("P.x'").abs() < 1e-12 && value("P.y'").abs() < 1e-12);
@@ -213,6 +207,15 @@ fn the_static_equilibrium_of_a_mechanism() {
             .any(|(n, v)| n == "constraint_residual" && v.abs() < 1e-12),
         "{four_bar:?}"
     );
+}
+
+/// The value of signal `name` among `op`'s values.
+fn signal(values: &[(String, f64)], name: &str) -> f64 {
+    values
+        .iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| *v)
+        .expect(name)
 }
 
 /// `op`'s values as `(signal, value)`, with its stderr.
@@ -239,12 +242,7 @@ fn op_values(path: &Path) -> (Vec<(String, f64)>, String) {
 #[test]
 fn a_steady_state_that_is_not_isolated_is_found_and_named() {
     let (top, stderr) = op_values(&scene("heavy_top.toml"));
-    let value = |name: &str| {
-        top.iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| *v)
-            .expect(name)
-    };
+    let value = |name: &str| signal(&top, name);
     assert!(
         stderr.contains("not isolated") && stderr.contains("symmetry"),
         "{stderr}"
@@ -269,13 +267,7 @@ fn a_steady_state_that_is_not_isolated_is_found_and_named() {
 #[test]
 fn the_hanging_chain_has_its_equilibrium() {
     let (chain, stderr) = op_values(&scene("pendulum_chain.toml"));
-    let value = |name: &str| {
-        chain
-            .iter()
-            .find(|(n, _)| n == name)
-            .map(|(_, v)| *v)
-            .expect(name)
-    };
+    let value = |name: &str| signal(&chain, name);
     assert!(stderr.contains("not isolated"), "{stderr}");
     assert!(value("link9.x").abs() < 1e-12, "{chain:?}");
     assert!((value("link9.z") + 2.7).abs() < 1e-12, "{chain:?}");

@@ -506,6 +506,23 @@ struct Stage {
 }
 
 impl Stage {
+    /// Readies the auxiliary Newton for a solve of `size`: created on first use (with `solver`
+    /// and the regular Newton's options), its factorisation dropped when the size changes.
+    fn ready_aux(&mut self, solver: SolverChoice, size: f64) {
+        let options = *self.newton.options();
+        let unknowns = self.step.unknowns();
+        let (newton, aux_size) = self.aux.get_or_insert_with(|| {
+            (
+                Newton::new(AutoLu::for_size(solver, unknowns), options),
+                size,
+            )
+        });
+        if *aux_size != size {
+            newton.invalidate_factorisation();
+            *aux_size = size;
+        }
+    }
+
     /// Keeps the guess `x` of the solve about to start, for a model that checks its steps.
     fn keep_guess(&mut self) {
         if !self.checked_guess.is_empty() {
@@ -1284,25 +1301,14 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 *x *= ratio;
             }
         }
-        let options = *stage.newton.options();
         let solver = stage_solver(
             self.options.solver,
             stage
                 .step
                 .jacobian_is_constant(&self.model, &self.constraints),
         );
-        let unknowns = stage.step.unknowns();
-        let (newton, aux_size) = stage.aux.get_or_insert_with(|| {
-            (
-                Newton::new(AutoLu::for_size(solver, unknowns), options),
-                size,
-            )
-        });
-        if *aux_size != size {
-            newton.invalidate_factorisation();
-            *aux_size = size;
-        }
-        self.stages[i].keep_guess();
+        stage.ready_aux(solver, size);
+        stage.keep_guess();
         let result = self.solve_stage(i, false, true);
         let stage = &mut self.stages[i];
         stage.step.set_step_size(nominal);
@@ -1409,19 +1415,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         for (x, f) in stage.x.iter_mut().zip(full) {
             *x = 0.5 * f;
         }
-        let options = *stage.newton.options();
-        let solver = stage_solver(self.options.solver, false);
-        let unknowns = stage.step.unknowns();
-        let (newton, aux_size) = stage.aux.get_or_insert_with(|| {
-            (
-                Newton::new(AutoLu::for_size(solver, unknowns), options),
-                half,
-            )
-        });
-        if *aux_size != half {
-            newton.invalidate_factorisation();
-            *aux_size = half;
-        }
+        stage.ready_aux(stage_solver(self.options.solver, false), half);
         let mut outcome = Ok(());
         for piece in 0..2 {
             let stage = &mut self.stages[i];
