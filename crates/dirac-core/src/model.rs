@@ -188,14 +188,13 @@ pub trait Model {
         Ok(())
     }
 
-    /// The largest angle (radians) by which a step from `q0` to `q1` turns any body of the
-    /// model (0 for a model without rotations). A step that turns a body far enough to have
-    /// passed a spurious root nearby is checked against two half steps by the integrator, and
-    /// the angle between their ends measures how far apart the two landed. Only consulted when
+    /// Appends to `turns` the angle (radians) by which a step from `q0` to `q1` turns each body
+    /// of the model, one entry per body in a fixed order (none for a model without rotations).
+    /// A step that turns a body far enough to have passed a spurious root nearby is checked
+    /// against two half steps by the integrator, and the angle between their ends, body by
+    /// body, measures how far apart the two landed. Only consulted when
     /// [`Model::has_step_check`] is true.
-    fn step_turn(&self, _q0: &[f64], _q1: &[f64]) -> f64 {
-        0.0
-    }
+    fn step_turns(&self, _q0: &[f64], _q1: &[f64], _turns: &mut Vec<f64>) {}
 
     /// Name of coordinate `i`, for diagnostics and output headers.
     fn coordinate_name(&self, i: usize) -> String {
@@ -274,8 +273,8 @@ impl<M: Model + ?Sized> Model for &M {
     fn check_step(&self, q0: &[f64], q1: &[f64]) -> Result<(), String> {
         (**self).check_step(q0, q1)
     }
-    fn step_turn(&self, q0: &[f64], q1: &[f64]) -> f64 {
-        (**self).step_turn(q0, q1)
+    fn step_turns(&self, q0: &[f64], q1: &[f64], turns: &mut Vec<f64>) {
+        (**self).step_turns(q0, q1, turns);
     }
     fn coordinate_name(&self, i: usize) -> String {
         (**self).coordinate_name(i)

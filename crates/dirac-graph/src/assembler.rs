@@ -415,16 +415,12 @@ impl Model for AssembledModel {
         Ok(())
     }
 
-    /// The largest turn of any part's body.
-    fn step_turn(&self, q0: &[f64], q1: &[f64]) -> f64 {
-        self.parts
-            .iter()
-            .filter(|p| p.has_step_check)
-            .map(|p| {
-                let r = p.offset..p.offset + p.dim;
-                p.model.step_turn(&q0[r.clone()], &q1[r])
-            })
-            .fold(0.0, f64::max)
+    /// Each part's bodies' turns, part by part.
+    fn step_turns(&self, q0: &[f64], q1: &[f64], turns: &mut Vec<f64>) {
+        for p in self.parts.iter().filter(|p| p.has_step_check) {
+            let r = p.offset..p.offset + p.dim;
+            p.model.step_turns(&q0[r.clone()], &q1[r], turns);
+        }
     }
 
     fn coordinate_name(&self, i: usize) -> String {
@@ -1209,8 +1205,8 @@ impl Model for FrozenCouplingModel {
     fn check_step(&self, q0: &[f64], q1: &[f64]) -> Result<(), String> {
         self.inner.check_step(q0, q1)
     }
-    fn step_turn(&self, q0: &[f64], q1: &[f64]) -> f64 {
-        self.inner.step_turn(q0, q1)
+    fn step_turns(&self, q0: &[f64], q1: &[f64], turns: &mut Vec<f64>) {
+        self.inner.step_turns(q0, q1, turns);
     }
     fn coordinate_name(&self, i: usize) -> String {
         self.inner.coordinate_name(i)

@@ -218,6 +218,18 @@ impl RigidBody {
         r
     }
 
+    /// The angle (radians) by which the body turns from coordinates `q0` to `q1`: the angle of
+    /// `R₀ᵀR₁`, from its trace `1 + 2 cos θ`.
+    #[must_use]
+    pub fn turn(q0: &[f64], q1: &[f64]) -> f64 {
+        let (r0, r1) = (Self::rotation(q0), Self::rotation(q1));
+        let trace: f64 = (0..3)
+            .flat_map(|i| (0..3).map(move |j| (i, j)))
+            .map(|(i, j)| r0[i][j] * r1[i][j])
+            .sum();
+        ((trace - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+    }
+
     /// The body angular velocity `Ω = vee(Rᵀ Ṙ)` from coordinates and their rates.
     #[must_use]
     pub fn body_angular_velocity(q: &[f64], v: &[f64]) -> [f64; 3] {
@@ -342,7 +354,7 @@ impl Model for RigidBody {
     /// that turns a body by more than a quarter turn is accurate, so the bound rejects only
     /// spurious roots and steps too long to be of use; the integrator cuts either.
     fn check_step(&self, q0: &[f64], q1: &[f64]) -> Result<(), String> {
-        let turn = self.step_turn(q0, q1);
+        let turn = Self::turn(q0, q1);
         if turn < std::f64::consts::FRAC_PI_2 {
             Ok(())
         } else {
@@ -353,14 +365,9 @@ impl Model for RigidBody {
         }
     }
 
-    /// The angle of `R₀ᵀR₁`, from its trace `1 + 2 cos θ`.
-    fn step_turn(&self, q0: &[f64], q1: &[f64]) -> f64 {
-        let (r0, r1) = (Self::rotation(q0), Self::rotation(q1));
-        let trace: f64 = (0..3)
-            .flat_map(|i| (0..3).map(move |j| (i, j)))
-            .map(|(i, j)| r0[i][j] * r1[i][j])
-            .sum();
-        ((trace - 1.0) / 2.0).clamp(-1.0, 1.0).acos()
+    /// The body's one turn, [`RigidBody::turn`].
+    fn step_turns(&self, q0: &[f64], q1: &[f64], turns: &mut Vec<f64>) {
+        turns.push(Self::turn(q0, q1));
     }
 
     fn coordinate_name(&self, i: usize) -> String {

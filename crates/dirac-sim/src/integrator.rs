@@ -381,12 +381,18 @@ const BREAKPOINT_SNAP: f64 = 1e-9;
 /// How many times a failing substep is halved before the failure is reported (down to h/1024).
 const MAX_CUT_DEPTH: u32 = 10;
 
-/// A solved step that turns some body by more than this many radians ([`Model::step_turn`]) is
+/// A solved step that turns some body by more than this many radians ([`Model::step_turns`]) is
 /// checked against two half steps before it is kept ([`Integrator::verify_step`]).
 const VERIFY_TURN: f64 = 0.25;
-/// The check's bound: the angle between the full step's end and the two half steps' end, as a
-/// fraction of the half steps' own turn, above which the full step is taken for a spurious root.
+/// The check's bound, body by body: the angle between the full step's end and the two half
+/// steps' end, as a fraction of the half steps' own turn of that body (or of
+/// [`VERIFY_FLOOR`], when that turn is smaller), above which the full step is taken for a
+/// spurious root.
 const VERIFY_RATIO: f64 = 0.5;
+/// The turn below which a body's disagreement is judged against this angle instead of its own
+/// turn: on the motion's branch the two ends of a body that barely turns differ by far less
+/// than `VERIFY_RATIO` of it, while a ratio against a turn near zero would judge round-off.
+const VERIFY_FLOOR: f64 = 0.05;
 
 /// Largest state dimension `2n` (and unknown count) for which the step is applied as a dense map.
 const AFFINE_LIMIT: usize = 32;
@@ -1313,9 +1319,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let stage = &mut self.stages[i];
         stage.step.set_step_size(nominal);
         stage.last_size = size;
-        let stats = result?;
+        let mut stats = result?;
         self.check_step(i)?;
-        self.verify_step(i, size)?;
+        stats.accumulate(&self.verify_step(i, size)?);
         let stage = &mut self.stages[i];
         stage.step.set_step_size(size);
         stage
@@ -1356,38 +1362,50 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
 
     /// Stage `i`'s solved substep of `size` (checked by [`Integrator::check_step`], the state
     /// untouched), checked against two half steps when it turns some body by more than
-    /// [`VERIFY_TURN`]. The discrete rigid body's step equations have roots besides the one the
-    /// motion takes; at a long step Newton can land on one that turns a body by less than a
-    /// quarter turn (the spatial four-bar at h = 0.03: its crank turned 1.27 rad in one step
-    /// and its energy jumped from 0.56 to 0.93 J). Two half steps from the same state land
-    /// within their local error of the full step's end on the motion's branch, and far from it
-    /// when the full step took another root: the step is rejected (and cut) when the angle
-    /// between the two ends exceeds [`VERIFY_RATIO`] of the half steps' own turn, or when a
-    /// half step fails. The half steps are solved aside (the stage's auxiliary Newton) and
-    /// leave the solution, the state and the predictor as they were.
-    fn verify_step(&mut self, i: usize, size: f64) -> Result<(), SimError> {
+    /// [`VERIFY_TURN`]; returns the half steps' Newton cost. The discrete rigid body's step
+    /// equations have roots besides the one the motion takes; at a long step Newton can land on
+    /// one that turns a body by less than a quarter turn (the spatial four-bar at h = 0.03: its
+    /// crank turned 1.27 rad in one step and its energy jumped from 0.56 to 0.93 J). Two half
+    /// steps from the same state land within their local error of the full step's end on the
+    /// motion's branch, and far from it when the full step took another root: the step is
+    /// rejected (and cut) when, for some body, the angle between the two ends exceeds
+    /// [`VERIFY_RATIO`] of the half steps' turn of that body (at least [`VERIFY_FLOOR`]), or when
+    /// a half step fails. Body by body, so that a body spinning fast beside the mechanism does
+    /// not raise the bound for the others. The half steps are solved aside (the stage's
+    /// auxiliary Newton) and leave the solution, the state and the predictor as they were.
+    fn verify_step(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
         let stage = &self.stages[i];
         if stage.checked_guess.is_empty() {
-            return Ok(());
+            return Ok(NewtonStats::default());
         }
-        let full_turn = self.model.step_turn(&self.q, &stage.checked_end);
+        let mut full_turns = Vec::new();
+        self.model
+            .step_turns(&self.q, &stage.checked_end, &mut full_turns);
+        let full_turn = full_turns.iter().copied().fold(0.0, f64::max);
         if full_turn <= VERIFY_TURN {
-            return Ok(());
+            return Ok(NewtonStats::default());
         }
         let full = stage.x.clone();
-        let halves = self.half_steps(i, size, &full);
+        let mut stats = NewtonStats::default();
+        let halves = self.half_steps(i, size, &full, &mut stats);
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
         stage.x.copy_from_slice(&full);
-        let verdict = match halves {
+        let reason = match halves {
             Ok(end) => {
-                let apart = self.model.step_turn(&stage.checked_end, &end);
-                let turn = self.model.step_turn(&self.q, &end);
-                if apart <= VERIFY_RATIO * turn {
-                    return Ok(());
-                }
+                let (mut apart, mut turns) = (Vec::new(), Vec::new());
+                self.model.step_turns(&stage.checked_end, &end, &mut apart);
+                self.model.step_turns(&self.q, &end, &mut turns);
+                let worst = apart
+                    .iter()
+                    .zip(&turns)
+                    .zip(&full_turns)
+                    .find(|((a, t), _)| **a > VERIFY_RATIO * t.max(VERIFY_FLOOR));
+                let Some(((apart, turn), full)) = worst else {
+                    return Ok(stats);
+                };
                 format!(
-                    "a body turned by {full_turn:.3} rad in one step, where two half steps turn it by {turn:.3} rad and end {apart:.3} rad away: a root of the step equations that the motion does not take"
+                    "a body turned by {full:.3} rad in one step, where two half steps turn it by {turn:.3} rad and end {apart:.3} rad away: a root of the step equations that the motion does not take"
                 )
             }
             Err(why) => format!(
@@ -1398,14 +1416,20 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         Err(SimError::StepRejected {
             step: self.k,
             t: self.t,
-            reason: verdict,
+            reason,
         })
     }
 
     /// The end position of two half steps of stage `i` from the current state, the first from
     /// the full step's solution `full` scaled to its size; the stage's step size, start and
     /// solution are left to the caller to put back.
-    fn half_steps(&mut self, i: usize, size: f64, full: &[f64]) -> Result<Vec<f64>, String> {
+    fn half_steps(
+        &mut self,
+        i: usize,
+        size: f64,
+        full: &[f64],
+        stats: &mut NewtonStats,
+    ) -> Result<Vec<f64>, String> {
         let half = size / 2.0;
         let (mut q, mut p) = (self.q.clone(), self.p.clone());
         let mut end = vec![0.0; q.len()];
@@ -1425,9 +1449,12 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 .set_start(&q, &p, self.t + f64::from(piece) * half);
             let solved = self.solve_stage(i, false, true);
             let stage = &mut self.stages[i];
-            if let Err(e) = solved {
-                outcome = Err(e.to_string());
-                break;
+            match solved {
+                Ok(solved) => stats.accumulate(&solved),
+                Err(e) => {
+                    outcome = Err(e.to_string());
+                    break;
+                }
             }
             stage.step.end_position(&stage.x, &mut end);
             if let Err(why) = self.model.check_step(&q, &end) {
@@ -1606,10 +1633,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             stage.linear_end.guess.copy_from_slice(&stage.x);
         }
         stage.keep_guess();
-        let stats = self.solve_stage(i, constant, false)?;
+        let mut stats = self.solve_stage(i, constant, false)?;
         self.check_step(i)?;
         if !constant {
-            self.verify_step(i, nominal)?;
+            stats.accumulate(&self.verify_step(i, nominal)?);
         }
         let stage = &mut self.stages[i];
         if constant {

@@ -498,7 +498,7 @@ impl Simulation {
             )?;
             if !steady.isolated {
                 self.warnings.push(
-                    "the steady state is not isolated: its Newton matrix is singular there, so a symmetry leaves it free to move along some direction (a body turned about the axis of gravity, a link spun about its own axis); this is the equilibrium the proximal iteration of stiffness stepping reached from the start".to_string(),
+                    "the steady state is not isolated: its Newton matrix is singular there, so a symmetry leaves it free to move along some direction (a body turned about the axis of gravity, a link spun about its own axis), or it is a degenerate point (a bifurcation); this is the equilibrium the proximal iteration of stiffness stepping reached from the start".to_string(),
                 );
             }
             q.clone_from(&steady.q);

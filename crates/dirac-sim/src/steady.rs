@@ -376,12 +376,13 @@ const PROXIMAL_MOST_SOLVES: usize = 50;
 /// fails from its start (a pendulum released level: gravity normal to its rod, a balancing
 /// multiplier of zero, a singular first matrix): a spring ties every non-cyclic coordinate to
 /// its start and is relaxed along [`STIFFNESS_SCHEDULE`], then removed, each solve from the
-/// last. The spring's scale is the start's largest unbalanced force per unit of its largest
-/// position.
+/// last. The spring's scale is the start's largest applied force (multipliers at zero) per unit
+/// of its largest position.
 ///
 /// Where the solve without a spring fails (a continuum of equilibria: a hanging chain whose
-/// links may spin about their own axes makes that matrix singular), the softest spring stays
-/// and its anchor follows the solution: each solve ties the coordinates to the last one (the
+/// links may spin about their own axes makes that matrix singular), or a spring of the schedule
+/// fails after a stiffer one converged, the softest spring that converged stays and its anchor
+/// follows the solution: each solve ties the coordinates to the last one (the
 /// proximal point iteration; Adams' static solver adds a fraction of the mass matrix for the
 /// same reason). At its fixed point the spring is slack, so the equations hold without it, and
 /// along the free directions nothing moves. It stops once a solve moves no position by more
@@ -395,10 +396,16 @@ fn stiffness_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     steps: &mut Steps<'_>,
 ) -> Result<(NewtonStats, bool), NewtonError> {
     let n = system.n();
+    // The force scale: the largest applied force (the residual's force rows with the
+    // multipliers at zero: gravity on a hanging body), not the start's imbalance, which
+    // vanishes for a start at or near an equilibrium and would leave every spring too soft to
+    // hold the free directions.
     x.copy_from_slice(start);
+    x[n..].fill(0.0);
     let mut r = vec![0.0; x.len()];
     system.residual(x, &mut r);
     let force = r[..n].iter().fold(0.0_f64, |big, v| big.max(v.abs()));
+    x.copy_from_slice(start);
     let length = (0..n)
         .filter(|&j| !system.cyclic[j])
         .fold(0.0_f64, |big, j| big.max(start[j].abs()));
@@ -407,31 +414,49 @@ fn stiffness_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     } else {
         1.0
     };
-    let outcome = relax_springs(system, newton, x, steps, scale);
+    let outcome = relax_springs(system, newton, x, steps, scale, length);
     system.stiffness = 0.0;
     system.anchor.copy_from_slice(system.q0);
     outcome
 }
 
-/// [`stiffness_stepping`]'s solves, from the spring at the start's anchor to none.
+/// [`stiffness_stepping`]'s solves, from the spring at the start's anchor to none; `length`
+/// is the start's largest position (the yardstick of the proximal iteration's stop when the
+/// solution's positions all vanish).
 fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
     system: &mut SteadySystem<'_, M, C>,
     newton: &mut Newton<AutoLu>,
     x: &mut [f64],
     steps: &mut Steps<'_>,
     scale: f64,
+    length: f64,
 ) -> Result<(NewtonStats, bool), NewtonError> {
-    for &k in &STIFFNESS_SCHEDULE {
+    // The softest spring that converged, and its solution; the first must.
+    system.stiffness = STIFFNESS_SCHEDULE[0] * scale;
+    steps.solve(system, newton, x)?;
+    let (mut softest, mut held) = (system.stiffness, x.to_vec());
+    let mut failure = None;
+    for &k in &STIFFNESS_SCHEDULE[1..] {
         system.stiffness = k * scale;
-        steps.solve(system, newton, x)?;
+        match steps.solve(system, newton, x) {
+            Ok(_) => (softest, held) = (system.stiffness, x.to_vec()),
+            Err(e) => {
+                failure = Some(e);
+                break;
+            }
+        }
     }
-    let softest = system.stiffness;
-    let held = x.to_vec();
-    system.stiffness = 0.0;
-    let failure = match steps.solve(system, newton, x) {
-        Ok(stats) => return Ok((stats, true)),
-        Err(e) => e,
+    let failure = match failure {
+        Some(e) => e,
+        None => {
+            system.stiffness = 0.0;
+            match steps.solve(system, newton, x) {
+                Ok(stats) => return Ok((stats, true)),
+                Err(e) => e,
+            }
+        }
     };
+    // The proximal iteration from the softest spring that converged.
     x.copy_from_slice(&held);
     system.stiffness = softest;
     let tolerance = newton.options().update_tol;
@@ -441,7 +466,7 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
             system.anchor[j] = x[j];
         }
         let stats = steps.solve(system, newton, x)?;
-        let (mut moved, mut largest) = (0.0_f64, 0.0_f64);
+        let (mut moved, mut largest) = (0.0_f64, length);
         for j in (0..system.n()).filter(|&j| !system.cyclic[j]) {
             moved = moved.max((x[j] - system.anchor[j]).abs());
             largest = largest.max(x[j].abs());
@@ -454,18 +479,16 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
     let Some(stats) = converged else {
         return Err(failure);
     };
+    // Whether the point is isolated: a solve without the spring from it. Where that fails (a
+    // singular matrix, or a degenerate point where Newton only creeps), the point stays.
     system.stiffness = 0.0;
     let settled = x.to_vec();
     match steps.solve(system, newton, x) {
         Ok(stats) => Ok((stats, true)),
-        Err(NewtonError::Linear {
-            source: LinearSolveError::NumericallySingular { .. },
-            ..
-        }) => {
+        Err(_) => {
             x.copy_from_slice(&settled);
             Ok((stats, false))
         }
-        Err(e) => Err(e),
     }
 }
 
