@@ -615,6 +615,8 @@ fn summary_json(
         "ramp_substeps": summary.ramp_substeps,
         "refinements": summary.refinements,
         "substeps": summary.substeps,
+        "turn_checks": summary.turn_checks,
+        "spurious_roots": summary.spurious_roots,
         "max_constraint_residual": summary.max_constraint_residual,
         "wall_s": summary.wall_s,
         "peak_rss_kib": guard::peak_rss_kib(),

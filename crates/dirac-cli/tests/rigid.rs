@@ -72,14 +72,14 @@ fn heavy_top_runs_from_the_command_line() {
     assert!(worst < SPIN, "{worst:e}");
 }
 
-/// The energies `dirac run four_bar.toml --h H --t-end T` records, one per row.
-fn four_bar_energies(h: &str, t_end: &str) -> Vec<f64> {
+/// The energies `dirac run four_bar.toml --h H --t-end T` records, one per row, and its stderr.
+fn four_bar_energies(h: &str, t_end: &str) -> (Vec<f64>, String) {
     let out = dirac(
         "run",
         &scene("four_bar.toml"),
         &["--h", h, "--t-end", t_end, "--signals", "energy"],
     );
-    stdout_of(&out, &format!("four_bar.toml at h = {h}"))
+    let energies = stdout_of(&out, &format!("four_bar.toml at h = {h}"))
         .lines()
         .skip(1)
         .map(|l| {
@@ -89,7 +89,8 @@ fn four_bar_energies(h: &str, t_end: &str) -> Vec<f64> {
                 .parse()
                 .expect("number")
         })
-        .collect()
+        .collect();
+    (energies, String::from_utf8_lossy(&out.stderr).into_owned())
 }
 
 /// The bundled spatial four-bar at a long step, h = 0.03 (its crank turns up to about 0.7 rad
@@ -102,11 +103,17 @@ fn four_bar_energies(h: &str, t_end: &str) -> Vec<f64> {
 /// more than 0.25 rad is now checked against two half steps and cut when their ends lie more
 /// than half their turn apart. On the motion's branch this coarse step's energy dips while the
 /// crank swings through fast (0.51 J) and comes back; it is never above its start by more than
-/// 1e-3 J here, so 5 % above it can only be a root off the branch.
+/// 1e-3 J here, so 5 % above it can only be a root off the branch. The run warns that steps
+/// were cut as such roots.
 #[test]
 fn a_long_step_does_not_land_on_a_spurious_rotation() {
-    let energies = four_bar_energies("0.03", "1.2");
+    let (energies, stderr) = four_bar_energies("0.03", "1.2");
     assert_eq!(energies.len(), 41);
+    // The cut roots are reported: the step is long for the rotation.
+    assert!(
+        stderr.contains("landed on a root of a rigid body's step equations"),
+        "{stderr}"
+    );
     let start = energies[0];
     let highest = energies.iter().copied().fold(f64::MIN, f64::max);
     let lowest = energies.iter().copied().fold(f64::MAX, f64::min);
@@ -124,7 +131,7 @@ fn a_long_step_does_not_land_on_a_spurious_rotation() {
 #[test]
 fn a_failed_long_step_is_cut_from_its_guess() {
     for h in ["0.03", "0.1"] {
-        let energies = four_bar_energies(h, "4");
+        let (energies, _) = four_bar_energies(h, "4");
         assert!(energies.iter().all(|e| e.is_finite()), "h = {h}");
         assert_eq!(
             energies.len(),

@@ -220,6 +220,8 @@ fn summary_dict<'py>(
     d.set_item("refinements", summary.refinements)?;
     d.set_item("substeps", summary.substeps)?;
     d.set_item("ramp_substeps", summary.ramp_substeps)?;
+    d.set_item("turn_checks", summary.turn_checks)?;
+    d.set_item("spurious_roots", summary.spurious_roots)?;
     d.set_item("max_constraint_residual", summary.max_constraint_residual)?;
     d.set_item("wall_s", summary.wall_s)?;
     d.set_item("warnings", summary.warnings.clone())?;

@@ -372,6 +372,12 @@ pub struct StepCounters {
     /// Substeps accepted, of every kind (a step at `h`, a piece of a split step, a breakpoint
     /// substep, a ramp substep): the time points of the run after `t₀`.
     pub substeps: usize,
+    /// Solved substeps that turned a body by more than [`VERIFY_TURN`] and were checked against
+    /// two half steps ([`Model::step_turns`]).
+    pub turn_checks: usize,
+    /// Solved substeps rejected as roots of the step equations that the motion does not take:
+    /// by the model's own check (a quarter turn) or the half-step check. Each was cut.
+    pub spurious_roots: usize,
 }
 
 /// Breakpoints closer than this fraction of `h` to a grid point or to each other are merged
@@ -1351,6 +1357,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             Ok(()) => Ok(()),
             Err(reason) => {
                 stage.x.copy_from_slice(&stage.checked_guess);
+                self.counters.spurious_roots += 1;
                 Err(SimError::StepRejected {
                     step: self.k,
                     t: self.t,
@@ -1385,6 +1392,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         if full_turn <= VERIFY_TURN {
             return Ok(NewtonStats::default());
         }
+        self.counters.turn_checks += 1;
         let full = stage.x.clone();
         let mut stats = NewtonStats::default();
         let halves = self.half_steps(i, size, &full, &mut stats);
@@ -1413,6 +1421,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             ),
         };
         stage.x.copy_from_slice(&stage.checked_guess);
+        self.counters.spurious_roots += 1;
         Err(SimError::StepRejected {
             step: self.k,
             t: self.t,

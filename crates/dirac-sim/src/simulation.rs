@@ -144,6 +144,12 @@ pub struct RunSummary {
     /// Substeps accepted, of every kind: the run's time points after `t₀` (equal to `steps`
     /// when no step was split).
     pub substeps: usize,
+    /// Solved substeps that turned a rigid body by more than 0.25 rad and were checked against
+    /// two half steps.
+    pub turn_checks: usize,
+    /// Solved substeps rejected (and cut) as roots of a rigid body's step equations that the
+    /// motion does not take.
+    pub spurious_roots: usize,
     /// Largest discrete constraint residual over the steps (when tracked).
     pub max_constraint_residual: Option<f64>,
     /// Wall time of set-up and stepping, in seconds.
@@ -1070,6 +1076,7 @@ impl Simulation {
         }
         from_steps.warn(signals, &mut self.warnings);
         agreement.warn(signals, &per_signal, &mut self.warnings);
+        self.warn_spurious_roots();
         let mut summary = self.summary();
         summary.max_constraint_residual = self.track_residual.then_some(max_residual);
         summary.wall_s = started.elapsed().as_secs_f64();
@@ -1197,6 +1204,18 @@ impl Simulation {
         }
         engine.mean_efforts_into(self.graph.connections().len(), h, &mut mean.efforts);
         Ok(())
+    }
+
+    /// Warns when steps landed on roots of a rigid body's step equations that the motion does
+    /// not take: they were cut, and the step is long for the rotation.
+    fn warn_spurious_roots(&mut self) {
+        let summary = self.summary();
+        if summary.spurious_roots > 0 {
+            self.warnings.push(format!(
+                "{} step(s) landed on a root of a rigid body's step equations that the motion does not take (a turn of a quarter turn or more, or far from two half steps; {} step(s) turned a body by more than 0.25 rad and were checked) and were cut: h = {:e} is long for the rotation, and the run's accuracy there is coarse; use a smaller h, or the truncation-error refinement (`--refine`) to control it",
+                summary.spurious_roots, summary.turn_checks, self.options.h
+            ));
+        }
     }
 
     /// Counters so far.
@@ -2287,6 +2306,8 @@ impl Engine {
                 summary.ramp_substeps = counters.ramp_substeps;
                 summary.refinements = counters.refinements;
                 summary.substeps = counters.substeps;
+                summary.turn_checks = counters.turn_checks;
+                summary.spurious_roots = counters.spurious_roots;
             }
             Self::Staggered(e) => {
                 for part in e.staggered.parts() {
@@ -2299,6 +2320,8 @@ impl Engine {
                     summary.ramp_substeps += counters.ramp_substeps;
                     summary.refinements += counters.refinements;
                     summary.substeps += counters.substeps;
+                    summary.turn_checks += counters.turn_checks;
+                    summary.spurious_roots += counters.spurious_roots;
                 }
                 summary.steps = e.staggered.steps_taken();
                 summary.readout_iterations = e.readouts.iter().map(|r| r.stats().iterations).sum();

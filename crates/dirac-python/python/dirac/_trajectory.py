@@ -27,6 +27,10 @@ class RunSummary:
         ramp_substeps: substeps of the start ramp (0 without one).
         refinements: substeps the truncation-error control rejected and took again in pieces.
         substeps: substeps accepted, of every kind (the run's time points after the start).
+        turn_checks: substeps that turned a rigid body by more than 0.25 rad and were checked
+            against two half steps.
+        spurious_roots: substeps rejected (and cut) as roots of a rigid body's step equations
+            that the motion does not take.
         max_constraint_residual: largest discrete constraint residual (when tracked).
         wall_s: wall time of set-up and stepping in the Rust run layer, in seconds.
         warnings: warnings of the set-up.
@@ -48,6 +52,8 @@ class RunSummary:
     ramp_substeps: int
     refinements: int
     substeps: int
+    turn_checks: int
+    spurious_roots: int
     max_constraint_residual: Optional[float]
     wall_s: float
     warnings: Tuple[str, ...]
