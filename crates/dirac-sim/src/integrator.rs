@@ -372,7 +372,7 @@ pub struct StepCounters {
     /// Substeps accepted, of every kind (a step at `h`, a piece of a split step, a breakpoint
     /// substep, a ramp substep): the time points of the run after `t₀`.
     pub substeps: usize,
-    /// Solved substeps that turned a body by more than [`VERIFY_TURN`] and were checked against
+    /// Solved substeps that turned a body by more than 0.25 rad and were checked against
     /// two half steps ([`Model::step_turns`]).
     pub turn_checks: usize,
     /// Solved substeps rejected as roots of the step equations that the motion does not take:
