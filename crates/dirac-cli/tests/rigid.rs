@@ -396,6 +396,22 @@ fn the_motor_arm_reads_its_drive_torque_from_the_motor() {
     assert!(worst < 1e-4, "{worst:e}");
 }
 
+/// The DC motor stalled against its load's torsion spring: 6 V over 2 Ω drives the stall
+/// current 3 A, whose torque `k i` = 0.3 N·m the 0.25 gear raises to 1.2 N·m, which turns the
+/// spring (k = 2 N·m/rad) by 0.6 rad. The motor's and the load's shafts are joined by their
+/// rates (one-form rows between coordinates at rest at the steady state); with the forms'
+/// derivative returned correctly by the row subset (audit 49) those rows were empty and the gear's
+/// angles "not fixed by any equation" (it had worked by that defect's accident); they now hold as
+/// their integrals, the shafts at their start's offsets.
+#[test]
+fn the_dc_motor_stalls_against_its_spring() {
+    let (motor, _) = op_values(&scene("dc_motor.toml"));
+    let value = |name: &str| signal(&motor, name);
+    assert!((value("M.i") - 3.0).abs() < 1e-12, "{motor:?}");
+    assert!((value("J.theta") - 0.6).abs() < 1e-12, "{motor:?}");
+    assert!(value("M.theta'").abs() < 1e-12 && value("J.theta'").abs() < 1e-12);
+}
+
 /// The bundled pendulum chain (ten links of 0.7 kg on hinges about y, each hinge 0.3 m from the
 /// last link's centre of mass, the first at its own) stopped `dirac op` with a singular matrix
 /// at the end of stiffness stepping, 4.5e-6 N from balance: the last link's centre of mass sits

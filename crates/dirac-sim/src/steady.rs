@@ -156,18 +156,19 @@ impl SteadyState {
         let mut newton = Newton::new(AutoLu::for_size(SolverChoice::Auto, size), options);
         let mut iterations = 0;
         let start = x.clone();
-        let plain = newton.solve(&mut system, &mut x);
-        let mut gmin_steps = 0;
-        let mut isolated = true;
-        match plain {
-            Ok(stats) => iterations += stats.iterations,
+        let isolated;
+        let mut steps = Steps {
+            solves: 0,
+            iterations: &mut iterations,
+        };
+        let outcome = match newton.solve(&mut system, &mut x) {
+            Ok(stats) => {
+                *steps.iterations += stats.iterations;
+                Ok((stats, true))
+            }
             Err(first) => {
-                let mut steps = Steps {
-                    solves: 0,
-                    iterations: &mut iterations,
-                };
-                // Gmin acts on one-form rows only: without them every gmin solve would be plain
-                // Newton's again.
+                // Gmin acts on one-form rows only: without them every gmin solve would be
+                // plain Newton's again.
                 let one_forms = (0..m).any(|a| constraints.kind(a) == ConstraintKind::OneForm);
                 let mut last = if one_forms {
                     gmin_stepping(&mut system, &mut newton, &start, &mut x, &mut steps, first)
@@ -177,43 +178,46 @@ impl SteadyState {
                 if last.is_err() && !system.holonomic {
                     last = source_stepping(&mut system, &mut newton, &mut x, &mut steps, last);
                 }
-                if last.is_err() && system.holonomic {
-                    last = stiffness_stepping(&mut system, &mut newton, &start, &mut x, &mut steps)
-                        .map(|(stats, regular)| {
-                            isolated = regular;
-                            stats
-                        });
-                }
-                gmin_steps = steps.solves;
-                if let Err(source) = last {
-                    let mut r = vec![0.0; size];
-                    system.residual(&x, &mut r);
-                    let largest = |r: &[f64]| r.iter().fold(0.0_f64, |big, v| big.max(v.abs()));
-                    let residual = largest(&r);
-                    let mut r0 = vec![0.0; size];
-                    system.residual(&start, &mut r0);
-                    let at_start = largest(&r0);
-                    let singular = matches!(
-                        source,
-                        NewtonError::Linear {
-                            source: LinearSolveError::NumericallySingular { .. },
-                            ..
-                        }
-                    );
-                    // Round-off of the start's residual: the equations hold, their matrix is
-                    // singular.
-                    if singular && residual <= 1e-12 * at_start {
-                        return Err(SteadyStateError::NotIsolated {
-                            source,
-                            residual,
-                            start: at_start,
-                        });
+                match last {
+                    Ok(stats) => Ok((stats, true)),
+                    Err(_) if system.holonomic => {
+                        stiffness_stepping(&mut system, &mut newton, &start, &mut x, &mut steps)
                     }
-                    return Err(SteadyStateError::NotConverged {
+                    Err(e) => Err(e),
+                }
+            }
+        };
+        let gmin_steps = steps.solves;
+        match outcome {
+            Ok((_, regular)) => isolated = regular,
+            Err(source) => {
+                let mut r = vec![0.0; size];
+                system.residual(&x, &mut r);
+                let largest = |r: &[f64]| r.iter().fold(0.0_f64, |big, v| big.max(v.abs()));
+                let residual = largest(&r);
+                let mut r0 = vec![0.0; size];
+                system.residual(&start, &mut r0);
+                let at_start = largest(&r0);
+                let singular = matches!(
+                    source,
+                    NewtonError::Linear {
+                        source: LinearSolveError::NumericallySingular { .. },
+                        ..
+                    }
+                );
+                // Round-off of the start's residual: the equations hold, their matrix is
+                // singular.
+                if singular && residual <= 1e-12 * at_start {
+                    return Err(SteadyStateError::NotIsolated {
                         source,
-                        residuals: system.worst_equations(&r, 3),
+                        residual,
+                        start: at_start,
                     });
                 }
+                return Err(SteadyStateError::NotConverged {
+                    source,
+                    residuals: system.worst_equations(&r, 3),
+                });
             }
         }
         system.check_redundant(&x)?;
@@ -581,6 +585,11 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     contracted: Triplets,
     g: Vec<f64>,
     redundant: Vec<usize>,
+    /// One-form rows read as their integral `A (q − q₀) = 0`: in a mechanism with constant
+    /// forms, a row whose coordinates are all at rest at the steady state (two shafts joined
+    /// by their rates) holds trivially as `A v = 0`; its integral keeps them at their start's
+    /// offset instead of leaving the row empty.
+    integrated: Vec<bool>,
 }
 
 impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
@@ -617,6 +626,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             contracted: Triplets::new(),
             g: vec![0.0; m],
             redundant: Vec::new(),
+            integrated: vec![false; m],
         }
     }
 
@@ -703,7 +713,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             emit(j, n + a, -value, false);
             // Holonomic rows g(q) = 0 act on positions, one-forms A v = 0 on rates.
             let holonomic = self.constraints.kind(a) == ConstraintKind::Holonomic;
-            if holonomic != self.cyclic[j] {
+            if holonomic != self.cyclic[j] || self.integrated[a] {
                 emit(n + a, j, value, false);
             }
         }
@@ -793,6 +803,16 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
         // which at λ = 0 has no entries (a rigid body's rotation is held by the curvature of
         // its orthonormality and joint rows, which no other term reaches).
         self.stamp(&vec![1.0; m]);
+        if self.holonomic && self.constraints.is_constant() {
+            self.integrated = (0..m)
+                .map(|a| self.constraints.kind(a) == ConstraintKind::OneForm)
+                .collect();
+            for (a, j, value) in self.derivatives.forms.iter() {
+                if value != 0.0 && self.cyclic[j] {
+                    self.integrated[a] = false;
+                }
+            }
+        }
         let mut pattern = Vec::new();
         self.entries(|r, c, value, gmin| {
             if !gmin && value != 0.0 {
@@ -936,7 +956,9 @@ impl<M: Model + ?Sized, C: Constraints + ?Sized> NonlinearSystem for SteadySyste
         forms.freeze();
         for (a, j, value) in self.derivatives.forms.iter() {
             r[j] -= value * lambda[a];
-            if self.constraints.kind(a) == ConstraintKind::OneForm {
+            if self.integrated[a] {
+                r[n + a] += value * (self.q[j] - self.q0[j]);
+            } else if self.constraints.kind(a) == ConstraintKind::OneForm {
                 r[n + a] += value * self.v[j];
             }
         }
