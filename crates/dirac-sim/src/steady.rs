@@ -156,7 +156,6 @@ impl SteadyState {
         let mut newton = Newton::new(AutoLu::for_size(SolverChoice::Auto, size), options);
         let mut iterations = 0;
         let start = x.clone();
-        let isolated;
         let mut steps = Steps {
             solves: 0,
             iterations: &mut iterations,
@@ -188,8 +187,8 @@ impl SteadyState {
             }
         };
         let gmin_steps = steps.solves;
-        match outcome {
-            Ok((_, regular)) => isolated = regular,
+        let isolated = match outcome {
+            Ok((_, regular)) => regular,
             Err(source) => {
                 let mut r = vec![0.0; size];
                 system.residual(&x, &mut r);
@@ -219,7 +218,7 @@ impl SteadyState {
                     residuals: system.worst_equations(&r, 3),
                 });
             }
-        }
+        };
         system.check_redundant(&x)?;
         let (qs, vs) = system.state(&x);
         Ok(Self {
