@@ -79,18 +79,22 @@ fn four_bar_energies(h: &str, t_end: &str) -> (Vec<f64>, String) {
         &scene("four_bar.toml"),
         &["--h", h, "--t-end", t_end, "--signals", "energy"],
     );
-    let energies = stdout_of(&out, &format!("four_bar.toml at h = {h}"))
-        .lines()
+    let energies = second_column(&stdout_of(&out, &format!("four_bar.toml at h = {h}")));
+    (energies, String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// The second column of a `t,signal` CSV, one value per row.
+fn second_column(csv: &str) -> Vec<f64> {
+    csv.lines()
         .skip(1)
         .map(|l| {
             l.split(',')
                 .nth(1)
-                .expect("energy")
+                .expect("second column")
                 .parse()
                 .expect("number")
         })
-        .collect();
-    (energies, String::from_utf8_lossy(&out.stderr).into_owned())
+        .collect()
 }
 
 /// The bundled spatial four-bar at a long step, h = 0.03 (its crank turns up to about 0.7 rad
@@ -337,17 +341,7 @@ fn a_fast_body_does_not_hide_another_bodys_spurious_root() {
         &["--h", "0.03", "--t-end", "4", "--signals", "energy"],
     );
     std::fs::remove_file(&path).expect("removed");
-    let energies: Vec<f64> = stdout_of(&out, "four-bar with a spinner")
-        .lines()
-        .skip(1)
-        .map(|l| {
-            l.split(',')
-                .nth(1)
-                .expect("energy")
-                .parse()
-                .expect("number")
-        })
-        .collect();
+    let energies = second_column(&stdout_of(&out, "four-bar with a spinner"));
     assert_eq!(energies.len(), 134);
     let start = energies[0];
     let highest = energies.iter().copied().fold(f64::MIN, f64::max);

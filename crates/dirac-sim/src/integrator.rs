@@ -1355,15 +1355,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         stage.step.end_position(&stage.x, &mut stage.checked_end);
         match self.model.check_step(&self.q, &stage.checked_end) {
             Ok(()) => Ok(()),
-            Err(reason) => {
-                stage.x.copy_from_slice(&stage.checked_guess);
-                self.counters.spurious_roots += 1;
-                Err(SimError::StepRejected {
-                    step: self.k,
-                    t: self.t,
-                    reason,
-                })
-            }
+            Err(reason) => Err(self.reject_root(i, reason)),
         }
     }
 
@@ -1420,13 +1412,20 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 "a body turned by {full_turn:.3} rad in one step, and the two half steps that check it failed ({why})"
             ),
         };
+        Err(self.reject_root(i, reason))
+    }
+
+    /// Rejects stage `i`'s solved substep as a root off the motion's branch: the solution is
+    /// replaced by the guess it started from (the cut's pieces scale it) and counted.
+    fn reject_root(&mut self, i: usize, reason: String) -> SimError {
+        let stage = &mut self.stages[i];
         stage.x.copy_from_slice(&stage.checked_guess);
         self.counters.spurious_roots += 1;
-        Err(SimError::StepRejected {
+        SimError::StepRejected {
             step: self.k,
             t: self.t,
             reason,
-        })
+        }
     }
 
     /// The end position of two half steps of stage `i` from the current state, the first from
