@@ -515,6 +515,9 @@ struct Stage {
     /// end position of the step being checked. Empty otherwise.
     checked_guess: Vec<f64>,
     checked_end: Vec<f64>,
+    /// The checked step's turn of each body ([`Model::step_turns`]), kept between steps for its
+    /// storage.
+    checked_turns: Vec<f64>,
 }
 
 impl Stage {
@@ -636,6 +639,7 @@ impl Stage {
             extrapolation,
             checked_guess: checked(unknowns),
             checked_end: checked(model.dim()),
+            checked_turns: Vec::new(),
             fraction: h / options.h,
             aux: None,
             last_size: h,
@@ -1373,46 +1377,48 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     /// not raise the bound for the others. The half steps are solved aside (the stage's
     /// auxiliary Newton) and leave the solution, the state and the predictor as they were.
     fn verify_step(&mut self, i: usize, size: f64) -> Result<NewtonStats, SimError> {
-        let stage = &self.stages[i];
+        let stage = &mut self.stages[i];
         if stage.checked_guess.is_empty() {
             return Ok(NewtonStats::default());
         }
-        let mut full_turns = Vec::new();
+        stage.checked_turns.clear();
         self.model
-            .step_turns(&self.q, &stage.checked_end, &mut full_turns);
-        let full_turn = full_turns.iter().copied().fold(0.0, f64::max);
+            .step_turns(&self.q, &stage.checked_end, &mut stage.checked_turns);
+        let full_turn = stage.checked_turns.iter().copied().fold(0.0, f64::max);
         if full_turn <= VERIFY_TURN {
             return Ok(NewtonStats::default());
         }
         self.counters.turn_checks += 1;
+        let full_turns = std::mem::take(&mut stage.checked_turns);
         let full = stage.x.clone();
         let mut stats = NewtonStats::default();
         let halves = self.half_steps(i, size, &full, &mut stats);
         let stage = &mut self.stages[i];
         stage.step.set_start(&self.q, &self.p, self.t);
         stage.x.copy_from_slice(&full);
-        let reason = match halves {
+        let reason = match &halves {
             Ok(end) => {
                 let (mut apart, mut turns) = (Vec::new(), Vec::new());
-                self.model.step_turns(&stage.checked_end, &end, &mut apart);
-                self.model.step_turns(&self.q, &end, &mut turns);
-                let worst = apart
+                self.model.step_turns(&stage.checked_end, end, &mut apart);
+                self.model.step_turns(&self.q, end, &mut turns);
+                apart
                     .iter()
                     .zip(&turns)
                     .zip(&full_turns)
-                    .find(|((a, t), _)| **a > VERIFY_RATIO * t.max(VERIFY_FLOOR));
-                let Some(((apart, turn), full)) = worst else {
-                    return Ok(stats);
-                };
-                format!(
-                    "a body turned by {full:.3} rad in one step, where two half steps turn it by {turn:.3} rad and end {apart:.3} rad away: a root of the step equations that the motion does not take"
-                )
+                    .find(|((a, t), _)| **a > VERIFY_RATIO * t.max(VERIFY_FLOOR))
+                    .map(|((apart, turn), full)| format!(
+                        "a body turned by {full:.3} rad in one step, where two half steps turn it by {turn:.3} rad and end {apart:.3} rad away: a root of the step equations that the motion does not take"
+                    ))
             }
-            Err(why) => format!(
+            Err(why) => Some(format!(
                 "a body turned by {full_turn:.3} rad in one step, and the two half steps that check it failed ({why})"
-            ),
+            )),
         };
-        Err(self.reject_root(i, reason))
+        stage.checked_turns = full_turns;
+        match reason {
+            None => Ok(stats),
+            Some(reason) => Err(self.reject_root(i, reason)),
+        }
     }
 
     /// Rejects stage `i`'s solved substep as a root off the motion's branch: the solution is

@@ -1209,7 +1209,7 @@ impl Simulation {
     /// Warns when steps landed on roots of a rigid body's step equations that the motion does
     /// not take: they were cut, and the step is long for the rotation.
     fn warn_spurious_roots(&mut self) {
-        let summary = self.summary();
+        let summary = self.counters();
         if summary.spurious_roots > 0 {
             self.warnings.push(format!(
                 "{} step(s) landed on a root of a rigid body's step equations that the motion does not take (a turn of a quarter turn or more, or far from two half steps; {} step(s) turned a body by more than 0.25 rad and were checked) and were cut: h = {:e} is long for the rotation, and the run's accuracy there is coarse; use a smaller h, or the truncation-error refinement (`--refine`) to control it",
@@ -1221,10 +1221,15 @@ impl Simulation {
     /// Counters so far.
     #[must_use]
     pub fn summary(&self) -> RunSummary {
-        let mut summary = RunSummary {
+        RunSummary {
             warnings: self.warnings.clone(),
-            ..RunSummary::default()
-        };
+            ..self.counters()
+        }
+    }
+
+    /// [`Simulation::summary`] without the warnings.
+    fn counters(&self) -> RunSummary {
+        let mut summary = RunSummary::default();
         if let Some(engine) = &self.engine {
             engine.add_counters(&mut summary);
         }
