@@ -127,10 +127,17 @@ pub struct NewtonOptions {
     /// rule asks `4ε` of every unknown itself. An unknown much smaller than the others in its
     /// equations (a double pendulum's slow angle increment next to the fast one) then need not
     /// wait for a refreshed factorisation: its updates stall at the round-off that the residual's
-    /// rounding gives it. Off by default: an exponential device relation that reads such an
-    /// unknown (a diode's junction at a small current) is not at round-off when its equations
-    /// are (docs/audit.md item 22); dirac-sim turns it on for steps of models without update
-    /// limits.
+    /// rounding gives it. With it, a kept iterate is also accepted once its update moved no
+    /// unknown by more than `4ε` of its scale plus its round-off jitter `η_j`
+    /// ([`Newton::precision`]), provided the factorisation was seen to contract by at most a
+    /// half on updates well above that size (measured in the same units, in this solve or an
+    /// earlier one that kept it): the error left is then at most the update, as after an exact
+    /// update. In a chain's ill-conditioned steps the joint multipliers' updates settle at their
+    /// jitter, far above `4ε`, while the absolute updates' ratios read as poor contraction; this
+    /// spares the refactorisation either would take. Off by default: an exponential device
+    /// relation that reads such an unknown (a diode's junction at a small current) is not at
+    /// round-off when its equations are (docs/audit.md item 22); dirac-sim turns it on for steps
+    /// of models without update limits.
     pub accept_at_equation_roundoff: bool,
 }
 
@@ -217,6 +224,13 @@ pub struct Newton<S: LinearSolver> {
     /// Solves since the start not chosen by the rule (fresh or carried) was last tried, to
     /// re-measure its contraction.
     since_probe: usize,
+    /// Whether `noise` holds the jitter of the factorisation at hand (it changes little between
+    /// the iterates and solves that keep one factorisation, so it is estimated once for each).
+    noise_current: bool,
+    /// The largest contraction, in units of the round-off jitter, measured on the factorisation
+    /// at hand in the solves that kept it (NaN: none); a later solve accepts a kept iterate at
+    /// round-off on it.
+    kept_contraction: f64,
 }
 
 impl<S: LinearSolver> Newton<S> {
@@ -234,6 +248,8 @@ impl<S: LinearSolver> Newton<S> {
             row_sum: Vec::new(),
             noise: Vec::new(),
             noise_probe: Vec::new(),
+            noise_current: false,
+            kept_contraction: f64::NAN,
             unknown_scale: Vec::new(),
             analysed: false,
             factored: false,
@@ -253,6 +269,8 @@ impl<S: LinearSolver> Newton<S> {
     /// Forgets a reused factorisation (call when a constant Jacobian changes, e.g. a new `h`).
     pub fn invalidate_factorisation(&mut self) {
         self.factored = false;
+        self.noise_current = false;
+        self.kept_contraction = f64::NAN;
         self.carried_contraction = f64::NAN;
         self.fresh_contraction = f64::NAN;
     }
@@ -335,9 +353,19 @@ impl<S: LinearSolver> Newton<S> {
                 measuring = Some(Measuring::Fresh);
             }
         }
-        // Whether `self.noise` holds the jitter for the factorisation in use (it changes little
-        // between iterates on one factorisation, so it is estimated once per factorisation).
-        let mut noise_known = false;
+        // The last two updates from the factorisation in use, each in units of its round-off
+        // ([`Newton::update_over_noise`]; NaN: none, or not asked for). Their ratio measures the
+        // contraction that certifies an iterate at round-off: in absolute units the largest
+        // unknowns' updates dominate the ratio, and where the matrix is ill-conditioned (a
+        // chain's joint multipliers) those lag behind the rest, which has converged.
+        let mut last_over_noise = f64::NAN;
+        let mut previous_over_noise = f64::NAN;
+        // The largest such contraction measured on the factorisation in use, in this solve and
+        // the earlier ones that kept it (NaN: none).
+        let mut contraction_seen = self.kept_contraction;
+        // Whether the last update, from a kept factorisation, moved no unknown by more than its
+        // round-off.
+        let mut within_noise = false;
         for iteration in 0..=self.options.max_iterations {
             system.residual(x, &mut self.residual);
             stats.residual_evaluations += 1;
@@ -356,12 +384,23 @@ impl<S: LinearSolver> Newton<S> {
             }
             // NaN when unknown: every comparison below is then false.
             let theta = last_update / previous_update;
+            let kept_theta = last_over_noise / previous_over_noise;
+            if kept_theta.is_finite() && previous_over_noise > MEASURABLE_OVER_NOISE {
+                contraction_seen = if contraction_seen.is_nan() {
+                    kept_theta
+                } else {
+                    contraction_seen.max(kept_theta)
+                };
+                self.kept_contraction = contraction_seen;
+            }
             if iteration > 0 && !damped {
                 if exact_update || !modified {
                     if small_update {
                         return Ok(stats);
                     }
-                } else if theta <= 0.5 && (at_roundoff || at_equation_roundoff) {
+                } else if (theta <= 0.5 && (at_roundoff || at_equation_roundoff))
+                    || (within_noise && contraction_seen <= KEPT_NOISE_CONTRACTION)
+                {
                     return Ok(stats);
                 }
             }
@@ -461,8 +500,15 @@ impl<S: LinearSolver> Newton<S> {
             } else {
                 last_update
             };
+            previous_over_noise = if refresh || damped || iteration == 0 {
+                f64::NAN
+            } else {
+                last_over_noise
+            };
+            if refresh {
+                contraction_seen = f64::NAN;
+            }
             exact_update = refresh;
-            noise_known &= !refresh;
             previous_rnorm = rnorm;
             self.solve_update().map_err(|source| NewtonError::Linear {
                 source,
@@ -520,6 +566,29 @@ impl<S: LinearSolver> Newton<S> {
                         .zip(&self.unknown_scale)
                         .all(|(u, scale)| u.abs() <= KEPT_ACCEPT * scale)
                 };
+            // An update's size against its round-off ([`NewtonOptions::accept_at_equation_roundoff`]):
+            // the contraction's measure, and for a kept factorisation that contracted by at most
+            // a half, the test that accepts its iterate (the error left is at most the update
+            // over `1 − θ`). The scales and the jitter are taken once per factorisation.
+            (last_over_noise, within_noise) =
+                if self.options.accept_at_equation_roundoff && modified && !damped {
+                    if !self.noise_current {
+                        self.term_sizes(system, x);
+                        self.unknown_scales(x);
+                        self.current_noise_floor()
+                            .map_err(|source| NewtonError::Linear {
+                                source,
+                                residual: rnorm,
+                                worst_equation: worst,
+                            })?;
+                    }
+                    let over_noise = self.update_over_noise();
+                    let at_noise =
+                        !exact_update && !at_roundoff && !at_equation_roundoff && over_noise <= 1.0;
+                    (over_noise, at_noise)
+                } else {
+                    (f64::NAN, false)
+                };
             // An unknown that is small next to the terms of the equations it enters (a joint
             // multiplier of 1e-4 in momentum rows of size 1) is resolved once its update moves
             // none of them by more than `update_tol` of their terms; and no update can do better
@@ -529,13 +598,13 @@ impl<S: LinearSolver> Newton<S> {
                 self.term_sizes(system, x);
                 self.unknown_scales(x);
                 let noise = iteration > 0;
-                if noise && !noise_known {
-                    noise_known = true;
-                    self.noise_floor().map_err(|source| NewtonError::Linear {
-                        source,
-                        residual: rnorm,
-                        worst_equation: worst,
-                    })?;
+                if noise {
+                    self.current_noise_floor()
+                        .map_err(|source| NewtonError::Linear {
+                            source,
+                            residual: rnorm,
+                            worst_equation: worst,
+                        })?;
                 }
                 small_update = self
                     .update
@@ -668,6 +737,28 @@ impl<S: LinearSolver> Newton<S> {
         }
     }
 
+    /// The largest ratio of the last update of an unknown to its round-off: `4ε` of its scale
+    /// plus its jitter (from [`Newton::unknown_scales`] and [`Newton::noise_floor`]). At most 1
+    /// once no unknown moved by more than round-off can resolve.
+    fn update_over_noise(&self) -> f64 {
+        self.update
+            .iter()
+            .zip(&self.unknown_scale)
+            .zip(&self.noise)
+            .fold(0.0, |worst, ((u, scale), eta)| {
+                worst.max(u.abs() / (KEPT_ACCEPT * scale + eta))
+            })
+    }
+
+    /// [`Newton::noise_floor`] unless it is known for the factorisation at hand.
+    fn current_noise_floor(&mut self) -> Result<(), LinearSolveError> {
+        if !self.noise_current {
+            self.noise_floor()?;
+            self.noise_current = true;
+        }
+        Ok(())
+    }
+
     /// Per unknown, how far a Newton update moves it when every residual carries the round-off of
     /// evaluating its own terms, `ε·(c_i + Σ_j |J_ij x_j|)`: `η = |J⁻¹ δF|` with `δF_i` that size
     /// and a fixed sign per equation, the largest over three sign patterns: two pseudo-random ones
@@ -760,6 +851,8 @@ impl<S: LinearSolver> Newton<S> {
         // A failed attempt leaves no factorisation (the solver may have overwritten its factors):
         // the next solve refactorises.
         self.factored = false;
+        self.noise_current = false;
+        self.kept_contraction = f64::NAN;
         // Row equilibration: scale every row to unit max-norm so partial pivoting compares like
         // with like (momentum equations and constraint rows differ in units by ~M/h).
         self.row_scale.fill(0.0);
@@ -821,6 +914,14 @@ const SCALE_COEFFICIENT: f64 = 1.5e-8;
 /// and still count as converged: the estimate takes one ulp of each equation's terms, while a
 /// residual that sums a handful of terms carries a few.
 const NOISE_MARGIN: f64 = 8.0;
+
+/// The largest contraction of a kept factorisation, measured in units of round-off on updates
+/// well above it, whose iterate is accepted once its update is within round-off.
+const KEPT_NOISE_CONTRACTION: f64 = 0.5;
+
+/// The smallest update, in units of its round-off jitter ([`Newton::update_over_noise`]), whose
+/// ratio to the one before counts as a measured contraction for the kept-iterate test.
+const MEASURABLE_OVER_NOISE: f64 = 100.0;
 
 /// Iterations on one kept factorisation before it is refreshed regardless of contraction.
 const MAX_KEPT_ITERATIONS: usize = 8;
