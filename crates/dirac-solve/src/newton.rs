@@ -398,9 +398,19 @@ impl<S: LinearSolver> Newton<S> {
                     if small_update {
                         return Ok(stats);
                     }
-                } else if (theta <= 0.5 && (at_roundoff || at_equation_roundoff))
-                    || (within_noise && contraction_seen <= KEPT_NOISE_CONTRACTION)
-                {
+                } else if theta <= 0.5 && (at_roundoff || at_equation_roundoff) {
+                    return Ok(stats);
+                } else if within_noise && contraction_seen <= KEPT_NOISE_CONTRACTION {
+                    // The iterate's error is the kept factorisation's remainder, a smooth
+                    // function of the state that would bias every step the same way; one more
+                    // update from the residual at hand shrinks it by the contraction.
+                    self.solve_update().map_err(|source| NewtonError::Linear {
+                        source,
+                        residual: rnorm,
+                        worst_equation: worst,
+                    })?;
+                    stats.iterations += 1;
+                    self.apply_update(x);
                     return Ok(stats);
                 }
             }
