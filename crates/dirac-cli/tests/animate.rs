@@ -3,6 +3,9 @@
 //! revolute joints hold the links together), the first starts at the ground anchor, and the
 //! chain moves between frames; scenes without rigid bodies are refused with exit code 2.
 
+mod common;
+
+use common::scratch;
 use std::path::PathBuf;
 use std::process::Command;
 
@@ -41,7 +44,7 @@ const PIXEL: f64 = 0.01;
 /// the chain in frame 0 ("gap 20.65 between links").
 #[test]
 fn chain_frames_show_a_connected_moving_chain() {
-    let dir = std::env::temp_dir().join(format!("dirac_animate_{}", std::process::id()));
+    let dir = scratch("chain_frames");
     let _ = std::fs::remove_dir_all(&dir);
     let out = dirac()
         .args(["animate", "--count", "3", "--t-end", "0.5", "--frames"])
@@ -75,7 +78,7 @@ fn chain_frames_show_a_connected_moving_chain() {
 
 #[test]
 fn scenes_without_rigid_bodies_are_refused() {
-    let dir = std::env::temp_dir().join(format!("dirac_animate_none_{}", std::process::id()));
+    let dir = scratch("no_frames");
     let out = dirac()
         .args(["animate", "--frames"])
         .arg(&dir)

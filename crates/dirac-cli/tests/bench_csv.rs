@@ -10,6 +10,9 @@
 //! rows for scene CLI"). Not run: renaming a column of `bench::HEADER`
 //! would fail `fresh_dirac_bench_output_parses` at its header comparison.
 
+mod common;
+
+use common::scratch;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -160,9 +163,7 @@ fn committed_results_parse() {
 
 #[test]
 fn fresh_dirac_bench_output_parses() {
-    let dir = std::env::temp_dir().join(format!("dirac-bench-csv-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    let out = dir.join("B.csv");
+    let out = scratch("B.csv");
     let status = Command::new(env!("CARGO_BIN_EXE_dirac"))
         .args(["bench", "--scene", "B", "--quick", "--out"])
         .arg(&out)

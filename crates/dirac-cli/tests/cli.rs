@@ -1,5 +1,8 @@
 //! The `dirac` binary's contracts: CSV columns, exit codes, atomic output, --signals.
 
+mod common;
+
+use common::scratch;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -11,12 +14,6 @@ fn repo(path: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../..")
         .join(path)
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dirac-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir.join(name)
 }
 
 #[test]

@@ -1,6 +1,9 @@
 //! The `dirac` binary under abuse: pipes closed early, signals, runs too long for the machine,
 //! Newton failures, and the step-size report (issue 16).
 
+mod common;
+
+use common::scratch;
 use std::io::{BufRead, BufReader};
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
@@ -16,12 +19,6 @@ fn repo(path: &str) -> String {
         .join(path)
         .to_string_lossy()
         .into_owned()
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dirac-hardening-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir.join(name)
 }
 
 /// A saturating inductor with no saturated inductance holds at most `L₀·I_sat = 1 Wb`; a 1 V

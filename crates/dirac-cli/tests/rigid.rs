@@ -4,6 +4,9 @@
 //! top's symmetry, stays 40 to round-off in every printed row (the CSV prints shortest round-trip
 //! decimals, so nothing is lost in the text).
 
+mod common;
+
+use common::scratch;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -198,7 +201,7 @@ fn a_rate_zero_by_symmetry_is_not_a_fast_mode() {
 /// Newton reaches from the start is not asserted).
 #[test]
 fn the_static_equilibrium_of_a_mechanism() {
-    let level = std::env::temp_dir().join(format!("dirac-level-{}.toml", std::process::id()));
+    let level = scratch("level.toml");
     let text = std::fs::read_to_string(scene("cartesian_pendulum.toml")).expect("scene");
     let released = "q0 = { x = 0.8414709848078965, y = -0.5403023058681398 }";
     assert!(text.contains(released));
@@ -277,7 +280,7 @@ fn variant(bundled: &str, name: &str, replacements: &[(&str, &str)]) -> PathBuf 
         assert!(text.contains(from), "{bundled}: {from}");
         text = text.replacen(from, to, 1);
     }
-    let path = std::env::temp_dir().join(format!("dirac-{}-{name}", std::process::id()));
+    let path = scratch(name);
     std::fs::write(&path, text).expect("written");
     path
 }

@@ -2,6 +2,9 @@
 //! method choice and the signals a netlist names. Each check is against a closed form or the
 //! netlist's own stated initial state.
 
+mod common;
+
+use common::scratch;
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
@@ -9,12 +12,6 @@ fn repo(path: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../..")
         .join(path)
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("dirac-semantics-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("scratch dir");
-    dir.join(name)
 }
 
 /// The level-1 NMOS `nch` and PMOS `pch` models of the CMOS decks (the session-22 sweep's).
