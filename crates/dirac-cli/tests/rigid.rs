@@ -409,6 +409,25 @@ fn the_dc_motor_stalls_against_its_spring() {
     assert!(value("M.theta'").abs() < 1e-12 && value("J.theta'").abs() < 1e-12);
 }
 
+/// The motor arm's motor, fed a constant voltage, turns a column that nothing holds: at rest its
+/// torque `k V/R` has nothing to balance it, so there is no static equilibrium (the motion tends
+/// to a steady rotation). `dirac op` failed with "Newton did not converge" and advice for
+/// circuits; stiffness stepping's proximal iteration moves the gear by the same 1.076 rad with
+/// every solve (the spring's pull balancing the constant torque), which now reads as the
+/// model's answer: no static equilibrium, the gear's angles named, exit 2 (a model without a
+/// steady state, as a current source into capacitors). The DC motor held by its spring
+/// (`the_dc_motor_stalls_against_its_spring`) and the hanging chain, whose proximal iteration
+/// settles, are the controls.
+#[test]
+fn a_motor_turning_a_free_column_has_no_static_equilibrium() {
+    let out = dirac("op", &scene("motor_arm.toml"), &[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(out.stdout.is_empty(), "no partial output");
+    assert!(stderr.contains("no static equilibrium"), "{stderr}");
+    assert!(stderr.contains("`G.theta1`"), "{stderr}");
+}
+
 /// The bundled pendulum chain (ten links of 0.7 kg on hinges about y, each hinge 0.3 m from the
 /// last link's centre of mass, the first at its own) stopped `dirac op` with a singular matrix
 /// at the end of stiffness stepping, 4.5e-6 N from balance: the last link's centre of mass sits

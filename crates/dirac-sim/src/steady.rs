@@ -64,6 +64,23 @@ pub enum SteadyStateError {
         /// The largest residual at the start.
         start: f64,
     },
+    /// Stiffness stepping's proximal iteration kept moving the mechanism by about the same
+    /// amount with every solve: each solve lowers the potential of the applied forces by at least
+    /// the spring's energy, so a motion that does not settle is one along which the applied
+    /// forces do unbounded work (a drive turning a shaft that nothing holds).
+    #[error(
+        "no static equilibrium: the applied forces keep moving {coordinates} without settling ({solves} solves of stiffness stepping's proximal iteration, each moving the mechanism by {step:.3e} or more, the last {last:.3e}): a drive or load on a motion that nothing holds (a motor turning a free shaft) has a steady motion, not a static equilibrium; hold that motion (a spring, a stop) or simulate it (`dirac run`)"
+    )]
+    NoEquilibrium {
+        /// The coordinates the last solve moved most, named, with their total travel.
+        coordinates: String,
+        /// Proximal solves taken.
+        solves: usize,
+        /// The smallest move of a solve (largest coordinate change).
+        step: f64,
+        /// The last solve's move.
+        last: f64,
+    },
     /// Newton's method failed, even with gmin stepping.
     #[error(
         "steady state: Newton did not converge ({source}); largest residuals: {residuals}; try UIC (start from given values) or check the nonlinear parts' parameters"
@@ -190,6 +207,9 @@ impl SteadyState {
         let isolated = match outcome {
             Ok((_, regular)) => regular,
             Err(source) => {
+                if let Some(drift) = system.drift.take() {
+                    return Err(drift);
+                }
                 let mut r = vec![0.0; size];
                 system.residual(&x, &mut r);
                 let largest = |r: &[f64]| r.iter().fold(0.0_f64, |big, v| big.max(v.abs()));
@@ -464,6 +484,8 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
     system.stiffness = softest;
     let tolerance = newton.options().update_tol;
     let mut converged = None;
+    // The largest coordinate change of each solve.
+    let mut moves = Vec::with_capacity(PROXIMAL_MOST_SOLVES);
     for _ in 0..PROXIMAL_MOST_SOLVES {
         for j in (0..system.n()).filter(|&j| !system.cyclic[j]) {
             system.anchor[j] = x[j];
@@ -474,12 +496,14 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
             moved = moved.max((x[j] - system.anchor[j]).abs());
             largest = largest.max(x[j].abs());
         }
+        moves.push(moved);
         if moved <= tolerance * largest {
             converged = Some(stats);
             break;
         }
     }
     let Some(stats) = converged else {
+        system.drift = drift(system, &held, x, &moves);
         return Err(failure);
     };
     // Whether the point is isolated: a solve without the spring from it. Where that fails (a
@@ -493,6 +517,47 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
             Ok((stats, false))
         }
     }
+}
+
+/// [`SteadyStateError::NoEquilibrium`] when the proximal iteration's solves (their largest
+/// coordinate changes `moves`, all of [`PROXIMAL_MOST_SOLVES`]) kept moving the mechanism: the
+/// last at least half the largest, where an iteration that approaches an equilibrium shrinks
+/// its moves. Names the three coordinates the last solve moved most, with their travel from
+/// `from` (the iteration's start) to `x`.
+fn drift<M: Model + ?Sized, C: Constraints + ?Sized>(
+    system: &SteadySystem<'_, M, C>,
+    from: &[f64],
+    x: &[f64],
+    moves: &[f64],
+) -> Option<SteadyStateError> {
+    let largest = moves.iter().fold(0.0_f64, |big, m| big.max(*m));
+    let last = *moves.last()?;
+    if !(last >= 0.5 * largest && last > 0.0) {
+        return None;
+    }
+    let mut order: Vec<usize> = (0..system.n()).filter(|&j| !system.cyclic[j]).collect();
+    order.sort_by(|&a, &b| {
+        let change = |j: usize| (x[j] - system.anchor[j]).abs();
+        change(b).total_cmp(&change(a))
+    });
+    let coordinates = order
+        .iter()
+        .take(3)
+        .map(|&j| {
+            format!(
+                "{} (by {:.3e} in all)",
+                system.unknown_name(j),
+                x[j] - from[j]
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    Some(SteadyStateError::NoEquilibrium {
+        coordinates,
+        solves: moves.len(),
+        step: moves.iter().fold(f64::INFINITY, |small, m| small.min(*m)),
+        last,
+    })
 }
 
 /// Which coordinates nothing `q`-dependent contains: evaluated from the derivative values at the
@@ -589,6 +654,9 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     /// by their rates) holds trivially as `A v = 0`; its integral keeps them at their start's
     /// offset instead of leaving the row empty.
     integrated: Vec<bool>,
+    /// Set when stiffness stepping's proximal iteration did not settle but kept moving
+    /// ([`SteadyStateError::NoEquilibrium`]).
+    drift: Option<SteadyStateError>,
 }
 
 impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
@@ -626,6 +694,7 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             g: vec![0.0; m],
             redundant: Vec::new(),
             integrated: vec![false; m],
+            drift: None,
         }
     }
 
