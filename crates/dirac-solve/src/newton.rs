@@ -562,11 +562,30 @@ impl<S: LinearSolver> Newton<S> {
                 small_update &= a <= tol * old.abs().max(xi.abs());
             }
             last_update = unorm;
-            at_equation_roundoff = self.options.accept_at_equation_roundoff
-                && modified
-                && !exact_update
-                && !damped
+            // An update's size against its round-off ([`NewtonOptions::accept_at_equation_roundoff`]):
+            // the contraction's measure, and for a kept factorisation that contracted by at most
+            // a half, the test that accepts its iterate (the error left is at most the update
+            // over `1 − θ`). The scales and the jitter are taken once per factorisation.
+            last_over_noise = if self.options.accept_at_equation_roundoff && modified && !damped {
+                if !self.noise_current {
+                    self.term_sizes(system, x);
+                    self.unknown_scales(x);
+                    self.current_noise_floor()
+                        .map_err(|source| NewtonError::Linear {
+                            source,
+                            residual: rnorm,
+                            worst_equation: worst,
+                        })?;
+                }
+                self.update_over_noise()
+            } else {
+                f64::NAN
+            };
+            // The test at `4ε` of every unknown's scale at this iterate, asked only of an update
+            // within the round-off the factorisation's scales allow (a stricter test).
+            at_equation_roundoff = !exact_update
                 && !at_roundoff
+                && last_over_noise <= 1.0
                 && unorm <= KEPT_ACCEPT * max_norm(x).0
                 && {
                     self.term_sizes(system, x);
@@ -576,29 +595,8 @@ impl<S: LinearSolver> Newton<S> {
                         .zip(&self.unknown_scale)
                         .all(|(u, scale)| u.abs() <= KEPT_ACCEPT * scale)
                 };
-            // An update's size against its round-off ([`NewtonOptions::accept_at_equation_roundoff`]):
-            // the contraction's measure, and for a kept factorisation that contracted by at most
-            // a half, the test that accepts its iterate (the error left is at most the update
-            // over `1 − θ`). The scales and the jitter are taken once per factorisation.
-            (last_over_noise, within_noise) =
-                if self.options.accept_at_equation_roundoff && modified && !damped {
-                    if !self.noise_current {
-                        self.term_sizes(system, x);
-                        self.unknown_scales(x);
-                        self.current_noise_floor()
-                            .map_err(|source| NewtonError::Linear {
-                                source,
-                                residual: rnorm,
-                                worst_equation: worst,
-                            })?;
-                    }
-                    let over_noise = self.update_over_noise();
-                    let at_noise =
-                        !exact_update && !at_roundoff && !at_equation_roundoff && over_noise <= 1.0;
-                    (over_noise, at_noise)
-                } else {
-                    (f64::NAN, false)
-                };
+            within_noise =
+                !exact_update && !at_roundoff && !at_equation_roundoff && last_over_noise <= 1.0;
             // An unknown that is small next to the terms of the equations it enters (a joint
             // multiplier of 1e-4 in momentum rows of size 1) is resolved once its update moves
             // none of them by more than `update_tol` of their terms; and no update can do better
