@@ -60,6 +60,15 @@ def test_an_operating_point_that_is_not_isolated_warns():
     assert abs(abs(point["top.z"]) - 0.15) < 1e-12
 
 
+def test_a_mechanism_without_a_static_equilibrium_raises_input_error():
+    """The motor arm's motor, at a constant voltage, turns a column that nothing holds: there is
+    no static equilibrium (the motion tends to a steady rotation). ``dirac op`` exits 2 naming the
+    gear's angle; the package raises InputError with the same message."""
+    model = dirac.load(EXAMPLES / "scenes" / "motor_arm.toml")
+    with pytest.raises(dirac.InputError, match=r"no static equilibrium.*`G\.theta1`"):
+        model.operating_point()
+
+
 def test_options_reach_the_run_as_on_the_command_line(cli):
     path = EXAMPLES / "netlists" / "seed_rlc.cir"
     expected = cli(
