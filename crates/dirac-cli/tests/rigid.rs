@@ -129,6 +129,26 @@ fn a_long_step_does_not_land_on_a_spurious_rotation() {
     assert!(lowest > 0.5 * start, "{energies:?}");
 }
 
+/// The heavy top spins at 40 rad/s: at h = 0.01 every step turns it by 0.4 rad, on the motion's
+/// branch (each is checked against two half steps and kept), but its discrete spin rate is
+/// `sin θ/h` for a mean rate `θ/h`, 2.7 % apart: the run warns that h resolves the rotation
+/// coarsely, as it warns where roots were cut. At its own h = 1e-3 (0.04 rad a step) it does
+/// not. Can fail: without the warning for checked-and-kept steps the coarse run is silent.
+#[test]
+fn a_step_that_turns_a_body_far_warns_that_the_rotation_is_coarse() {
+    let coarse = dirac("run", &scene("heavy_top.toml"), &["--h", "0.01"]);
+    stdout_of(&coarse, "heavy_top.toml --h 0.01");
+    let stderr = String::from_utf8_lossy(&coarse.stderr);
+    assert!(
+        stderr.contains("400 step(s) turned a body by more than 0.25 rad"),
+        "{stderr}"
+    );
+    let fine = dirac("run", &scene("heavy_top.toml"), &[]);
+    stdout_of(&fine, "heavy_top.toml");
+    let stderr = String::from_utf8_lossy(&fine.stderr);
+    assert!(!stderr.contains("warning"), "{stderr}");
+}
+
 /// Where Newton fails on a long step of the four-bar, the step is cut; its pieces started from
 /// the iterate Newton gave up on, scaled down, which on a rigid body can be turned by radians,
 /// and every piece down to h/1024 failed: at h = 0.03 at step 101, at h = 0.1 at step 10 (with

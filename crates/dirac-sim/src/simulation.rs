@@ -1207,13 +1207,21 @@ impl Simulation {
     }
 
     /// Warns when steps landed on roots of a rigid body's step equations that the motion does
-    /// not take: they were cut, and the step is long for the rotation.
+    /// not take (they were cut), or else when steps turned a body by more than 0.25 rad (checked
+    /// and kept): either way the step is long for the rotation. A step that turns a body by `θ`
+    /// reads its rate to about `θ²/6` (a principal spin's discrete rate is `sin θ/h` for a mean
+    /// rate `θ/h`): 1 % at 0.25 rad.
     fn warn_spurious_roots(&mut self) {
         let summary = self.counters();
         if summary.spurious_roots > 0 {
             self.warnings.push(format!(
                 "{} step(s) landed on a root of a rigid body's step equations that the motion does not take (a turn of a quarter turn or more, or far from two half steps; {} step(s) turned a body by more than 0.25 rad and were checked) and were cut: h = {:e} is long for the rotation, and the run's accuracy there is coarse; use a smaller h, or the truncation-error refinement (`--refine`) to control it",
                 summary.spurious_roots, summary.turn_checks, self.options.h
+            ));
+        } else if summary.turn_checks > 0 {
+            self.warnings.push(format!(
+                "{} step(s) turned a body by more than 0.25 rad (each checked against two half steps and kept): h = {:e} resolves the rotation coarsely (a step turning a body by θ is off its rate by about θ²/6, 1 % at 0.25 rad); use a smaller h, or the truncation-error refinement (`--refine`) to control it",
+                summary.turn_checks, self.options.h
             ));
         }
     }
