@@ -1220,7 +1220,7 @@ impl Simulation {
             ));
         } else if summary.turn_checks > 0 {
             self.warnings.push(format!(
-                "{} step(s) turned a body by more than 0.25 rad (each checked against two half steps and kept): h = {:e} resolves the rotation coarsely (a step turning a body by θ is off its rate by about θ²/6, 1 % at 0.25 rad); use a smaller h, or the truncation-error refinement (`--refine`) to control it",
+                "{} step(s) turned a body by more than 0.25 rad (each checked against two half steps and kept): h = {:e} resolves the rotation coarsely (a step turning a body by θ is off its rate by about θ²/6, 1 % at 0.25 rad); use a smaller h (the truncation-error refinement, `--refine`, cuts the steps whose error it estimates, which a steady spin does not show)",
                 summary.turn_checks, self.options.h
             ));
         }

@@ -71,15 +71,15 @@ fn gauss4_energy_stays_at_its_truncation_level() {
 /// rounding's random walk lets it. A kept Newton iterate accepted at round-off without a last
 /// update from the residual at hand (`NewtonOptions::accept_at_equation_roundoff`) leaves the
 /// kept factorisation's remainder, a smooth function of the state, in every step: the maximum
-/// then rose through every tenth, 1.034e-10 → 1.145e-10 (×1.107) from the second tenth to the
-/// last; with that update 9.771e-11 → 1.010e-10 (×1.034), and 9.832e-11 flat before kept
-/// iterates were accepted at round-off.
+/// then rose through the run, 1.030e-10 → 1.075e-10 (×1.044) from the second tenth to the last
+/// (seen to fail); with that update 9.862e-11 flat, as before kept iterates were accepted at
+/// round-off (9.832e-11 flat).
 #[test]
 fn gauss4_energy_does_not_drift_over_400_000_steps() {
     let tenths = energy_error_tenths(4, 0.025, 400_000);
     let shown: Vec<String> = tenths.iter().map(|e| format!("{e:.3e}")).collect();
     println!("running max |H − H₀| per tenth: {}", shown.join(" "));
-    assert!(tenths[9] <= 1.06 * tenths[1], "{}", shown.join(" "));
+    assert!(tenths[9] <= 1.02 * tenths[1], "{}", shown.join(" "));
 }
 
 /// Free masses have no force: by the discrete Noether theorem every variational step keeps their

@@ -129,12 +129,14 @@ pub struct NewtonOptions {
     /// wait for a refreshed factorisation: its updates stall at the round-off that the residual's
     /// rounding gives it. With it, a kept iterate is also accepted once its update moved no
     /// unknown by more than `4ε` of its scale plus its round-off jitter `η_j`
-    /// ([`Newton::precision`]), provided the factorisation was seen to contract by at most a
-    /// half on updates well above that size (measured in the same units, in this solve or an
-    /// earlier one that kept it): the error left is then at most the update, as after an exact
-    /// update. In a chain's ill-conditioned steps the joint multipliers' updates settle at their
-    /// jitter, far above `4ε`, while the absolute updates' ratios read as poor contraction; this
-    /// spares the refactorisation either would take. Off by default: an exponential device
+    /// ([`Newton::precision`]; the scales taken once per solve, the jitter once per
+    /// factorisation), provided the factorisation was seen to contract by at most a half in
+    /// this solve, on updates at least 100 times that size and measured in the same units: the
+    /// iterate's error is then at most the update, and one more update from the residual at
+    /// hand (returned) shrinks it by the contraction, so that no remainder of the kept
+    /// factorisation biases every step alike. In a chain's ill-conditioned steps the joint
+    /// multipliers' updates settle at their jitter, far above `4ε`, while the absolute updates'
+    /// ratios read as poor contraction; this spares the refactorisation either would take. Off by default: an exponential device
     /// relation that reads such an unknown (a diode's junction at a small current) is not at
     /// round-off when its equations are (docs/audit.md item 22); dirac-sim turns it on for steps
     /// of models without update limits.
@@ -227,10 +229,9 @@ pub struct Newton<S: LinearSolver> {
     /// Whether `noise` holds the jitter of the factorisation at hand (it changes little between
     /// the iterates and solves that keep one factorisation, so it is estimated once for each).
     noise_current: bool,
-    /// The largest contraction, in units of the round-off jitter, measured on the factorisation
-    /// at hand in the solves that kept it (NaN: none); a later solve accepts a kept iterate at
-    /// round-off on it.
-    kept_contraction: f64,
+    /// Whether `unknown_scale` holds the scales at an iterate of the current solve (the kept
+    /// updates' round-off test takes them once per solve).
+    scales_current: bool,
 }
 
 impl<S: LinearSolver> Newton<S> {
@@ -249,7 +250,7 @@ impl<S: LinearSolver> Newton<S> {
             noise: Vec::new(),
             noise_probe: Vec::new(),
             noise_current: false,
-            kept_contraction: f64::NAN,
+            scales_current: false,
             unknown_scale: Vec::new(),
             analysed: false,
             factored: false,
@@ -270,7 +271,6 @@ impl<S: LinearSolver> Newton<S> {
     pub fn invalidate_factorisation(&mut self) {
         self.factored = false;
         self.noise_current = false;
-        self.kept_contraction = f64::NAN;
         self.carried_contraction = f64::NAN;
         self.fresh_contraction = f64::NAN;
     }
@@ -360,9 +360,10 @@ impl<S: LinearSolver> Newton<S> {
         // chain's joint multipliers) those lag behind the rest, which has converged.
         let mut last_over_noise = f64::NAN;
         let mut previous_over_noise = f64::NAN;
-        // The largest such contraction measured on the factorisation in use, in this solve and
-        // the earlier ones that kept it (NaN: none).
-        let mut contraction_seen = self.kept_contraction;
+        // The largest such contraction measured on the factorisation in use in this solve (NaN:
+        // none). Not carried from an earlier solve: the system may have changed since.
+        let mut contraction_seen = f64::NAN;
+        self.scales_current = false;
         // Whether the last update, from a kept factorisation, moved no unknown by more than its
         // round-off.
         let mut within_noise = false;
@@ -384,14 +385,18 @@ impl<S: LinearSolver> Newton<S> {
             }
             // NaN when unknown: every comparison below is then false.
             let theta = last_update / previous_update;
+            // Measured on an earlier update well above round-off (an infinite later one counts,
+            // as no contraction).
             let kept_theta = last_over_noise / previous_over_noise;
-            if kept_theta.is_finite() && previous_over_noise > MEASURABLE_OVER_NOISE {
+            if !kept_theta.is_nan()
+                && previous_over_noise.is_finite()
+                && previous_over_noise > MEASURABLE_OVER_NOISE
+            {
                 contraction_seen = if contraction_seen.is_nan() {
                     kept_theta
                 } else {
                     contraction_seen.max(kept_theta)
                 };
-                self.kept_contraction = contraction_seen;
             }
             if iteration > 0 && !damped {
                 if exact_update || !modified {
@@ -404,14 +409,7 @@ impl<S: LinearSolver> Newton<S> {
                     // The iterate's error is the kept factorisation's remainder, a smooth
                     // function of the state that would bias every step the same way; one more
                     // update from the residual at hand shrinks it by the contraction.
-                    self.solve_update().map_err(|source| NewtonError::Linear {
-                        source,
-                        residual: rnorm,
-                        worst_equation: worst,
-                    })?;
-                    stats.iterations += 1;
-                    self.apply_update(x);
-                    return Ok(stats);
+                    return self.final_update(x, stats, rnorm, worst);
                 }
             }
             if iteration == self.options.max_iterations {
@@ -425,14 +423,7 @@ impl<S: LinearSolver> Newton<S> {
                     let (relative, equation) = self.relative_residual(system, x);
                     if fresh && relative <= self.options.residual_tol && self.factor().is_ok() {
                         stats.factorisations += 1;
-                        self.solve_update().map_err(|source| NewtonError::Linear {
-                            source,
-                            residual: rnorm,
-                            worst_equation: worst,
-                        })?;
-                        stats.iterations += 1;
-                        self.apply_update(x);
-                        return Ok(stats);
+                        return self.final_update(x, stats, rnorm, worst);
                     }
                     (relative, equation)
                 };
@@ -567,7 +558,7 @@ impl<S: LinearSolver> Newton<S> {
             // a half, the test that accepts its iterate (the error left is at most the update
             // over `1 − θ`). The scales and the jitter are taken once per factorisation.
             last_over_noise = if self.options.accept_at_equation_roundoff && modified && !damped {
-                if !self.noise_current {
+                if !self.noise_current || !self.scales_current {
                     self.term_sizes(system, x);
                     self.unknown_scales(x);
                     self.current_noise_floor()
@@ -595,8 +586,7 @@ impl<S: LinearSolver> Newton<S> {
                         .zip(&self.unknown_scale)
                         .all(|(u, scale)| u.abs() <= KEPT_ACCEPT * scale)
                 };
-            within_noise =
-                !exact_update && !at_roundoff && !at_equation_roundoff && last_over_noise <= 1.0;
+            within_noise = !exact_update && last_over_noise <= 1.0;
             // An unknown that is small next to the terms of the equations it enters (a joint
             // multiplier of 1e-4 in momentum rows of size 1) is resolved once its update moves
             // none of them by more than `update_tol` of their terms; and no update can do better
@@ -670,6 +660,25 @@ impl<S: LinearSolver> Newton<S> {
         self.solver.solve_in_place(&mut self.update)
     }
 
+    /// The update from the factorisation at hand and the last residual (of largest entry
+    /// `residual`, in `worst`), applied and counted: the iterate `solve` returns.
+    fn final_update(
+        &mut self,
+        x: &mut [f64],
+        mut stats: NewtonStats,
+        residual: f64,
+        worst: usize,
+    ) -> Result<NewtonStats, NewtonError> {
+        self.solve_update().map_err(|source| NewtonError::Linear {
+            source,
+            residual,
+            worst_equation: worst,
+        })?;
+        stats.iterations += 1;
+        self.apply_update(x);
+        Ok(stats)
+    }
+
     /// `x ← x − update`, the whole update.
     fn apply_update(&self, x: &mut [f64]) {
         for (xi, u) in x.iter_mut().zip(&self.update) {
@@ -726,6 +735,7 @@ impl<S: LinearSolver> Newton<S> {
     /// and are left out.
     /// Reads the term sizes [`Newton::term_sizes`] left at `x`.
     fn unknown_scales(&mut self, x: &[f64]) {
+        self.scales_current = true;
         self.unknown_scale.fill(f64::INFINITY);
         for (r, c, v) in self.jacobian.iter() {
             let a = v.abs();
@@ -860,7 +870,6 @@ impl<S: LinearSolver> Newton<S> {
         // the next solve refactorises.
         self.factored = false;
         self.noise_current = false;
-        self.kept_contraction = f64::NAN;
         // Row equilibration: scale every row to unit max-norm so partial pivoting compares like
         // with like (momentum equations and constraint rows differ in units by ~M/h).
         self.row_scale.fill(0.0);
@@ -1225,6 +1234,51 @@ mod tests {
             relaxed <= 2 && 5 * relaxed <= strict,
             "{relaxed} factorisations with the option, {strict} without"
         );
+    }
+
+    /// `a·((x − 1) + (x − 1)³)`: root 1 for every `a`, which changes between solves.
+    struct Rescaled(f64);
+    impl NonlinearSystem for Rescaled {
+        fn len(&self) -> usize {
+            1
+        }
+        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
+            let e = x[0] - 1.0;
+            r[0] = self.0 * (e + e * e * e);
+        }
+        fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
+            let e = x[0] - 1.0;
+            jac.add(0, 0, self.0 * (1.0 + 3.0 * e * e));
+        }
+        fn constant_magnitudes(&mut self, out: &mut [f64]) {
+            out[0] = self.0.abs();
+        }
+    }
+
+    /// A kept iterate is accepted at round-off only on a contraction measured in the same solve.
+    /// The first solve (a = 1, from 1e-3 off) measures its factorisation's contraction as 2e-6;
+    /// the second (a = 0.01, from 1.5e-13 off) keeps that factorisation, whose contraction on the
+    /// new system is 0.99. Carried into the second solve, the first's measurement accepted its
+    /// first kept update, 1.5e-15, with the root 1.47e-13 (662 ulps) away (found in review);
+    /// now the root is exact Newton's, 1 to `4ε`, for a = 0.5, 0.1 and 0.01.
+    #[test]
+    fn a_kept_iterate_is_not_accepted_on_an_earlier_solves_contraction() {
+        for a in [0.5, 0.1, 0.01] {
+            let options = NewtonOptions {
+                accept_at_equation_roundoff: true,
+                ..NewtonOptions::default()
+            };
+            let mut newton = Newton::new(DenseLu::new(), options);
+            let mut x = [1.0 + 1e-3];
+            newton.solve(&mut Rescaled(1.0), &mut x).unwrap();
+            let mut x = [1.0 + 1.5e-15 / a];
+            let stats = newton.solve(&mut Rescaled(a), &mut x).unwrap();
+            assert!(
+                (x[0] - 1.0).abs() <= 4.0 * f64::EPSILON,
+                "a = {a}: root off by {:e} ({stats:?})",
+                x[0] - 1.0
+            );
+        }
     }
 
     /// 100 solves of the circle whose radius grows 3 % per solve, so a factorisation carried
