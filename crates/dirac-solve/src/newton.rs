@@ -556,17 +556,13 @@ impl<S: LinearSolver> Newton<S> {
             // An update's size against its round-off ([`NewtonOptions::accept_at_equation_roundoff`]):
             // the contraction's measure, and for a kept factorisation that contracted by at most
             // a half, the test that accepts its iterate (the error left is at most the update
-            // over `1 − θ`). The scales and the jitter are taken once per factorisation.
+            // over `1 − θ`). The scales are taken once per solve, the jitter once per
+            // factorisation.
             last_over_noise = if self.options.accept_at_equation_roundoff && modified && !damped {
                 if !self.noise_current || !self.scales_current {
                     self.term_sizes(system, x);
                     self.unknown_scales(x);
-                    self.current_noise_floor()
-                        .map_err(|source| NewtonError::Linear {
-                            source,
-                            residual: rnorm,
-                            worst_equation: worst,
-                        })?;
+                    self.current_noise_floor(rnorm, worst)?;
                 }
                 self.update_over_noise()
             } else {
@@ -597,12 +593,7 @@ impl<S: LinearSolver> Newton<S> {
                 self.unknown_scales(x);
                 let noise = iteration > 0;
                 if noise {
-                    self.current_noise_floor()
-                        .map_err(|source| NewtonError::Linear {
-                            source,
-                            residual: rnorm,
-                            worst_equation: worst,
-                        })?;
+                    self.current_noise_floor(rnorm, worst)?;
                 }
                 small_update = self
                     .update
@@ -768,10 +759,15 @@ impl<S: LinearSolver> Newton<S> {
             })
     }
 
-    /// [`Newton::noise_floor`] unless it is known for the factorisation at hand.
-    fn current_noise_floor(&mut self) -> Result<(), LinearSolveError> {
+    /// [`Newton::noise_floor`] unless it is known for the factorisation at hand; a failing
+    /// solve is reported with the iterate's largest residual `residual` (equation `worst`).
+    fn current_noise_floor(&mut self, residual: f64, worst: usize) -> Result<(), NewtonError> {
         if !self.noise_current {
-            self.noise_floor()?;
+            self.noise_floor().map_err(|source| NewtonError::Linear {
+                source,
+                residual,
+                worst_equation: worst,
+            })?;
             self.noise_current = true;
         }
         Ok(())
