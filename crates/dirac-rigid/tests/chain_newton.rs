@@ -7,7 +7,7 @@
 //! every joint row between it and the root, and its first 100 steps take 10.53 updates and 3.04
 //! factorisations per step against 5.41 and 1.10 for 16 links (with it: 5.17 and 1.05 against
 //! 5.28 and 1.07). Since kept iterates at round-off are accepted (the second test) the short
-//! chain's steps refactorise less often than the long one's (0.47 against 0.85 per step), so the
+//! chain's steps refactorise less often than the long one's (0.50 against 0.92 per step), so the
 //! factorisations are held to at most one per step, where that failure took three.
 
 mod common;
@@ -81,8 +81,8 @@ fn modified_against_exact(links: usize, steps: usize) -> (f64, f64) {
 /// round-off jitter, far above `4ε` of themselves), a kept factorisation's iterate is accepted
 /// once every update is within round-off and the factorisation was seen to contract
 /// (`NewtonOptions::accept_at_equation_roundoff`), where before the step refactorised to
-/// accept it. Measured (8 links, 300 steps): 0.550 factorisations per step, positions within
-/// 3.8e-15 of exact Newton's. Can fail: with the acceptance removed, 1.100 factorisations per
+/// accept it. Measured (8 links, 300 steps): 0.530 factorisations per step, positions within
+/// 4.3e-15 of exact Newton's. Can fail: with the acceptance removed, 1.100 factorisations per
 /// step (positions within 5.3e-15).
 #[test]
 fn kept_iterates_at_round_off_spare_the_refactorisation() {

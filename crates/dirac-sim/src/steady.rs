@@ -527,8 +527,8 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
 /// coordinate changes `moves`, all of [`PROXIMAL_MOST_SOLVES`]) kept moving the mechanism: the
 /// last at least [`DRIFT_RATIO`] of the largest, where an iteration that approaches an
 /// equilibrium shrinks its moves (geometrically, by `k/(k + μ)` along a direction of stiffness
-/// `μ`: one that shrinks by less than 10 % over the solves has `μ` below 0.2 % of the softest
-/// spring, itself 1e-6 of the force scale per length). Names the three coordinates the last solve moved most, with their travel from
+/// `μ`: one that shrinks by less than 10 % over the solves has `μ` below 0.2 % of the spring,
+/// the softest of the schedule that converged). Names the three coordinates the last solve moved most, with their travel from
 /// `from` (the iteration's start) to `x`.
 fn drift<M: Model + ?Sized, C: Constraints + ?Sized>(
     system: &SteadySystem<'_, M, C>,

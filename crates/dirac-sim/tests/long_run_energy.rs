@@ -78,8 +78,8 @@ fn gauss4_tenths(steps: usize) -> (Vec<f64>, String) {
 /// rounding's random walk lets it. A kept Newton iterate accepted at round-off without a last
 /// update from the residual at hand (`NewtonOptions::accept_at_equation_roundoff`) leaves the
 /// kept factorisation's remainder, a smooth function of the state, in every step: the maximum
-/// then rose through the run, 1.030e-10 → 1.075e-10 (×1.044) from the second tenth to the last
-/// (seen to fail); with that update 9.862e-11 flat, as before kept iterates were accepted at
+/// then rose from 1.030e-10 at the second tenth to 1.075e-10 at the sixth and stayed (×1.044;
+/// seen to fail); with that update 9.936e-11 flat, as before kept iterates were accepted at
 /// round-off (9.832e-11 flat).
 #[test]
 fn gauss4_energy_does_not_drift_over_400_000_steps() {
