@@ -199,17 +199,15 @@ impl SteadyState {
                     Err(_) if system.holonomic => {
                         stiffness_stepping(&mut system, &mut newton, &start, &mut x, &mut steps)
                     }
-                    Err(e) => Err(e),
+                    Err(e) => Err(Unsettled::Newton(e)),
                 }
             }
         };
         let gmin_steps = steps.solves;
         let isolated = match outcome {
             Ok((_, regular)) => regular,
-            Err(source) => {
-                if let Some(drift) = system.drift.take() {
-                    return Err(drift);
-                }
+            Err(Unsettled::Drift(drift)) => return Err(drift),
+            Err(Unsettled::Newton(source)) => {
                 let mut r = vec![0.0; size];
                 system.residual(&x, &mut r);
                 let largest = |r: &[f64]| r.iter().fold(0.0_f64, |big, v| big.max(v.abs()));
@@ -396,6 +394,21 @@ const STIFFNESS_SCHEDULE: [f64; 9] = [1e2, 1e1, 1.0, 1e-1, 1e-2, 1e-3, 1e-4, 1e-
 /// mechanism the applied forces keep moving ([`SteadyStateError::NoEquilibrium`]).
 const DRIFT_RATIO: f64 = 0.9;
 
+/// How a continuation ended without a steady state.
+enum Unsettled {
+    /// Newton's last failure.
+    Newton(NewtonError),
+    /// Stiffness stepping's proximal iteration kept moving the mechanism
+    /// ([`SteadyStateError::NoEquilibrium`]).
+    Drift(SteadyStateError),
+}
+
+impl From<NewtonError> for Unsettled {
+    fn from(e: NewtonError) -> Self {
+        Self::Newton(e)
+    }
+}
+
 /// Most solves of the proximal iteration after stiffness stepping.
 const PROXIMAL_MOST_SOLVES: usize = 50;
 
@@ -421,7 +434,7 @@ fn stiffness_stepping<M: Model + ?Sized, C: Constraints + ?Sized>(
     start: &[f64],
     x: &mut [f64],
     steps: &mut Steps<'_>,
-) -> Result<(NewtonStats, bool), NewtonError> {
+) -> Result<(NewtonStats, bool), Unsettled> {
     let n = system.n();
     // The force scale: the largest applied force (the residual's force rows with the
     // multipliers at zero: gravity on a hanging body), not the start's imbalance, which
@@ -457,7 +470,7 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
     steps: &mut Steps<'_>,
     scale: f64,
     length: f64,
-) -> Result<(NewtonStats, bool), NewtonError> {
+) -> Result<(NewtonStats, bool), Unsettled> {
     // The softest spring that converged, and its solution; the first must.
     system.stiffness = STIFFNESS_SCHEDULE[0] * scale;
     steps.solve(system, newton, x)?;
@@ -507,8 +520,9 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
         }
     }
     let Some(stats) = converged else {
-        system.drift = drift(system, &held, x, &moves);
-        return Err(failure);
+        return Err(
+            drift(system, &held, x, &moves).map_or(Unsettled::Newton(failure), Unsettled::Drift)
+        );
     };
     // Whether the point is isolated: a solve without the spring from it. Where that fails (a
     // singular matrix, or a degenerate point where Newton only creeps), the point stays.
@@ -528,8 +542,8 @@ fn relax_springs<M: Model + ?Sized, C: Constraints + ?Sized>(
 /// last at least [`DRIFT_RATIO`] of the largest, where an iteration that approaches an
 /// equilibrium shrinks its moves (geometrically, by `k/(k + μ)` along a direction of stiffness
 /// `μ`: one that shrinks by less than 10 % over the solves has `μ` below 0.2 % of the spring,
-/// the softest of the schedule that converged). Names the three coordinates the last solve moved most, with their travel from
-/// `from` (the iteration's start) to `x`.
+/// the softest of the schedule that converged). Names the three coordinates the last solve
+/// moved most, with their travel from `from` (the iteration's start) to `x`.
 fn drift<M: Model + ?Sized, C: Constraints + ?Sized>(
     system: &SteadySystem<'_, M, C>,
     from: &[f64],
@@ -660,9 +674,6 @@ struct SteadySystem<'a, M: ?Sized, C: ?Sized> {
     /// by their rates) holds trivially as `A v = 0`; its integral keeps them at their start's
     /// offset instead of leaving the row empty.
     integrated: Vec<bool>,
-    /// Set when stiffness stepping's proximal iteration did not settle but kept moving
-    /// ([`SteadyStateError::NoEquilibrium`]).
-    drift: Option<SteadyStateError>,
 }
 
 impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
@@ -700,7 +711,6 @@ impl<'a, M: Model + ?Sized, C: Constraints + ?Sized> SteadySystem<'a, M, C> {
             g: vec![0.0; m],
             redundant: Vec::new(),
             integrated: vec![false; m],
-            drift: None,
         }
     }
 
