@@ -137,10 +137,10 @@ pub struct NewtonOptions {
     /// hand (returned) shrinks it by the contraction, so that no remainder of the kept
     /// factorisation biases every step alike. In a chain's ill-conditioned steps the joint
     /// multipliers' updates settle at their jitter, far above `4ε`, while the absolute updates'
-    /// ratios read as poor contraction; this spares the refactorisation either would take. Off by default: an exponential device
-    /// relation that reads such an unknown (a diode's junction at a small current) is not at
-    /// round-off when its equations are (docs/audit.md item 22); dirac-sim turns it on for steps
-    /// of models without update limits.
+    /// ratios read as poor contraction; this spares the refactorisation either would take. Off by
+    /// default: an exponential device relation that reads such an unknown (a diode's junction at
+    /// a small current) is not at round-off when its equations are (docs/audit.md item 22);
+    /// dirac-sim turns it on for steps of models without update limits.
     pub accept_at_equation_roundoff: bool,
 }
 
@@ -1247,22 +1247,32 @@ mod tests {
         );
     }
 
-    /// `a·((x − 1) + (x − 1)³)`: root 1 for every `a`, which changes between solves.
-    struct Rescaled(f64);
+    /// `a·((x − 1) + (x − 1)³)` whose equation has constant terms of size `m`: root 1 for every
+    /// `a` and `m`, which change between solves.
+    struct Rescaled {
+        a: f64,
+        m: f64,
+    }
+    impl Rescaled {
+        /// Terms of the size of the coefficient.
+        fn new(a: f64) -> Self {
+            Self { a, m: a.abs() }
+        }
+    }
     impl NonlinearSystem for Rescaled {
         fn len(&self) -> usize {
             1
         }
         fn residual(&mut self, x: &[f64], r: &mut [f64]) {
             let e = x[0] - 1.0;
-            r[0] = self.0 * (e + e * e * e);
+            r[0] = self.a * (e + e * e * e);
         }
         fn jacobian(&mut self, x: &[f64], jac: &mut Triplets) {
             let e = x[0] - 1.0;
-            jac.add(0, 0, self.0 * (1.0 + 3.0 * e * e));
+            jac.add(0, 0, self.a * (1.0 + 3.0 * e * e));
         }
         fn constant_magnitudes(&mut self, out: &mut [f64]) {
-            out[0] = self.0.abs();
+            out[0] = self.m;
         }
     }
 
@@ -1281,34 +1291,14 @@ mod tests {
             };
             let mut newton = Newton::new(DenseLu::new(), options);
             let mut x = [1.0 + 1e-3];
-            newton.solve(&mut Rescaled(1.0), &mut x).unwrap();
+            newton.solve(&mut Rescaled::new(1.0), &mut x).unwrap();
             let mut x = [1.0 + 1.5e-15 / a];
-            let stats = newton.solve(&mut Rescaled(a), &mut x).unwrap();
+            let stats = newton.solve(&mut Rescaled::new(a), &mut x).unwrap();
             assert!(
                 (x[0] - 1.0).abs() <= 4.0 * f64::EPSILON,
                 "a = {a}: root off by {:e} ({stats:?})",
                 x[0] - 1.0
             );
-        }
-    }
-
-    /// `a (x − 1)` whose equation has constant terms of size `m`.
-    struct Offset {
-        a: f64,
-        m: f64,
-    }
-    impl NonlinearSystem for Offset {
-        fn len(&self) -> usize {
-            1
-        }
-        fn residual(&mut self, x: &[f64], r: &mut [f64]) {
-            r[0] = self.a * (x[0] - 1.0);
-        }
-        fn jacobian(&mut self, _x: &[f64], jac: &mut Triplets) {
-            jac.add(0, 0, self.a);
-        }
-        fn constant_magnitudes(&mut self, out: &mut [f64]) {
-            out[0] = self.m;
         }
     }
 
@@ -1327,11 +1317,11 @@ mod tests {
         let mut newton = Newton::new(DenseLu::new(), options);
         let mut x = [1.0 + 1e-3];
         newton
-            .solve(&mut Offset { a: 1.0, m: 1e6 }, &mut x)
+            .solve(&mut Rescaled { a: 1.0, m: 1e6 }, &mut x)
             .unwrap();
         let mut x = [1.0 + 1.8e-7];
         let stats = newton
-            .solve(&mut Offset { a: 1.2, m: 1.0 }, &mut x)
+            .solve(&mut Rescaled { a: 1.2, m: 1.0 }, &mut x)
             .unwrap();
         assert!(
             (x[0] - 1.0).abs() <= 4.0 * f64::EPSILON,
