@@ -774,14 +774,25 @@ fn check(args: &CheckArgs) -> Result<(), Failure> {
         Start::SteadyState => "the operating point (steady state)",
     };
     text += &format!("  start: {start}\n");
-    if let Some((h, t)) = model
-        .circuit()
-        .and_then(dirac_netlist::Circuit::tran_settings)
-    {
-        text += &format!(
-            "  .tran: h = {h}, t_end = {t} ({} steps)\n",
-            (t / h).round()
-        );
+    if let Some(tran) = model.circuit().and_then(|c| c.tran) {
+        let (h, t) = (tran.tstep, tran.tstop);
+        let every = tran.steps_per_row();
+        let rows = (t / h).round();
+        if every == 1 {
+            text += &format!("  .tran: h = {h}, t_end = {t} ({rows} steps)");
+        } else {
+            text += &format!(
+                "  .tran: TSTEP = {h}, t_end = {t} ({rows} output steps, stepped at h = {:e}, \
+                 {every} steps each: ngspice's largest step is {})",
+                h / every as f64,
+                if tran.tmax.is_some() {
+                    "TMAX"
+                } else {
+                    "(TSTOP - TSTART)/50"
+                }
+            );
+        }
+        text.push('\n');
     }
     for line in step_size_report(&model, args) {
         text += &line;

@@ -1428,3 +1428,76 @@ fn source_nodes_read_their_source_after_ramped_corners() {
         );
     }
 }
+
+/// `v(out)` of an RC low-pass (τ = 1 ms) driven by `SIN(0 1 100)` from its operating point
+/// (0 V): the exact solution.
+fn rc_sine_exact(t: f64) -> f64 {
+    let w = 2.0 * std::f64::consts::PI * 100.0;
+    let a = w * 1e-3;
+    ((w * t).sin() - a * (w * t).cos() + a * (-t / 1e-3).exp()) / (1.0 + a * a)
+}
+
+/// The RC low-pass of [`rc_sine_exact`] with `tran` as its `.tran` card.
+fn rc_sine_deck(name: &str, tran: &str) -> PathBuf {
+    deck(
+        name,
+        &format!("rc\nV1 in 0 SIN(0 1 100)\nR1 in out 1k\nC1 out 0 1u\n{tran}\n.end\n"),
+    )
+}
+
+/// The largest `|v(out) − exact|` over `rows` (`t, v(out)`).
+fn rc_sine_error(rows: &[Vec<f64>]) -> f64 {
+    rows.iter()
+        .map(|r| (r[1] - rc_sine_exact(r[0])).abs())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn tmax_shorter_than_tstep_sets_the_step_and_the_rows_stay_every_tstep() {
+    // ngspice steps at most TMAX and prints every TSTEP; so does dirac, as 100 steps a row.
+    let path = rc_sine_deck("rc_tmax.cir", ".tran 1m 10m 0 10u");
+    let file = path.to_str().unwrap();
+    let (_, rows, summary) = run_summarised(&[file, "--signals", "v(out)"], "TMAX");
+    assert_eq!(summary["steps"], 1000, "{summary}");
+    assert_eq!(rows.len(), 11);
+    for (j, row) in rows.iter().enumerate() {
+        assert!(
+            (row[0] - j as f64 * 1e-3).abs() < 1e-15,
+            "row {j} at {}",
+            row[0]
+        );
+    }
+    // The midpoint rule at h = 10 µs: 3.6e-6 V; at TSTEP (what TMAX was read as before) 0.037.
+    let error = rc_sine_error(&rows);
+    assert!(error < 1e-5, "error {error:e}");
+    // The same steps as the run at h = TMAX, of which every 100th row is printed.
+    let (_, fine, _) = run_summarised(&[file, "--signals", "v(out)", "--h", "10u"], "h = TMAX");
+    assert_eq!(fine.len(), 1001);
+    for (j, row) in rows.iter().enumerate() {
+        assert_eq!(row[1], fine[100 * j][1], "row {j}");
+    }
+}
+
+#[test]
+fn fewer_than_fifty_rows_are_computed_from_steps_of_a_fiftieth_of_the_interval() {
+    // `.tran 1m 10m` without TMAX: ngspice-39's largest step is (TSTOP − TSTART)/50 = 0.2 ms
+    // (63 time points), and its linearised v(out) is 1.8e-3 V off the exact solution; dirac
+    // stepped at TSTEP was 0.037 V off.
+    let path = rc_sine_deck("rc_coarse.cir", ".tran 1m 10m");
+    let file = path.to_str().unwrap();
+    let (_, rows, summary) = run_summarised(&[file, "--signals", "v(out)"], "TSTOP/50");
+    assert_eq!(summary["steps"], 50, "{summary}");
+    assert_eq!(rows.len(), 11);
+    let error = rc_sine_error(&rows);
+    assert!(error < 1.8e-3, "error {error:e}");
+    // With TSTART the fiftieth is of the printed interval, and rows start at TSTART.
+    let path = rc_sine_deck("rc_coarse_start.cir", ".tran 1m 10m 5m");
+    let (_, rows, summary) =
+        run_summarised(&[path.to_str().unwrap(), "--signals", "v(out)"], "TSTART");
+    assert_eq!(summary["steps"], 100, "{summary}");
+    let times: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+    assert_eq!(times, [5e-3, 6e-3, 7e-3, 8e-3, 9e-3, 10e-3]);
+    // A step given on the command line is the step of every row.
+    let (_, rows, summary) = run_summarised(&[file, "--signals", "v(out)", "--h", "1m"], "--h");
+    assert_eq!((summary["steps"].as_u64(), rows.len()), (Some(10), 11));
+}

@@ -30,7 +30,7 @@
 //!
 //! Control cards:
 //!
-//! - `.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]` (at most one);
+//! - `.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]` (at most one; see [`Tran::steps_per_row`]);
 //! - `.ic V(node)=value ...`;
 //! - `.param name=expr ...`, see below;
 //! - `.model NAME D(IS=.. N=.. RS=.. ...)`: the SPICE level-1 junction diode with ngspice's names
@@ -152,6 +152,33 @@ pub struct Tran {
     pub tmax: Option<f64>,
     /// `UIC`: start from the given initial conditions instead of an operating point.
     pub uic: bool,
+}
+
+impl Tran {
+    /// ngspice's largest internal step: `TMAX` when given, else the smaller of `TSTEP` and
+    /// `(TSTOP − TSTART)/50` (ngspice-39's `TRANinit`).
+    #[must_use]
+    pub fn max_step(&self) -> f64 {
+        self.tmax
+            .unwrap_or_else(|| self.tstep.min((self.tstop - self.tstart) / 50.0))
+    }
+
+    /// Steps per output row: the fewest equal substeps of `TSTEP` that are no longer than
+    /// [`Tran::max_step`] (1 when `TSTEP` is short enough). A deck that asks for rows every
+    /// `TSTEP` but for steps of at most `TMAX` (or of a fiftieth of the interval) is stepped at
+    /// `TSTEP/m` and printed every `m` steps, so the rows are on ngspice's output grid and the
+    /// steps no longer than ngspice's.
+    #[must_use]
+    pub fn steps_per_row(&self) -> usize {
+        let ratio = self.tstep / self.max_step();
+        // A ratio that is a whole number up to rounding (`1e-3 / 1e-5`) takes that number.
+        let m = (ratio * (1.0 - 1e-12)).ceil();
+        if m.is_finite() && m >= 1.0 {
+            m as usize
+        } else {
+            1
+        }
+    }
 }
 
 /// One element of the flat netlist. Names are hierarchical and lowercase (`r1`, `x1.r2`); nodes

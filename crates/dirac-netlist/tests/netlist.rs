@@ -273,6 +273,32 @@ fn tran_forms() {
 }
 
 #[test]
+fn steps_per_row_follow_ngspices_largest_step() {
+    // ngspice-39's TRANinit: TMAX when given, else min(TSTEP, (TSTOP - TSTART)/50).
+    let m = |card: &str| {
+        parse(&format!("t\nR1 a 0 1\n{card}\n"))
+            .tran
+            .expect("tran")
+            .steps_per_row()
+    };
+    assert_eq!(m(".tran 1u 1m"), 1, "1000 rows");
+    assert_eq!(m(".tran 1m 10m"), 5, "a fiftieth of 10 ms is 0.2 ms");
+    assert_eq!(m(".tran 1m 10m 5m"), 10, "a fiftieth of the printed 5 ms");
+    assert_eq!(m(".tran 1m 10m 0 10u"), 100, "a whole ratio up to rounding");
+    assert_eq!(
+        m(".tran 1m 10m 0 0.3m"),
+        4,
+        "the fewest steps no longer than TMAX"
+    );
+    assert_eq!(m(".tran 1u 1m 0 5u"), 1, "TMAX above TSTEP: rows are steps");
+    assert_eq!(
+        m(".tran 1m 10m 0 5m"),
+        1,
+        "TMAX sets the bound, not the fiftieth"
+    );
+}
+
+#[test]
 fn coupled_inductors() {
     let net = parse("k\nL1 a 0 1m\nL2 b 0 4m\nK1 L1 l2 0.5\nR1 b 0 1\n");
     assert_eq!(

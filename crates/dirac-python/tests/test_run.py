@@ -139,6 +139,19 @@ def test_refine_reaches_the_run_as_on_the_command_line(cli):
     assert fixed.to_csv() != refined.to_csv()
 
 
+def test_tmax_sets_the_step_and_the_rows_stay_every_tstep(cli, tmp_path):
+    # ngspice steps at most TMAX = 10 us and prints every TSTEP = 1 ms; the package's rows are
+    # the CLI's: 11 rows on the TSTEP grid from 1000 steps, the run at h = TMAX every 100th row.
+    path = tmp_path / "rc_tmax.cir"
+    path.write_text("rc\nV1 in 0 SIN(0 1 100)\nR1 in out 1k\nC1 out 0 1u\n.tran 1m 10m 0 10u\n.end\n")
+    run = dirac.run(path, signals=["v(out)"])
+    assert run.to_csv() == cli("run", path, "--quiet", "--signals", "v(out)").stdout.decode()
+    assert run.summary.steps == 1000
+    assert np.array_equal(run.t, np.arange(11) * 1e-3)
+    fine = dirac.run(path, signals=["v(out)"], h=1e-5)
+    assert np.array_equal(run["v(out)"], fine["v(out)"][::100])
+
+
 def test_composition_reaches_the_run_as_on_the_command_line(cli):
     # The two-mass scene with the trapezoid rule (explicit Störmer–Verlet): composition= gives the
     # CLI's --composition rows, and Kahan and Li's order-8 composition at h = 0.4 stays within

@@ -240,7 +240,8 @@ fn waveform(spec: &SourceSpec) -> String {
 
 /// The scene (TOML text) equivalent to `netlist`: one part per element (a `K` card and its two
 /// inductors become one `coupled_inductors` part), one KCL node per non-ground node, the `.tran`
-/// step and end time, midpoint rule, (+) scheme, monolithic representation. The text is parsed back
+/// end time and the step the netlist's run takes (TSTEP, or TSTEP/m where ngspice's largest step
+/// is shorter: [`dirac_netlist::Tran::steps_per_row`]), midpoint rule, (+) scheme, monolithic representation. The text is parsed back
 /// before it is returned, so it is always a valid scene.
 pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, ConvertError> {
     // Reuse the circuit builder's checks (coupling, nodes) so convert fails exactly where run would.
@@ -259,10 +260,20 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
         out,
         "\n[simulation]\nrepresentation = \"monolithic\"\nscheme = \"plus\"\ndiscretisation = \"midpoint\""
     );
+    // The netlist's run steps at TSTEP/m (ngspice's largest step, `Tran::steps_per_row`); the
+    // scene takes the same steps, every one a row.
+    let every = tran.steps_per_row();
+    if every > 1 {
+        let _ = writeln!(
+            out,
+            "# .tran TSTEP = {}: stepped at TSTEP/{every}, ngspice's largest internal step",
+            number(tran.tstep)
+        );
+    }
     let _ = writeln!(
         out,
         "h = {}\nt_end = {}",
-        number(tran.tstep),
+        number(tran.tstep / every as f64),
         number(tran.tstop)
     );
     if !tran.uic {

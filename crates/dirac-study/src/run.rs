@@ -26,6 +26,12 @@ pub struct RunPlan {
     pub signals: Vec<Signal>,
     /// Rows before this time are not passed on (a netlist's `.tran` TSTART).
     pub first_output: f64,
+    /// Steps per output row ([`Model::steps_per_row`]): every row is passed on at 1, every
+    /// `m`-th at `m` (a netlist whose `.tran` TMAX is shorter than TSTEP).
+    pub steps_per_row: usize,
+    /// The time between rows: `h · steps_per_row`, exactly a netlist's TSTEP where it sets the
+    /// rows (row `j` is at `j` times it, not at a sum of steps).
+    pub output_step: f64,
     /// The start ramp is the model's choice: a netlist run that did not ask for it or against
     /// it takes it when the modal check finds a damped mode the method would leave ringing,
     /// as SPICE damps every start with a backward-Euler step ([`Model::prepare_plan`]).
@@ -50,7 +56,7 @@ impl RunPlan {
     /// Number of rows passed on: from the first output time to the end time.
     #[must_use]
     pub fn output_rows(&self) -> u64 {
-        ((self.t_end - self.first_output) / self.options.h)
+        ((self.t_end - self.first_output) / self.output_step)
             .round()
             .max(0.0) as u64
             + 1
@@ -64,6 +70,8 @@ pub struct Prepared {
     signals: Vec<Signal>,
     t_end: f64,
     first_output: f64,
+    steps_per_row: usize,
+    output_step: f64,
     /// The natural modes, when the set-up already computed them (the automatic start ramp).
     modes: Option<NaturalModes>,
 }
@@ -117,10 +125,17 @@ impl Prepared {
         }
     }
 
-    /// Number of output rows before the first output time is applied, `round(t_end/h) + 1`.
+    /// Number of output rows before the first output time is applied, `round(t_end/h) + 1`
+    /// with one row every [`Prepared::steps_per_row`] steps.
     #[must_use]
     pub fn rows(&self) -> usize {
-        (self.t_end / self.h()).round() as usize + 1
+        (self.t_end / self.output_step).round() as usize + 1
+    }
+
+    /// Steps per output row (see [`Model::steps_per_row`]).
+    #[must_use]
+    pub fn steps_per_row(&self) -> usize {
+        self.steps_per_row
     }
 
     /// Runs to the end time, streaming every row at or after the first output time (a
@@ -132,8 +147,8 @@ impl Prepared {
         self.run_into_watched(sink, &mut |_| Ok(()))
     }
 
-    /// [`Prepared::run_into`], calling `watch` with the row index before every row, passed on
-    /// or not, and with 0 before the first (the command line's progress bar and interrupt
+    /// [`Prepared::run_into`], calling `watch` with the step index before every step's row,
+    /// passed on or not, and with 0 before the first (the command line's progress bar and interrupt
     /// check); an error from `watch` stops the run as a sink's does.
     ///
     /// # Errors
@@ -146,6 +161,8 @@ impl Prepared {
         let mut skip = FromTime {
             inner: sink,
             first: self.first_output,
+            every: self.steps_per_row.max(1),
+            spacing: self.output_step,
             watch,
         };
         Ok(self
@@ -164,10 +181,13 @@ impl Prepared {
     }
 }
 
-/// Passes on the rows at or after `first`, showing every row index to `watch`.
+/// Passes on every `every`-th step's row at or after `first`, numbered and timed on the output
+/// grid (row `j` at `j·spacing`, not a sum of substeps), showing every step index to `watch`.
 struct FromTime<'a> {
     inner: &'a mut dyn Sink,
     first: f64,
+    every: usize,
+    spacing: f64,
     watch: &'a mut dyn FnMut(usize) -> Result<(), String>,
 }
 
@@ -179,10 +199,14 @@ impl Sink for FromTime<'_> {
 
     fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
         (self.watch)(k)?;
-        if t < self.first * (1.0 - 1e-12) {
+        if !k.is_multiple_of(self.every) || t < self.first * (1.0 - 1e-12) {
             return Ok(());
         }
-        self.inner.row(k, t, values)
+        if self.every == 1 {
+            return self.inner.row(k, t, values);
+        }
+        let j = k / self.every;
+        self.inner.row(j, j as f64 * self.spacing, values)
     }
 }
 
@@ -258,7 +282,21 @@ impl Model {
         Ok(execution)
     }
 
-    /// Integrator options and end time: the file's, changed by `settings`.
+    /// Steps per output row: a netlist's `.tran` rows come every TSTEP, from steps no longer
+    /// than ngspice's largest internal step (TMAX, else the smaller of TSTEP and a fiftieth of
+    /// the output interval; [`dirac_netlist::Tran::steps_per_row`]), so a deck that asks for
+    /// `.tran 1m 10m 0 10u` is stepped at 10 µs and printed every millisecond. 1 for a scene,
+    /// and whenever `settings` set the step size (then every step is a row).
+    #[must_use]
+    pub fn steps_per_row(&self, settings: &RunSettings) -> usize {
+        match (&self.built, settings.h) {
+            (Built::Netlist { circuit, .. }, None) => circuit.tran.map_or(1, |t| t.steps_per_row()),
+            _ => 1,
+        }
+    }
+
+    /// Integrator options and end time: the file's, changed by `settings`. A netlist's step is
+    /// `.tran` TSTEP divided by [`Model::steps_per_row`].
     ///
     /// # Errors
     /// No step size or end time (a netlist without `.tran` and none given), or values that are
@@ -271,9 +309,15 @@ impl Model {
         let (h, t_end, discretisation, scheme, ramp, truncation, composition) = match &self.built {
             Built::Netlist { circuit, .. } => {
                 let tran = circuit.tran_settings();
+                let every = self.steps_per_row(settings);
+                let t_end = settings.t_end.or(tran.map(|t| t.1));
                 (
-                    settings.h.or(tran.map(|t| t.0)),
-                    settings.t_end.or(tran.map(|t| t.1)),
+                    settings.h.or(tran.map(|t| t.0 / every as f64)),
+                    // Rows every TSTEP from `m` steps each: the run ends on that grid.
+                    match (tran, every) {
+                        (Some((tstep, _)), 2..) => t_end.map(|t| (t / tstep).round() * tstep),
+                        _ => t_end,
+                    },
                     circuit
                         .method
                         .clone()
@@ -395,12 +439,19 @@ impl Model {
         let execution = self.execution_for(settings)?;
         let (options, t_end) = self.options_for(settings)?;
         let signals = self.signals_for(settings)?;
+        let steps_per_row = self.steps_per_row(settings);
+        let output_step = match (&self.built, steps_per_row) {
+            (Built::Netlist { circuit, .. }, 2..) => circuit.tran.map_or(options.h, |t| t.tstep),
+            _ => options.h,
+        };
         Ok(RunPlan {
             execution,
             options,
             t_end,
             signals,
             first_output: self.first_output_time(),
+            steps_per_row,
+            output_step,
             start_ramp_auto: matches!(self.built, Built::Netlist { .. })
                 && settings.start_ramp.is_none(),
             corner_ramp_auto: matches!(self.built, Built::Netlist { .. })
@@ -480,6 +531,8 @@ impl Model {
             signals: plan.signals,
             t_end: plan.t_end,
             first_output: plan.first_output,
+            steps_per_row: plan.steps_per_row,
+            output_step: plan.output_step,
             modes,
         })
     }
