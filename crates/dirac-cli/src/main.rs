@@ -588,8 +588,25 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
     for w in summary.warnings.iter().skip(printed) {
         eprintln!("warning: {w}");
     }
+    // `.meas` results as ngspice prints them (`name = value`); a measure that could not be
+    // taken is reported and the run still succeeds, as in ngspice.
+    for m in prepared.measurements() {
+        match &m.value {
+            Ok(v) => eprintln!("{:<20}=  {v:.6e}", m.name),
+            Err(why) => eprintln!("warning: `.meas {}` failed: {why}", m.name),
+        }
+    }
     if args.json_summary {
-        eprintln!("{}", summary_json(&model, execution, h, t_end, &summary));
+        let mut json = summary_json(&model, execution, h, t_end, &summary);
+        if !prepared.measurements().is_empty() {
+            let measures: serde_json::Map<String, serde_json::Value> = prepared
+                .measurements()
+                .iter()
+                .map(|m| (m.name.clone(), m.value.as_ref().ok().copied().into()))
+                .collect();
+            json["measures"] = measures.into();
+        }
+        eprintln!("{json}");
     }
     Ok(())
 }

@@ -1501,3 +1501,111 @@ fn fewer_than_fifty_rows_are_computed_from_steps_of_a_fiftieth_of_the_interval()
     let (_, rows, summary) = run_summarised(&[file, "--signals", "v(out)", "--h", "1m"], "--h");
     assert_eq!((summary["steps"].as_u64(), rows.len()), (Some(10), 11));
 }
+
+/// An RC low-pass (τ = 1 ms) behind a 10 µs ramp from 0 to 1 V at 1 ms, back at 6.01 ms, with
+/// its corners on the 10 µs grid, and `.meas` cards after it.
+fn measured_rc(name: &str, measures: &str) -> PathBuf {
+    deck(
+        name,
+        &format!(
+            "rc meas\nV1 in 0 PULSE(0 1 1m 10u 10u 5m 10m)\nR1 in out 1k\nC1 out 0 1u\n\
+             .tran 10u 10m\n{measures}.end\n"
+        ),
+    )
+}
+
+#[test]
+fn measures_are_their_closed_forms_and_failed_ones_do_not_fail_the_run() {
+    let path = measured_rc(
+        "rc_meas.cir",
+        ".meas tran tdelay TRIG v(in) VAL=0.5 RISE=1 TARG v(out) VAL=0.5 RISE=1\n\
+         .measure tran vat FIND v(out) AT=2m\n\
+         .meas tran vin_avg AVG v(in) FROM=0 TO=10m\n\
+         .meas tfall WHEN v(in)=0.5 FALL=LAST\n\
+         .meas tran never WHEN v(out)=2\n",
+    );
+    let out = dirac(&[
+        "run",
+        path.to_str().unwrap(),
+        "--signals",
+        "v(out)",
+        "--json-summary",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    // The CSV holds the signals asked for; the measures read v(in) besides.
+    let (header, rows) = rows(&String::from_utf8_lossy(&out.stdout));
+    assert_eq!((header.len(), rows.len()), (2, 1001), "{header:?}");
+    let summary: serde_json::Value = stderr
+        .lines()
+        .find_map(|l| serde_json::from_str(l).ok())
+        .expect("a JSON summary");
+    let measure = |name: &str| summary["measures"][name].as_f64().expect(name);
+    // After a ramp of Tr = 10 µs from t₀ = 1 ms, v(out) = 1 − A·e^{−(t − t₀)/τ} with
+    // A = (τ/Tr)(e^{Tr/τ} − 1); v(in) is 0.5 at t₀ + Tr/2.
+    let (t0, tr, tau): (f64, f64, f64) = (1e-3, 1e-5, 1e-3);
+    let a = tau / tr * ((tr / tau).exp() - 1.0);
+    let delay = t0 + tau * (2.0 * a).ln() - (t0 + tr / 2.0);
+    assert!(
+        (measure("tdelay") - delay).abs() < 5e-8,
+        "{} against {delay}",
+        measure("tdelay")
+    );
+    let at = 1.0 - a * (-(2e-3 - t0) / tau).exp();
+    assert!(
+        (measure("vat") - at).abs() < 1e-5,
+        "{} against {at}",
+        measure("vat")
+    );
+    // The pulse's area is 5 ms + two half ramps: its mean over 10 ms is 0.501, exact from the
+    // samples (the source is exact at the steps and linear between its corners).
+    assert!((measure("vin_avg") - 0.501).abs() < 1e-12);
+    assert!((measure("tfall") - 6.015e-3).abs() < 1e-12);
+    assert!(summary["measures"]["never"].is_null(), "{summary}");
+    assert!(
+        stderr.contains("`.meas never` failed: no crossing of v(out) through 2e0"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("tdelay              =  6.93"), "{stderr}");
+}
+
+#[test]
+fn a_measure_of_an_unknown_signal_or_without_its_value_is_refused_at_its_card() {
+    for (card, expected) in [
+        (".meas tran x WHEN v(nowhere)=1\n", "rc_meas_bad.cir:6:1"),
+        (
+            ".meas tran x TRIG v(in) RISE=1 TARG v(out) VAL=0.5\n",
+            "missing `VAL=`",
+        ),
+        (
+            ".meas tran x AVG v(out) RISE=1\n",
+            "`RISE` does not apply here",
+        ),
+    ] {
+        let path = measured_rc("rc_meas_bad.cir", card);
+        let out_file = scratch("rc_meas_bad.csv");
+        let out = dirac(&[
+            "run",
+            path.to_str().unwrap(),
+            "--out",
+            out_file.to_str().unwrap(),
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{card}: {stderr}");
+        assert!(stderr.contains(expected), "{card}: {stderr}");
+        assert!(!out_file.exists(), "{card}");
+    }
+    // A measure of another analysis, or a form not computed, is ignored with a warning.
+    let path = measured_rc(
+        "rc_meas_other.cir",
+        ".meas ac gain MAX vdb(out)\n.meas tran p PARAM='2*3'\n",
+    );
+    let out = dirac(&["run", path.to_str().unwrap(), "--signals", "v(out)"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("`.meas ac` ignored"), "{stderr}");
+    assert!(
+        stderr.contains("`.meas` PARAM not computed, ignored"),
+        "{stderr}"
+    );
+}

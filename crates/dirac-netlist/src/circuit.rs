@@ -15,7 +15,7 @@ use dirac_sim::{
 };
 use thiserror::Error;
 
-use crate::{ControlledSource, Element, Netlist, OptionCard, Sensing, SourceSpec, Tran};
+use crate::{ControlledSource, Element, Measure, Netlist, OptionCard, Sensing, SourceSpec, Tran};
 
 /// A netlist that cannot be turned into a circuit model.
 #[derive(Debug, Clone, PartialEq, Error)]
@@ -293,6 +293,8 @@ pub struct Circuit {
     pub signals: Vec<Signal>,
     /// The `.tran` card, if any.
     pub tran: Option<Tran>,
+    /// The `.meas` cards of the transient; every signal they read is one of the circuit's.
+    pub measures: Vec<Measure>,
     /// Whether the netlist asks for the operating point (`.op`).
     pub op: bool,
     /// Node potentials `.ic` holds while the operating point is solved (without `UIC`).
@@ -991,6 +993,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         given_v,
         signals: Vec::new(),
         tran: netlist.tran,
+        measures: Vec::new(),
         op: netlist.op,
         holds,
         method: None,
@@ -1040,6 +1043,17 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         }
         chosen
     };
+    for measure in &netlist.measures {
+        for name in measure.signals() {
+            circuit.signal(&name).map_err(|e| CircuitError::BadOutput {
+                file: netlist.file_of(measure.pos, file),
+                line: measure.pos.line,
+                column: measure.pos.column,
+                message: format!("`.meas {}`: {e}", measure.name),
+            })?;
+        }
+    }
+    circuit.measures.clone_from(&netlist.measures);
     circuit.read_options(netlist, file)?;
     Ok(circuit)
 }

@@ -1575,7 +1575,7 @@ fn tran(parsed: &Parsed, scope: &Scope<'_>) -> Result<Option<Tran>, NetlistError
 }
 
 /// Expands subcircuits and evaluates parameters.
-pub(crate) fn flatten(parsed: Parsed, set: &[(String, f64)]) -> Result<Netlist, NetlistError> {
+pub(crate) fn flatten(mut parsed: Parsed, set: &[(String, f64)]) -> Result<Netlist, NetlistError> {
     let global = Scope::new(None);
     global.temperature.set(temperatures(&parsed.options).0);
     global.define_functions(&parsed.top.funcs);
@@ -1622,6 +1622,10 @@ pub(crate) fn flatten(parsed: Parsed, set: &[(String, f64)]) -> Result<Netlist, 
         }
     }
     let tran = tran(&parsed, &global)?;
+    let measures = std::mem::take(&mut parsed.measures)
+        .into_iter()
+        .map(|m| m.try_map(&mut |e| global.eval(&e)))
+        .collect::<Result<Vec<_>, _>>()?;
     if let (Some(t), Some(card)) = (&tran, &parsed.tran) {
         off_grid_warnings(t, card, &mut out.warnings);
     }
@@ -1764,6 +1768,7 @@ pub(crate) fn flatten(parsed: Parsed, set: &[(String, f64)]) -> Result<Netlist, 
         op: parsed.op,
         options: parsed.options,
         outputs: parsed.outputs,
+        measures,
         parameters,
         warnings,
         files: Vec::new(),

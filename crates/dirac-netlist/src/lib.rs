@@ -51,9 +51,11 @@
 //! - `.options`/`.option`/`.opt` (kept as pairs in [`Netlist::options`]; [`build_circuit`] maps
 //!   `method` and warns about the rest);
 //! - `.print`, `.plot`, `.probe`, `.save` (the signals they name are kept in
-//!   [`Netlist::outputs`] and become the recorded signals).
+//!   [`Netlist::outputs`] and become the recorded signals);
+//! - `.meas`/`.measure` of a transient (see [`Measure`]; other analyses and forms are ignored with a
+//!   warning).
 //!
-//! Accepted and **ignored with a recorded [`Warning`]**: `.meas`/`.measure`, `.nodeset`, `.width`, `.title`,
+//! Accepted and **ignored with a recorded [`Warning`]**: `.nodeset`, `.width`, `.title`,
 //! whole `.control` ... `.endc` blocks, and other analyses (`.ac`, `.dc`, `.noise`, `.tf`, `.four`,
 //! ...) in a netlist that also has `.tran` or `.op` (alone, they are refused).
 //!
@@ -106,6 +108,7 @@ mod error;
 mod expr;
 mod flatten;
 mod lexer;
+mod measure;
 mod parser;
 mod source;
 mod units;
@@ -117,6 +120,7 @@ use dirac_components::{BehaviouralSource, MosfetChannel};
 pub use dirac_components::{Expression, Output};
 pub use error::{ErrorKind, NetlistError, Pos, Warning};
 pub use flatten::MOSFET_INSTANCE_KEYS;
+pub use measure::{Crossing, Edge, Event, Level, Measure, MeasureKind, Occurrence, Statistic};
 pub use parser::{OptionCard, OutputRequest};
 pub use source::SourceSpec;
 pub use units::{parse_spice_number, parse_spice_quantity};
@@ -558,6 +562,8 @@ pub struct Netlist {
     pub options: Vec<OptionCard>,
     /// Signals named by `.print`, `.probe`, `.save` and `.plot`, in card order.
     pub outputs: Vec<OutputRequest>,
+    /// The `.meas` cards of the transient, in card order, their values evaluated.
+    pub measures: Vec<Measure>,
     /// The top-level `.param` values (names lowercase, in card order), after any value set by
     /// [`parse_netlist_with`]: the parameters a sweep can set by name.
     pub parameters: Vec<(String, f64)>,

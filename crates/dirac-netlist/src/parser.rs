@@ -3,6 +3,7 @@
 use super::error::{ErrorKind, NetlistError, Pos, Warning};
 use super::expr::{ExprTok, FuncDef};
 use super::lexer::{Card, Cursor, Lexed, Spanned};
+use super::measure::{Crossing, Edge, Event, Level, Measure, MeasureKind, Occurrence, Statistic};
 use dirac_components::Output;
 
 /// A name as written and normalised (lowercase; ground `gnd` → `0` for nodes).
@@ -183,6 +184,8 @@ pub(crate) struct Parsed {
     pub op: bool,
     pub options: Vec<OptionCard>,
     pub outputs: Vec<OutputRequest>,
+    /// `.meas` cards of a transient, values as written.
+    pub measures: Vec<Measure<ExprTok>>,
     /// Nodes of `.global` cards, normalised (ground names excluded).
     pub globals: Vec<String>,
     pub warnings: Vec<Warning>,
@@ -207,6 +210,262 @@ pub struct OutputRequest {
     pub signal: String,
     /// Where it was written.
     pub pos: Pos,
+}
+
+/// A token of a `.meas` card: a word (a keyword, a signal, a value) or `=`.
+enum MeasTok {
+    Word(Spanned),
+    Eq,
+}
+
+/// A `.meas` card's tokens after its keyword, read front to back.
+struct MeasTokens {
+    tokens: std::iter::Peekable<std::vec::IntoIter<MeasTok>>,
+    card: String,
+    start: Pos,
+}
+
+/// `RISE=`/`FALL=`/`CROSS=` (or a bare `LAST`), `VAL=`, `TD=`, `FROM=`, `TO=`, `AT=` of a
+/// `.meas` card, each with the word it came from.
+#[derive(Default)]
+struct MeasParams {
+    edge: Option<(Edge, Occurrence)>,
+    val: Option<ExprTok>,
+    td: Option<ExprTok>,
+    from: Option<ExprTok>,
+    to: Option<ExprTok>,
+    at: Option<ExprTok>,
+    given: Vec<(String, Spanned)>,
+}
+
+impl MeasParams {
+    /// Refuses a parameter outside `allowed` (lowercase names).
+    fn only(&self, tokens: &MeasTokens, allowed: &[&str]) -> Result<(), NetlistError> {
+        match self
+            .given
+            .iter()
+            .find(|(k, _)| !allowed.contains(&k.as_str()))
+        {
+            Some((key, word)) => Err(tokens.error(
+                word,
+                &format!(
+                    "`{}` does not apply here (this form takes {})",
+                    key.to_uppercase(),
+                    allowed.join(", ").to_uppercase()
+                ),
+            )),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The statistic a `.meas` keyword names.
+fn statistic(word: &str) -> Option<Statistic> {
+    Some(match word {
+        "avg" => Statistic::Avg,
+        "min" => Statistic::Min,
+        "max" => Statistic::Max,
+        "pp" => Statistic::Pp,
+        "rms" => Statistic::Rms,
+        "integ" | "integral" => Statistic::Integ,
+        "min_at" => Statistic::MinAt,
+        "max_at" => Statistic::MaxAt,
+        _ => return None,
+    })
+}
+
+/// Whether a word names a signal (`v(…)`, `i(…)`) rather than a value.
+fn is_signal(word: &str) -> bool {
+    let lower = word.to_ascii_lowercase();
+    (lower.starts_with("v(") || lower.starts_with("i(")) && lower.ends_with(')')
+}
+
+impl MeasTokens {
+    fn error(&self, at: &Spanned, message: &str) -> NetlistError {
+        NetlistError::syntax(
+            at.start(),
+            at.text.clone(),
+            format!("{message} in `.meas` card `{}`", self.card),
+        )
+    }
+
+    fn end_error(&self, message: &str) -> NetlistError {
+        NetlistError::syntax(
+            self.start,
+            self.card.clone(),
+            format!("{message} in `.meas` card `{}`", self.card),
+        )
+    }
+
+    fn word(&mut self, what: &str) -> Result<Spanned, NetlistError> {
+        match self.tokens.next() {
+            Some(MeasTok::Word(w)) => Ok(w),
+            Some(MeasTok::Eq) => Err(self.end_error(&format!("`=` where {what} belongs"))),
+            None => Err(self.end_error(&format!("missing {what}"))),
+        }
+    }
+
+    fn peek_word(&mut self) -> Option<String> {
+        match self.tokens.peek() {
+            Some(MeasTok::Word(w)) => Some(w.lower()),
+            _ => None,
+        }
+    }
+
+    fn eq(&mut self, after: &Spanned) -> Result<(), NetlistError> {
+        match self.tokens.next() {
+            Some(MeasTok::Eq) => Ok(()),
+            _ => Err(self.error(after, &format!("expected `=` after `{}`", after.text))),
+        }
+    }
+
+    /// A signal name, normalised as an output card's (`v(a,b)`, lowercase, no blanks).
+    fn signal(&mut self) -> Result<String, NetlistError> {
+        let word = self.word("a signal such as v(out)")?;
+        if !is_signal(&word.text) {
+            return Err(self.error(&word, "expected a signal such as `v(out)` or `i(v1)`"));
+        }
+        Ok(word
+            .lower()
+            .chars()
+            .filter(|c| !c.is_whitespace())
+            .collect())
+    }
+
+    fn value(&mut self, key: &Spanned) -> Result<ExprTok, NetlistError> {
+        self.eq(key)?;
+        let word = self.word(&format!("the value of `{}`", key.text))?;
+        ExprTok::parse(&word)
+    }
+
+    /// `key=value` parameters up to a word of `stop` or the end.
+    fn params(&mut self, stop: &[&str]) -> Result<MeasParams, NetlistError> {
+        let mut p = MeasParams::default();
+        while let Some(next) = self.peek_word() {
+            if stop.contains(&next.as_str()) {
+                break;
+            }
+            let key = self.word("a parameter")?;
+            let lower = key.lower();
+            if lower == "last" {
+                p.edge = Some((Edge::Cross, Occurrence::Last));
+                p.given.push(("cross".into(), key));
+                continue;
+            }
+            match lower.as_str() {
+                "rise" | "fall" | "cross" => {
+                    self.eq(&key)?;
+                    let value = self.word(&format!("the value of `{}`", key.text))?;
+                    let occurrence = if value.lower() == "last" {
+                        Occurrence::Last
+                    } else {
+                        match value.text.parse::<usize>() {
+                            Ok(n) if n >= 1 => Occurrence::Nth(n),
+                            _ => {
+                                return Err(self.error(
+                                    &value,
+                                    &format!("`{}=` takes a count from 1 or LAST", key.text),
+                                ));
+                            }
+                        }
+                    };
+                    let edge = match lower.as_str() {
+                        "rise" => Edge::Rise,
+                        "fall" => Edge::Fall,
+                        _ => Edge::Cross,
+                    };
+                    p.edge = Some((edge, occurrence));
+                }
+                "val" => p.val = Some(self.value(&key)?),
+                "td" => p.td = Some(self.value(&key)?),
+                "from" => p.from = Some(self.value(&key)?),
+                "to" => p.to = Some(self.value(&key)?),
+                "at" => p.at = Some(self.value(&key)?),
+                _ => {
+                    return Err(
+                        self.error(&key, &format!("unknown `.meas` parameter `{}`", key.text))
+                    );
+                }
+            }
+            p.given.push((lower, key));
+        }
+        Ok(p)
+    }
+
+    /// `signal=level` (a value or a signal) and its parameters up to a word of `stop`.
+    fn crossing(&mut self, stop: &[&str]) -> Result<Crossing<ExprTok>, NetlistError> {
+        let signal = self.signal()?;
+        match self.tokens.next() {
+            Some(MeasTok::Eq) => {}
+            _ => return Err(self.end_error(&format!("expected `=` after `{signal}`"))),
+        }
+        let level = self.word("the level crossed")?;
+        let level = if is_signal(&level.text) {
+            Level::Signal(
+                level
+                    .lower()
+                    .chars()
+                    .filter(|c| !c.is_whitespace())
+                    .collect(),
+            )
+        } else {
+            Level::Value(ExprTok::parse(&level)?)
+        };
+        let params = self.params(stop)?;
+        params.only(self, &["rise", "fall", "cross", "td"])?;
+        Ok(Crossing {
+            signal,
+            level,
+            td: params.td,
+            edge: params.edge,
+        })
+    }
+
+    /// A `TRIG`/`TARG` event: `AT=time`, or `signal VAL=level` and its parameters.
+    fn event(&mut self, stop: &[&str]) -> Result<Event<ExprTok>, NetlistError> {
+        if self.peek_word().as_deref() == Some("at") {
+            let params = self.params(stop)?;
+            params.only(self, &["at"])?;
+            return params
+                .at
+                .map(Event::At)
+                .ok_or_else(|| self.end_error("missing `AT=`"));
+        }
+        let signal = self.signal()?;
+        let params = self.params(stop)?;
+        params.only(self, &["val", "rise", "fall", "cross", "td"])?;
+        let val = params
+            .val
+            .ok_or_else(|| self.end_error(&format!("missing `VAL=` for `{signal}`")))?;
+        Ok(Event::Crossing(Crossing {
+            signal,
+            level: Level::Value(val),
+            td: params.td,
+            edge: params.edge,
+        }))
+    }
+
+    /// After `FIND signal`: `WHEN signal=level …` or `AT=time`.
+    fn event_after_find(&mut self) -> Result<Event<ExprTok>, NetlistError> {
+        if self.peek_word().as_deref() == Some("when") {
+            self.word("WHEN")?;
+            return Ok(Event::Crossing(self.crossing(&[])?));
+        }
+        let params = self.params(&[])?;
+        params.only(self, &["at"])?;
+        params
+            .at
+            .map(Event::At)
+            .ok_or_else(|| self.end_error("`FIND` needs `WHEN signal=value` or `AT=time`"))
+    }
+
+    fn finish(&mut self) -> Result<(), NetlistError> {
+        match self.tokens.next() {
+            None => Ok(()),
+            Some(MeasTok::Word(w)) => Err(self.error(&w, &format!("unexpected `{}`", w.text))),
+            Some(MeasTok::Eq) => Err(self.end_error("unexpected `=`")),
+        }
+    }
 }
 
 /// The `key[=value]` pairs of an `.options` card (after its keyword).
@@ -300,8 +559,8 @@ fn param_name(s: &Spanned, card: &str) -> Result<Name, NetlistError> {
     }
 }
 
-/// Dot-cards accepted and ignored with a warning (measurements).
-const IGNORED_DOT_CARDS: &[&str] = &[".meas", ".measure", ".nodeset", ".width", ".title"];
+/// Dot-cards accepted and ignored with a warning.
+const IGNORED_DOT_CARDS: &[&str] = &[".nodeset", ".width", ".title"];
 
 /// Analyses other than `.tran` and `.op`: a deck that also asks for one of those runs them, with a
 /// warning that these are not run; a deck that asks only for these is refused at the first.
@@ -1221,6 +1480,94 @@ impl<'a> CardParser<'a> {
         Ok(TranCard { values, uic })
     }
 
+    /// A `.meas`/`.measure` card of a transient (see [`Measure`]); `None`, with a warning, for
+    /// another analysis or a form not computed (`PARAM=`, `DERIV`, `ERR`).
+    fn measure(
+        &mut self,
+        warnings: &mut Vec<Warning>,
+    ) -> Result<Option<Measure<ExprTok>>, NetlistError> {
+        let start = self.card.start();
+        let mut tokens = Vec::new();
+        loop {
+            self.cur.skip_ws();
+            if self.cur.at_end() {
+                break;
+            }
+            if self.cur.eat('=') {
+                tokens.push(MeasTok::Eq);
+            } else if !self.cur.eat(',') {
+                match self.cur.value()? {
+                    Some(word) => tokens.push(MeasTok::Word(word)),
+                    None => return Err(self.syntax("unexpected character")),
+                }
+            }
+        }
+        let mut tokens = MeasTokens {
+            tokens: tokens.into_iter().peekable(),
+            card: self.text.clone(),
+            start,
+        };
+        let ignored = |why: String| Warning::new(start, self.text.clone(), why);
+        let first = tokens.word("the analysis or the result's name")?;
+        let name = match first.lower().as_str() {
+            "tran" => tokens.word("the result's name")?,
+            analysis @ ("ac" | "dc" | "sp" | "noise" | "op") => {
+                warnings.push(ignored(format!(
+                    "`.meas {analysis}` ignored (dirac runs `.tran` and `.op`): `{}`",
+                    self.text
+                )));
+                return Ok(None);
+            }
+            _ => first,
+        };
+        let kind_word = tokens.word("a measure (TRIG, WHEN, FIND, AVG, ...)")?;
+        let kind = match kind_word.lower().as_str() {
+            "trig" | "delay" => {
+                let trig = tokens.event(&["targ"])?;
+                let targ_word = tokens.word("TARG")?;
+                if targ_word.lower() != "targ" {
+                    return Err(tokens.error(&targ_word, "expected `TARG`"));
+                }
+                let targ = tokens.event(&[])?;
+                MeasureKind::Delay { trig, targ }
+            }
+            "when" => MeasureKind::When(tokens.crossing(&[])?),
+            "find" => {
+                let signal = tokens.signal()?;
+                let at = tokens.event_after_find()?;
+                MeasureKind::Find { signal, at }
+            }
+            word => match statistic(word) {
+                Some(statistic) => {
+                    let signal = tokens.signal()?;
+                    let params = tokens.params(&[])?;
+                    params.only(&tokens, &["from", "to", "td"])?;
+                    MeasureKind::Statistic {
+                        statistic,
+                        signal,
+                        from: params.from.or(params.td),
+                        to: params.to,
+                    }
+                }
+                None => {
+                    warnings.push(ignored(format!(
+                        "`.meas` {} not computed, ignored (dirac computes TRIG/TARG, WHEN, FIND \
+                         and AVG, MIN, MAX, PP, RMS, INTEG, MIN_AT, MAX_AT): `{}`",
+                        kind_word.text, self.text
+                    )));
+                    return Ok(None);
+                }
+            },
+        };
+        tokens.finish()?;
+        Ok(Some(Measure {
+            name: name.lower(),
+            pos: start,
+            text: self.text.clone(),
+            kind,
+        }))
+    }
+
     fn ic(&mut self) -> Result<Vec<(Name, ExprTok)>, NetlistError> {
         let mut out = Vec::new();
         if self.cur.at_end() {
@@ -1280,6 +1627,7 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
     let mut globals = Vec::new();
     let mut options = Vec::new();
     let mut outputs = Vec::new();
+    let mut measures = Vec::new();
     let mut other_analyses: Vec<(Pos, String, String)> = Vec::new();
 
     for card in &lexed.cards {
@@ -1432,6 +1780,14 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
                 k if OUTPUT_DOT_CARDS.contains(&k) => {
                     outputs.extend(output_requests(card, &p.text))
                 }
+                ".meas" | ".measure" if !stack.is_empty() => {
+                    warnings.push(Warning::new(
+                        start,
+                        p.text.clone(),
+                        format!("`.meas` inside a subcircuit ignored (measures belong at the top level): `{}`", p.text),
+                    ));
+                }
+                ".meas" | ".measure" => measures.extend(p.measure(&mut warnings)?),
                 k if OTHER_ANALYSES.contains(&k) => {
                     other_analyses.push((start, p.text.clone(), k.to_owned()));
                 }
@@ -1477,6 +1833,7 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
         op,
         options,
         outputs,
+        measures,
         globals,
         warnings,
     })

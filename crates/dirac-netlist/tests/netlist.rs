@@ -472,8 +472,8 @@ plot v(a)
     );
     assert_eq!(net.elements.len(), 1);
     // `.options` are kept as pairs (the circuit builder maps `method` and warns about the rest);
-    // `.print`/`.plot`/`.probe`/`.save` name the recorded signals; `.meas` and `.control` are
-    // ignored with warnings.
+    // `.print`/`.plot`/`.probe`/`.save` name the recorded signals; `.meas` is kept as a
+    // measure; `.control` is ignored with a warning.
     let options: Vec<(&str, Option<&str>, usize)> = net
         .options
         .iter()
@@ -497,7 +497,13 @@ plot v(a)
         [("v(a)", 5), ("v(a)", 6), ("v(a)", 7), ("v(a)", 8)]
     );
     let lines: Vec<usize> = net.warnings.iter().map(|w| w.line).collect();
-    assert_eq!(lines, [9, 10]);
+    assert_eq!(lines, [10]);
+    let measures: Vec<(&str, usize)> = net
+        .measures
+        .iter()
+        .map(|m| (m.name.as_str(), m.pos.line))
+        .collect();
+    assert_eq!(measures, [("vmax", 9)]);
 }
 
 /// `.op` anywhere asks for the operating point; `.print` lists with differences and currents

@@ -16,8 +16,8 @@ use std::path::PathBuf;
 use dirac_sim::{Probe, RunError, RunSummary, Signal, SimError, Sink, SteadyStateError};
 use dirac_solve::NewtonError;
 use dirac_study::{
-    Method, Model, Output, Outputs, Plan, RepresentationChoice, RunSettings, SourceKind,
-    StudyError, Sweep, TableWriter, parse_composition, parse_scheme,
+    Measurement, Method, Model, Output, Outputs, Plan, RepresentationChoice, RunSettings,
+    SourceKind, StudyError, Sweep, TableWriter, parse_composition, parse_scheme,
 };
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
@@ -206,6 +206,7 @@ fn summary_dict<'py>(
     py: Python<'py>,
     summary: &RunSummary,
     columns: &Columns,
+    measurements: &[Measurement],
     execution: String,
     h: f64,
     t_end: f64,
@@ -232,6 +233,11 @@ fn summary_dict<'py>(
     d.set_item("energy_start", columns.energy_first)?;
     d.set_item("energy_end", energy.then_some(columns.energy_last))?;
     d.set_item("energy_drift", energy.then_some(columns.energy_drift))?;
+    let measures = PyDict::new(py);
+    for m in measurements {
+        measures.set_item(&m.name, m.value.as_ref().ok().copied())?;
+    }
+    d.set_item("measures", measures)?;
     Ok(d)
 }
 
@@ -398,19 +404,21 @@ impl PyModel {
                 names[..kept].to_vec(),
                 columns,
                 summary,
+                prepared.measurements().to_vec(),
                 prepared.execution().to_string(),
                 prepared.h(),
                 prepared.t_end(),
             ))
         });
-        let (names, columns, summary, execution, h, t_end) = outcome.map_err(to_py)?;
+        let (names, columns, summary, measurements, execution, h, t_end) =
+            outcome.map_err(to_py)?;
         let t = f64_bytes(py, &columns.t)?;
         let data = columns
             .columns
             .iter()
             .map(|c| f64_bytes(py, c))
             .collect::<PyResult<Vec<_>>>()?;
-        let summary = summary_dict(py, &summary, &columns, execution, h, t_end)?;
+        let summary = summary_dict(py, &summary, &columns, &measurements, execution, h, t_end)?;
         Ok((names, t, data, summary))
     }
 

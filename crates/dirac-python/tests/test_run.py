@@ -9,6 +9,7 @@ raises InputError with file:line:column; a saturating inductor driven past L0·I
 SimulationError at the step that starts at t = 1 s (flux V·t = 1 Wb = L0·I_sat there).
 """
 
+import json
 import math
 import threading
 
@@ -150,6 +151,31 @@ def test_tmax_sets_the_step_and_the_rows_stay_every_tstep(cli, tmp_path):
     assert np.array_equal(run.t, np.arange(11) * 1e-3)
     fine = dirac.run(path, signals=["v(out)"], h=1e-5)
     assert np.array_equal(run["v(out)"], fine["v(out)"][::100])
+
+
+def test_measures_reach_the_summary_as_on_the_command_line(cli, tmp_path):
+    # An RC low-pass (tau = 1 ms) behind a 10 us ramp at 1 ms: v(in) crosses 0.5 V at 1.005 ms
+    # and falls through it at 6.015 ms (corners on the grid, so exact); a measure with no
+    # crossing is None, and the run succeeds as on the command line.
+    path = tmp_path / "rc_meas.cir"
+    path.write_text(
+        "rc\nV1 in 0 PULSE(0 1 1m 10u 10u 5m 10m)\nR1 in out 1k\nC1 out 0 1u\n.tran 10u 10m\n"
+        ".meas tran trig WHEN v(in)=0.5\n.meas tran fall WHEN v(in)=0.5 FALL=1\n"
+        ".meas tran tdelay TRIG v(in) VAL=0.5 TARG v(out) VAL=0.5\n"
+        ".meas tran never WHEN v(out)=2\n.end\n"
+    )
+    run = dirac.run(path, signals=["v(out)"])
+    assert run.signals == ("v(out)",)
+    measures = run.summary.measures
+    assert list(measures) == ["trig", "fall", "tdelay", "never"]
+    assert measures["trig"] == pytest.approx(1.005e-3, abs=1e-15)
+    assert measures["fall"] == pytest.approx(6.015e-3, abs=1e-15)
+    assert measures["never"] is None
+    a = 100 * math.expm1(0.01)
+    assert measures["tdelay"] == pytest.approx(1e-3 * math.log(2 * a) - 5e-6, abs=5e-8)
+    out = cli("run", path, "--quiet", "--signals", "v(out)", "--json-summary")
+    summary = json.loads(out.stderr.decode().strip().splitlines()[-1])
+    assert summary["measures"] == measures
 
 
 def test_composition_reaches_the_run_as_on_the_command_line(cli):

@@ -33,7 +33,9 @@ mod sweep;
 
 pub use error::StudyError;
 pub use model::{Model, SourceKind, kind_of};
-pub use run::{CheckReport, Comparison, OperatingPoint, Prepared, RepresentationSize, RunPlan};
+pub use run::{
+    CheckReport, Comparison, Measurement, OperatingPoint, Prepared, RepresentationSize, RunPlan,
+};
 pub use settings::{
     Method, RepresentationChoice, RunSettings, parse_composition, parse_scheme, split_list,
 };

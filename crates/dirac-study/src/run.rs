@@ -3,7 +3,7 @@
 
 use dirac_core::{Discretisation, Model as _};
 use dirac_graph::{Assembler, Representation};
-use dirac_netlist::{Circuit, Element, SourceSpec, build_circuit, waveform};
+use dirac_netlist::{Circuit, Element, Measure, SourceSpec, build_circuit, waveform};
 use dirac_sim::{
     Composition, Execution, IntegratorOptions, NaturalModes, RunError, RunSummary, Scheme, Signal,
     Simulation, Sink, Splitting, Start, StartRamp, Trajectory, TruncationControl,
@@ -72,6 +72,11 @@ pub struct Prepared {
     first_output: f64,
     steps_per_row: usize,
     output_step: f64,
+    /// A netlist's `.meas` cards, the signals they read beyond `signals` (recorded but not
+    /// passed on), and their results once run.
+    measures: Vec<Measure>,
+    measured_signals: Vec<Signal>,
+    measurements: Vec<Measurement>,
     /// The natural modes, when the set-up already computed them (the automatic start ramp).
     modes: Option<NaturalModes>,
 }
@@ -158,16 +163,45 @@ impl Prepared {
         sink: &mut dyn Sink,
         watch: &mut dyn FnMut(usize) -> Result<(), String>,
     ) -> Result<RunSummary, StudyError> {
+        let mut all = self.signals.clone();
+        all.extend(self.measured_signals.iter().cloned());
+        let mut samples = Samples {
+            names: all.iter().map(|s| s.name.clone()).collect(),
+            t: Vec::new(),
+            columns: vec![
+                Vec::new();
+                if self.measures.is_empty() {
+                    0
+                } else {
+                    all.len()
+                }
+            ],
+        };
         let mut skip = FromTime {
             inner: sink,
             first: self.first_output,
             every: self.steps_per_row.max(1),
             spacing: self.output_step,
+            passed: self.signals.len(),
+            samples: &mut samples,
             watch,
         };
-        Ok(self
-            .simulation
-            .run_into(self.t_end, &self.signals, &mut skip)?)
+        let summary = self.simulation.run_into(self.t_end, &all, &mut skip)?;
+        self.measurements = self
+            .measures
+            .iter()
+            .map(|m| Measurement {
+                name: m.name.clone(),
+                value: samples.evaluate(m),
+            })
+            .collect();
+        Ok(summary)
+    }
+
+    /// The results of a netlist's `.meas` cards after a run, in card order (empty before).
+    #[must_use]
+    pub fn measurements(&self) -> &[Measurement] {
+        &self.measurements
     }
 
     /// Runs to the end time and keeps every row.
@@ -181,27 +215,72 @@ impl Prepared {
     }
 }
 
+/// One `.meas` result: its value, or why it could not be taken (ngspice reports such a measure
+/// as failed and goes on).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Measurement {
+    /// The result's name.
+    pub name: String,
+    /// The value, or why there is none.
+    pub value: Result<f64, String>,
+}
+
+/// Every step's time and recorded values from the first output time on, for the measures
+/// (nothing is kept when there are none).
+struct Samples {
+    names: Vec<String>,
+    t: Vec<f64>,
+    columns: Vec<Vec<f64>>,
+}
+
+impl Samples {
+    fn evaluate(&self, measure: &Measure) -> Result<f64, String> {
+        let column = |name: &str| -> &[f64] {
+            self.names
+                .iter()
+                .position(|n| n == name)
+                .and_then(|i| self.columns.get(i))
+                .map_or(&[], Vec::as_slice)
+        };
+        measure.evaluate(&self.t, &column)
+    }
+}
+
 /// Passes on every `every`-th step's row at or after `first`, numbered and timed on the output
-/// grid (row `j` at `j·spacing`, not a sum of substeps), showing every step index to `watch`.
+/// grid (row `j` at `j·spacing`, not a sum of substeps), with its first `passed` values; keeps
+/// every step's values from `first` on in `samples` (the measures); shows every step index to
+/// `watch`.
 struct FromTime<'a> {
     inner: &'a mut dyn Sink,
     first: f64,
     every: usize,
     spacing: f64,
+    passed: usize,
+    samples: &'a mut Samples,
     watch: &'a mut dyn FnMut(usize) -> Result<(), String>,
 }
 
 impl Sink for FromTime<'_> {
     fn begin(&mut self, names: &[String]) -> Result<(), String> {
         (self.watch)(0)?;
-        self.inner.begin(names)
+        self.inner.begin(&names[..self.passed])
     }
 
     fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String> {
         (self.watch)(k)?;
-        if !k.is_multiple_of(self.every) || t < self.first * (1.0 - 1e-12) {
+        if t < self.first * (1.0 - 1e-12) {
             return Ok(());
         }
+        if !self.samples.columns.is_empty() {
+            self.samples.t.push(t);
+            for (column, &v) in self.samples.columns.iter_mut().zip(values) {
+                column.push(v);
+            }
+        }
+        if !k.is_multiple_of(self.every) {
+            return Ok(());
+        }
+        let values = &values[..self.passed];
         if self.every == 1 {
             return self.inner.row(k, t, values);
         }
@@ -280,6 +359,24 @@ impl Model {
             )));
         }
         Ok(execution)
+    }
+
+    /// The signals a netlist's `.meas` cards read that `recorded` does not hold.
+    ///
+    /// # Errors
+    /// A signal the circuit cannot record (checked when the netlist was read, so not expected).
+    fn measured_signals(&self, recorded: &[Signal]) -> Result<Vec<Signal>, StudyError> {
+        let Some(circuit) = self.circuit() else {
+            return Ok(Vec::new());
+        };
+        let mut out: Vec<Signal> = Vec::new();
+        for name in circuit.measures.iter().flat_map(Measure::signals) {
+            let signal = circuit.signal(&name)?;
+            if !recorded.iter().chain(&out).any(|s| s.name == signal.name) {
+                out.push(signal);
+            }
+        }
+        Ok(out)
     }
 
     /// Steps per output row: a netlist's `.tran` rows come every TSTEP, from steps no longer
@@ -526,6 +623,7 @@ impl Model {
         {
             return Err(StudyError::Settings(why));
         }
+        let measured_signals = self.measured_signals(&plan.signals)?;
         Ok(Prepared {
             simulation,
             signals: plan.signals,
@@ -533,6 +631,9 @@ impl Model {
             first_output: plan.first_output,
             steps_per_row: plan.steps_per_row,
             output_step: plan.output_step,
+            measured_signals,
+            measures: self.circuit().map_or_else(Vec::new, |c| c.measures.clone()),
+            measurements: Vec::new(),
             modes,
         })
     }

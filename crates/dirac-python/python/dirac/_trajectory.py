@@ -41,6 +41,8 @@ class RunSummary:
         energy_drift: ``max_k |E_k - E_0|`` over the rows (``energy=True``); for a conservative
             model a measure of the integrator's energy error, for a dissipative or driven one the
             energy exchanged.
+        measures: a netlist's ``.meas`` results by name, in card order; ``None`` for a measure
+            that could not be taken (no such crossing), as ngspice reports it failed.
     """
 
     steps: int
@@ -63,6 +65,7 @@ class RunSummary:
     energy_start: Optional[float] = None
     energy_end: Optional[float] = None
     energy_drift: Optional[float] = None
+    measures: Dict[str, Optional[float]] = field(default_factory=dict)
 
     @property
     def newton_iterations_per_step(self) -> float:
