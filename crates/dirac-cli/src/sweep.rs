@@ -69,6 +69,11 @@ pub struct SweepArgs {
     /// on a fast decay), which are otherwise refused before the sweep starts a step.
     #[arg(long)]
     force: bool,
+    /// Most steps a point may take: a sweep with a point of more steps (its t_end / h; a
+    /// parameter may set h, t_end or a netlist's TMAX) is refused before it starts (not with
+    /// --force).
+    #[arg(long = "max-steps", default_value_t = guard::DEFAULT_MAX_STEPS)]
+    max_steps: u64,
     /// Running: the directory for shard-I-of-N.csv (default: the table on stdout). Merging: the
     /// merged table's file (default: stdout).
     #[arg(long)]
@@ -148,6 +153,13 @@ pub(crate) fn sweep(args: &SweepArgs) -> Result<(), Failure> {
     };
     let range = plan.shard(index, count).map_err(input)?;
     let sweep = Sweep::new(model, plan, settings, outputs).map_err(input)?;
+    if !args.force {
+        for point in range.clone() {
+            let steps = sweep.point_steps(point).map_err(input)?;
+            guard::check_steps(steps, args.max_steps)
+                .map_err(|why| Failure::Input(format!("point {point}: {why}")))?;
+        }
+    }
     let mut text = Vec::new();
     let io = |e: std::io::Error| Failure::Input(format!("writing output: {e}"));
     let mut writer = TableWriter::new(&mut text, &sweep.columns()).map_err(io)?;
@@ -157,8 +169,19 @@ pub(crate) fn sweep(args: &SweepArgs) -> Result<(), Failure> {
                 "interrupted at point {point}: nothing written"
             )));
         }
-        let rows = match sweep.run_point(point) {
+        let rows = match sweep.run_point_watched(point, &mut |_| {
+            if guard::interrupted() {
+                Err("interrupted".to_string())
+            } else {
+                Ok(())
+            }
+        }) {
             Ok(rows) => rows,
+            Err(_) if guard::interrupted() => {
+                return Err(Failure::Interrupted(format!(
+                    "interrupted at point {point}: nothing written"
+                )));
+            }
             Err(e) if args.keep_going && e.is_numerical() => {
                 eprintln!("warning: point {point}: {e}");
                 sweep.failed_rows(point)

@@ -1609,3 +1609,42 @@ fn a_measure_of_an_unknown_signal_or_without_its_value_is_refused_at_its_card() 
         "{stderr}"
     );
 }
+
+#[test]
+fn a_sweep_point_too_long_for_max_steps_is_refused_before_it_starts() {
+    // TMAX sets the step, so a parameter can make one point of a sweep arbitrarily long: it is
+    // refused as `dirac run` refuses it, naming the point, before any point runs.
+    let path = rc_sine_deck("rc_sweep_tmax.cir", ".param tm=1m\n.tran 1m 10m 0 {tm}");
+    let file = path.to_str().unwrap();
+    let out = dirac(&[
+        "sweep",
+        file,
+        "--param",
+        "tm=1e-5,1e-18",
+        "--reduce",
+        "max(v(out))",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("point 1: this run would take"), "{stderr}");
+    assert!(out.stdout.is_empty());
+    // A point within the limit runs at its TMAX: its maximum is that of the run.
+    let out = dirac(&[
+        "sweep",
+        file,
+        "--param",
+        "tm=1e-5",
+        "--reduce",
+        "max(v(out))",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (_, swept) = rows(&String::from_utf8_lossy(&out.stdout));
+    let fixed = rc_sine_deck("rc_sweep_fixed.cir", ".tran 1m 10m 0 1e-5");
+    let (_, run, _) = run_summarised(&[fixed.to_str().unwrap(), "--signals", "v(out)"], "run");
+    let max = run.iter().map(|r| r[1]).fold(f64::NEG_INFINITY, f64::max);
+    assert_eq!(swept[0][2], max);
+}

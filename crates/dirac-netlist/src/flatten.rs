@@ -1559,11 +1559,12 @@ fn tran(parsed: &Parsed, scope: &Scope<'_>) -> Result<Option<Tran>, NetlistError
     if v.len() > 2 && !(0.0..tstop).contains(&tstart) {
         return Err(bad(2, "TSTART must be in [0, TSTOP)"));
     }
-    let tmax = v.get(3).copied();
+    // A TMAX of 0 is no TMAX, as ngspice reads it.
+    let tmax = v.get(3).copied().filter(|&t| t != 0.0);
     if let Some(t) = tmax
-        && t <= 0.0
+        && (t < 0.0 || !t.is_finite())
     {
-        return Err(bad(3, "TMAX must be positive"));
+        return Err(bad(3, "TMAX must be positive (or 0: none)"));
     }
     Ok(Some(Tran {
         tstep,

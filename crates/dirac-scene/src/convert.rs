@@ -270,11 +270,17 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
             number(tran.tstep)
         );
     }
+    // …and ends where the netlist's run ends: on the TSTEP grid when it steps at TSTEP/m.
+    let t_end = if every > 1 {
+        (tran.tstop / tran.tstep).round() * tran.tstep
+    } else {
+        tran.tstop
+    };
     let _ = writeln!(
         out,
         "h = {}\nt_end = {}",
         number(tran.tstep / every as f64),
-        number(tran.tstop)
+        number(t_end)
     );
     if !tran.uic {
         // Without UIC a SPICE transient starts from the DC operating point.

@@ -1513,7 +1513,7 @@ impl FromSteps {
         for ((rows, first), signal) in self.rows.iter().zip(signals) {
             if *rows > 0 {
                 warnings.push(format!(
-                    "`{}` at {rows} output time(s) (first t = {}) is not determined precisely by the state at t_k (a condition number above 1e6: it depends on the state only through a coefficient lost among the others, e.g. a node behind an off diode; or the relations' Newton iteration cycled at round-off, e.g. a diode's diffusion charge without junction charge): read there from the means of the adjacent steps, accurate to O(h²)",
+                    "`{}` at {rows} step time(s) t_k (first t = {}) is not determined precisely by the state at t_k (a condition number above 1e6: it depends on the state only through a coefficient lost among the others, e.g. a node behind an off diode; or the relations' Newton iteration cycled at round-off, e.g. a diode's diffusion charge without junction charge): read there from the means of the adjacent steps, accurate to O(h²)",
                     signal.name,
                     crate::error::Time(*first),
                 ));
@@ -1816,7 +1816,7 @@ impl Agreement {
                 .max_by_key(|r| r.0);
             if let Some((rows, first, difference, scale)) = found {
                 warnings.push(format!(
-                    "`{}` at {rows} output time(s) (first t = {}): the state at t_k and the steps around it disagree by up to {difference:.3e}, {:.0} % of the value's size {scale:.3e}: the state carries a mode faster than the step that the method does not damp (Gauss methods keep such a mode: a current left in a winding behind a diode that switched off) or an event the step does not resolve; read there from the means of the adjacent steps, accurate to O(h²) where the motion is smooth (the midpoint rule, whose stiff modes alternate and average out, or a smaller step avoids it)",
+                    "`{}` at {rows} step time(s) t_k (first t = {}): the state at t_k and the steps around it disagree by up to {difference:.3e}, {:.0} % of the value's size {scale:.3e}: the state carries a mode faster than the step that the method does not damp (Gauss methods keep such a mode: a current left in a winding behind a diode that switched off) or an event the step does not resolve; read there from the means of the adjacent steps, accurate to O(h²) where the motion is smooth (the midpoint rule, whose stiff modes alternate and average out, or a smaller step avoids it)",
                     signal.name,
                     crate::error::Time(first),
                     100.0 * difference / scale,

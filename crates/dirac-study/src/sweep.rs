@@ -482,19 +482,53 @@ impl Sweep {
         out
     }
 
-    /// Runs point `index` and returns its table rows (one for reductions; one per output time for
-    /// trajectories), each with the columns of [`Sweep::columns`].
+    /// The steps point `index` would take (`t_end / h` of its run; a parameter may set either,
+    /// or a netlist's TMAX), for a front end to refuse a run too long before it starts.
     ///
     /// # Errors
-    /// A parameter value the model rejects, or the run failing.
-    pub fn run_point(&self, index: usize) -> Result<Vec<Vec<f64>>, StudyError> {
+    /// A point that does not exist, or a parameter value the model rejects.
+    pub fn point_steps(&self, index: usize) -> Result<u64, StudyError> {
+        let model = self.point_model(index)?;
+        Ok(model.plan(&self.settings)?.steps())
+    }
+
+    fn point_model(&self, index: usize) -> Result<Model, StudyError> {
         let point = self.plan.points().get(index).ok_or_else(|| {
             StudyError::Sweep(format!(
                 "point {index} does not exist (the sweep has {})",
                 self.plan.len()
             ))
         })?;
-        let model = self.model.with_parameters(self.plan.names(), point)?;
+        self.model.with_parameters(self.plan.names(), point)
+    }
+
+    /// Runs point `index` and returns its table rows (one for reductions; one per output time for
+    /// trajectories), each with the columns of [`Sweep::columns`].
+    ///
+    /// # Errors
+    /// A parameter value the model rejects, or the run failing.
+    pub fn run_point(&self, index: usize) -> Result<Vec<Vec<f64>>, StudyError> {
+        self.run_point_watched(index, &mut |_| Ok(()))
+    }
+
+    /// [`Sweep::run_point`], calling `watch` before every step's row as
+    /// [`Prepared::run_into_watched`] does (a front end's interrupt check); an error from it
+    /// stops the point.
+    ///
+    /// # Errors
+    /// See [`Sweep::run_point`].
+    pub fn run_point_watched(
+        &self,
+        index: usize,
+        watch: &mut dyn FnMut(usize) -> Result<(), String>,
+    ) -> Result<Vec<Vec<f64>>, StudyError> {
+        let point = self.plan.points().get(index).ok_or_else(|| {
+            StudyError::Sweep(format!(
+                "point {index} does not exist (the sweep has {})",
+                self.plan.len()
+            ))
+        })?;
+        let model = self.point_model(index)?;
         let mut prepared = model.prepare(&self.settings)?;
         let mut head = vec![index as f64];
         head.extend_from_slice(point);
@@ -508,12 +542,12 @@ impl Sweep {
                     rows.push(row);
                     Ok(())
                 };
-                prepared.run_into(&mut sink)?;
+                prepared.run_into_watched(&mut sink, watch)?;
                 Ok(rows)
             }
             Outputs::Reduced(list) => {
                 let mut reducer = Reducer::new(self.signal_names.len());
-                prepared.run_into(&mut reducer)?;
+                prepared.run_into_watched(&mut reducer, watch)?;
                 let mut row = head;
                 row.extend(
                     list.iter()
