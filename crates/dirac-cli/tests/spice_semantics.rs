@@ -1648,3 +1648,46 @@ fn a_sweep_point_too_long_for_max_steps_is_refused_before_it_starts() {
     let max = run.iter().map(|r| r[1]).fold(f64::NEG_INFINITY, f64::max);
     assert_eq!(swept[0][2], max);
 }
+
+#[test]
+fn a_sweep_reports_each_points_measures_after_its_reductions() {
+    // The RC stage's 50 % delay behind a 10 µs ramp is τ·ln(2A) − Tr/2 with A = (τ/Tr)(e^{Tr/τ}
+    // − 1), τ = R·C: one column per `.meas`, NaN where a measure finds no crossing.
+    let path = deck(
+        "rc_sweep_meas.cir",
+        "rc\n.param r=1k\nV1 in 0 PULSE(0 1 1m 10u 10u 5m 10m)\nR1 in out {r}\nC1 out 0 1u\n\
+         .tran 10u 10m\n\
+         .meas tran tdelay TRIG v(in) VAL=0.5 RISE=1 TARG v(out) VAL=0.5 RISE=1\n\
+         .meas tran never WHEN v(out)=2\n.end\n",
+    );
+    let out = dirac(&[
+        "sweep",
+        path.to_str().unwrap(),
+        "--param",
+        "r=500,1k,2k",
+        "--reduce",
+        "max(v(out))",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.starts_with("point,r,max(v(out)),tdelay,never\n"),
+        "{text}"
+    );
+    for (line, r) in text.lines().skip(1).zip([500.0, 1e3, 2e3]) {
+        let cells: Vec<&str> = line.split(',').collect();
+        let tau: f64 = r * 1e-6;
+        let a = tau / 1e-5 * ((1e-5 / tau).exp() - 1.0);
+        let delay = tau * (2.0 * a).ln() - 5e-6;
+        let measured: f64 = cells[3].parse().expect("a number");
+        assert!(
+            (measured - delay).abs() < 1e-7,
+            "R = {r}: {measured} against {delay}"
+        );
+        assert_eq!(cells[4], "NaN", "{line}");
+    }
+}

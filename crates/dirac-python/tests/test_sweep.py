@@ -8,6 +8,7 @@ unsharded table byte for byte, and both are the package's table written by `tabl
 """
 
 import itertools
+import math
 
 import numpy as np
 import pytest
@@ -125,3 +126,21 @@ def test_failed_points_raise_or_leave_nan_with_keep_going():
     alone = model.with_parameters({"V.waveform": 0.2}).run(signals=["L.q"])
     assert table["final(L.q)"][0] == alone["L.q"][-1]
     assert np.isnan(table["final(L.q)"][1])
+
+
+def test_a_sweep_table_holds_each_points_measures(tmp_path):
+    # One column per `.meas` card after the reductions: the RC stage's 50 % delay scales with
+    # R (tau ln 2 up to the 10 us ramp), NaN where a measure finds no crossing; the CLI's table.
+    path = tmp_path / "rc_meas.cir"
+    path.write_text(
+        "rc\n.param r=1k\nV1 in 0 PULSE(0 1 1m 10u 10u 5m 10m)\nR1 in out {r}\nC1 out 0 1u\n"
+        ".tran 10u 10m\n.meas tran tdelay TRIG v(in) VAL=0.5 TARG v(out) VAL=0.5\n"
+        ".meas tran never WHEN v(out)=2\n.end\n"
+    )
+    table = dirac.sweep(path, {"r": [500.0, 2000.0]}, executor="serial", reduce=["max(v(out))"], frame=False)
+    assert list(table) == ["point", "r", "max(v(out))", "tdelay", "never"]
+    for r, delay in zip(table["r"], table["tdelay"]):
+        tau = r * 1e-6
+        a = tau / 1e-5 * math.expm1(1e-5 / tau)
+        assert delay == pytest.approx(tau * math.log(2 * a) - 5e-6, abs=1e-7)
+    assert np.all(np.isnan(table["never"]))

@@ -363,7 +363,8 @@ impl FromStr for Output {
 /// What every run of a sweep returns.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Outputs {
-    /// One row per point: the reductions (by default the final value of every recorded signal).
+    /// One row per point: the reductions (by default the final value of every recorded signal),
+    /// then a netlist's `.meas` results (NaN where a measure could not be taken).
     Reduced(Vec<Output>),
     /// Every row of every run: `t` and the recorded signals, the point's rows in time order.
     Trajectories,
@@ -378,6 +379,8 @@ pub struct Sweep {
     outputs: Outputs,
     signal_names: Vec<String>,
     columns: Vec<usize>,
+    /// The names of a netlist's `.meas` cards, columns after the reductions.
+    measures: Vec<String>,
 }
 
 impl Sweep {
@@ -438,6 +441,12 @@ impl Sweep {
                 model.parameter(name)?;
             }
         }
+        let measures = match (&outputs, model.circuit()) {
+            (Outputs::Reduced(_), Some(circuit)) => {
+                circuit.measures.iter().map(|m| m.name.clone()).collect()
+            }
+            _ => Vec::new(),
+        };
         Ok(Self {
             model,
             plan,
@@ -445,6 +454,7 @@ impl Sweep {
             outputs,
             signal_names,
             columns,
+            measures,
         })
     }
 
@@ -473,7 +483,10 @@ impl Sweep {
         let mut out = vec!["point".to_string()];
         out.extend(self.plan.names().iter().cloned());
         match &self.outputs {
-            Outputs::Reduced(list) => out.extend(list.iter().map(Output::to_string)),
+            Outputs::Reduced(list) => {
+                out.extend(list.iter().map(Output::to_string));
+                out.extend(self.measures.iter().cloned());
+            }
             Outputs::Trajectories => {
                 out.push("t".to_string());
                 out.extend(self.signal_names.iter().cloned());
@@ -554,6 +567,12 @@ impl Sweep {
                         .zip(&self.columns)
                         .map(|(o, &c)| reducer.value(o.reduction, c)),
                 );
+                row.extend(
+                    prepared
+                        .measurements()
+                        .iter()
+                        .map(|m| m.value.clone().unwrap_or(f64::NAN)),
+                );
                 Ok(vec![row])
             }
         }
@@ -568,7 +587,10 @@ impl Sweep {
             Outputs::Reduced(list) => {
                 let mut row = vec![index as f64];
                 row.extend_from_slice(&self.plan.points()[index]);
-                row.extend(std::iter::repeat_n(f64::NAN, list.len()));
+                row.extend(std::iter::repeat_n(
+                    f64::NAN,
+                    list.len() + self.measures.len(),
+                ));
                 vec![row]
             }
         }
