@@ -1691,3 +1691,35 @@ fn a_sweep_reports_each_points_measures_after_its_reductions() {
         assert_eq!(cells[4], "NaN", "{line}");
     }
 }
+
+#[test]
+fn a_row_far_outside_its_steps_next_to_a_corner_is_not_silent() {
+    // Diode reverse recovery: when the diode turns off inside a step, its junction's time
+    // constant falls to about 1 ns and the midpoint rule leaves that mode alternating; the row at
+    // 1.1 µs, next to the input's corners, read v(a) = −1082 V (ngspice: −5 V) with no warning,
+    // because the readout cannot take the steps' value next to a corner (docs/audit.md item 52).
+    let path = deck(
+        "diode_recovery.cir",
+        "recovery\nV1 in 0 PULSE(5 -5 1u 10n 10n 5u 10u)\nR1 in a 100\nD1 a 0 dr\n\
+         .model dr D(IS=1e-14 CJO=10p TT=100n RS=1)\n.tran 50n 10u\n.end\n",
+    );
+    let out = dirac(&["run", path.to_str().unwrap(), "--signals", "v(a)"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("`v(a)` at 1 step time(s) t_k next to a source corner or the start (first t = 0.0000011)"),
+        "{stderr}"
+    );
+    // A rectifier whose rows are right raises no such warning (its first rows are tiny values
+    // next to the start, judged against the value's size over the whole run).
+    let bundled = repo("examples/netlists/rectifier.cir");
+    for method in ["midpoint", "gauss2"] {
+        let out = dirac(&["run", bundled.to_str().unwrap(), "--method", method]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(
+            !stderr.contains("next to a source corner"),
+            "{method}: {stderr}"
+        );
+    }
+}

@@ -1640,7 +1640,26 @@ struct Agreement {
     /// Per value, for the row being checked: the steps' value and the state's, where both are
     /// read (kept between rows for its storage).
     row: Vec<Option<(FromMeans, f64)>>,
+    /// Per value: rows next to a corner or the start, where the steps give no value to take,
+    /// whose state lies far outside the spread of the clean steps around them
+    /// ([`Agreement::outlier`]); judged against the value's size at the end of the run.
+    outliers: Vec<Vec<Outlier>>,
 }
+
+/// A row's value outside its clean steps' spread: the time, the excess, the steps' lowest and
+/// highest value, and the share of the value's size the excess must exceed.
+type Outlier = (f64, f64, f64, f64, f64);
+
+/// A state's value next to a corner is a gross outlier when it lies outside the values of the
+/// clean steps around it by more than this many times their spread…
+const OUTLIER_SPREAD: f64 = 10.0;
+
+/// …and by more than this share of the value's size (the largest `|value|` of those steps and of
+/// the value's steps so far).
+const OUTLIER_SIZE: f64 = 0.5;
+
+/// [`OUTLIER_SIZE`] where a single step around the row is a clean sample.
+const OUTLIER_SINGLE: f64 = 2.0;
 
 impl Agreement {
     fn new(read: &[Entry]) -> Self {
@@ -1651,7 +1670,48 @@ impl Agreement {
             rates_scale: 0.0,
             alternates: None,
             row: Vec::with_capacity(read.len()),
+            outliers: vec![Vec::new(); read.len()],
         }
+    }
+
+    /// Whether `state`, `entry`'s value at row `k` from the state, lies outside the values of the
+    /// steps around it that are a clean sample of it (no corner inside, for a potential none
+    /// touching it and no substeps; among steps `k − 2 … k + 1`) by more than
+    /// [`OUTLIER_SPREAD`] times their spread: `Some((excess, lowest, highest, share))`, the
+    /// excess to be judged against `share` of the value's size over the whole run
+    /// ([`Agreement::warn`]). Used where [`Agreement::from_steps`] gives no value (a row next to
+    /// a source corner or the start), so that such a row is not silently wrong: a mode the
+    /// method does not damp, excited by a switching event inside a step (a diode turning off),
+    /// can put the state's value hundreds of times outside the motion there (docs/audit.md
+    /// item 52).
+    fn outlier(k: usize, entry: Entry, state: f64, means: &Means) -> Option<Outlier> {
+        let a = means.pair(k, entry)?;
+        let clean: Vec<f64> = (a.saturating_sub(1)..=a + 2)
+            .filter_map(|j| means.mean(j))
+            .filter(|m| match entry {
+                Entry::Effort(_) => !m.corner.disturbs_forces(),
+                Entry::Velocity(_) => !m.corner.inside,
+            })
+            .map(|m| m.get(entry))
+            .filter(|v| v.is_finite())
+            .collect();
+        let lowest = clean.iter().copied().fold(f64::INFINITY, f64::min);
+        let highest = clean.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let excess = (lowest - state).max(state - highest);
+        // One clean step (the others touch the corner or its substeps) says little of the
+        // motion's spread there: only a value beyond twice the whole range is flagged.
+        let share = match clean.len() {
+            0 => return None,
+            1 => OUTLIER_SINGLE,
+            _ => OUTLIER_SIZE,
+        };
+        (excess > OUTLIER_SPREAD * (highest - lowest)).then_some((
+            f64::NAN,
+            excess,
+            lowest,
+            highest,
+            share,
+        ))
     }
 
     /// Whether the two steps after row `k` have been taken (its values can be compared: a row
@@ -1727,17 +1787,29 @@ impl Agreement {
             rates_scale,
             alternates,
             row,
+            outliers,
         } = self;
         // The row's values and the scales first: a rate is judged against the largest rate
         // read so far, this row's included, whatever the order the rates are listed in (a
         // chain's rate that is zero by symmetry, listed before the others, was judged against
         // round-off alone at the first row compared).
         row.clear();
-        for (&entry, scale) in entries.iter().zip(scale.iter_mut()) {
-            let read = (!completed.contains(&entry))
+        for ((&entry, scale), outlier) in entries
+            .iter()
+            .zip(scale.iter_mut())
+            .zip(outliers.iter_mut())
+        {
+            let steps = (!completed.contains(&entry))
                 .then(|| Self::from_steps(k, entry, means))
-                .flatten()
-                .zip(values_at.get(entry));
+                .flatten();
+            if steps.is_none()
+                && !completed.contains(&entry)
+                && let Some(state) = values_at.get(entry)
+                && let Some(found) = Self::outlier(k, entry, state, means)
+            {
+                outlier.push((t, found.1, found.2, found.3, found.4));
+            }
+            let read = steps.zip(values_at.get(entry));
             if let Some((steps, _)) = &read {
                 *scale = scale.max(steps.value.abs());
                 if let Entry::Velocity(_) = entry {
@@ -1795,8 +1867,40 @@ impl Agreement {
         }
     }
 
-    /// Warns, per signal, of the rows that took the steps' value.
+    /// Warns, per signal, of the rows that took the steps' value and of those found far outside
+    /// their steps' values.
     fn warn(&self, signals: &[Signal], per_signal: &[Vec<Entry>], warnings: &mut Vec<String>) {
+        for (signal, entries) in signals.iter().zip(per_signal) {
+            let mut rows = 0;
+            let mut first = f64::NAN;
+            let mut worst: Option<(f64, f64, f64)> = None;
+            for ((entry, found), scale) in self.entries.iter().zip(&self.outliers).zip(&self.scale)
+            {
+                if !entries.contains(entry) {
+                    continue;
+                }
+                for &(t, excess, lowest, highest, share) in found {
+                    let size = scale.max(lowest.abs()).max(highest.abs());
+                    if !(size > 0.0 && excess > share * size) {
+                        continue;
+                    }
+                    if rows == 0 || t < first {
+                        first = t;
+                    }
+                    rows += 1;
+                    if worst.is_none_or(|w| excess > w.0) {
+                        worst = Some((excess, lowest, highest));
+                    }
+                }
+            }
+            if let Some((excess, lowest, highest)) = worst {
+                warnings.push(format!(
+                    "`{}` at {rows} step time(s) t_k next to a source corner or the start (first t = {}), where no value from the steps can be taken: the state's value lies {excess:.3e} outside the values of the steps around it ({lowest:.4e} … {highest:.4e}): the state carries a mode the method does not damp, excited by an event inside a step (a diode switching off); those rows are not reliable: use a smaller step (TMAX), or another method (docs/audit.md item 52)",
+                    signal.name,
+                    crate::error::Time(first),
+                ));
+            }
+        }
         // Few values, usually none, took the steps' value: look those up per signal, not every
         // value read (a 1000-section ladder reads thousands of values for thousands of signals).
         let taken: Vec<(&Entry, &Replaced)> = self
