@@ -104,7 +104,7 @@ pub enum MeasureKind<V> {
         statistic: Statistic,
         /// The signal.
         signal: String,
-        /// Window start (`FROM=`, else `TD=`); default the first sample.
+        /// Window start (`FROM=`); default the first sample.
         from: Option<V>,
         /// Window end (`TO=`); default the last sample.
         to: Option<V>,
@@ -261,9 +261,13 @@ fn event_time<'a>(
     }
 }
 
-/// The time of the crossing `c` (ngspice's `com_measure_when`): a sample is *below* the level
-/// when `y < level` and *above* otherwise; a rise is a sample at or above after one below, a
-/// fall a sample at or below after one above; the time is linear between the two samples.
+/// The time of the crossing `c`: a rise is the signal passing from below the level to above
+/// it, a fall the reverse, at the time linear between the two samples around it, or at the
+/// first sample on the level where it rests there on its way; samples on the level do not
+/// change its side, so a signal resting on the level (a rail at `VAL`, a current that is 0
+/// before a source starts) crosses nothing, and a start on the level is no crossing
+/// (ngspice-39 counts a rise there when the signal leaves the level upwards at once: a `SIN`
+/// from 0 has one crossing of 0 more in ngspice).
 fn crossing_time<'a>(
     c: &Crossing<f64>,
     t: &[f64],
@@ -284,35 +288,45 @@ fn crossing_time<'a>(
     let (want, occurrence) = c.edge.unwrap_or((Edge::Cross, Occurrence::Nth(1)));
     let mut counts = [0usize; 2];
     let mut found = None;
-    let mut previous: Option<(usize, bool)> = None;
+    // The last sample off the level and its side (above: true), and the first sample of the
+    // stretch on the level since.
+    let mut last: Option<(usize, bool)> = None;
+    let mut resting: Option<usize> = None;
     for i in (0..t.len()).filter(|&i| t[i] >= td) {
         let d = y[i] - level(i);
-        let Some((j, above)) = previous else {
-            previous = Some((i, d >= 0.0));
+        if d == 0.0 {
+            resting.get_or_insert(i);
+            continue;
+        }
+        let above = d > 0.0;
+        let crossing = match last {
+            None => None,
+            Some((j, side)) if side != above => {
+                let edge = if above { Edge::Rise } else { Edge::Fall };
+                let time = match resting {
+                    Some(r) => t[r],
+                    None => {
+                        let dj = y[j] - level(j);
+                        t[j] + (0.0 - dj) * (t[i] - t[j]) / (d - dj)
+                    }
+                };
+                Some((edge, time))
+            }
+            Some(_) => None,
+        };
+        last = Some((i, above));
+        resting = None;
+        let Some((edge, time)) = crossing else {
             continue;
         };
-        let edge = match above {
-            false if d >= 0.0 => Some(Edge::Rise),
-            true if d <= 0.0 => Some(Edge::Fall),
-            _ => None,
-        };
-        previous = Some((i, edge.map_or(above, |e| e == Edge::Rise)));
-        let Some(edge) = edge else { continue };
         counts[usize::from(edge == Edge::Fall)] += 1;
-        let matches = want == Edge::Cross || want == edge;
-        if !matches {
+        if want != Edge::Cross && want != edge {
             continue;
         }
         let count = match want {
             Edge::Cross => counts[0] + counts[1],
             Edge::Rise => counts[0],
             Edge::Fall => counts[1],
-        };
-        let dj = y[j] - level(j);
-        let time = if d == dj {
-            t[j]
-        } else {
-            t[j] + (0.0 - dj) * (t[i] - t[j]) / (d - dj)
         };
         match occurrence {
             Occurrence::Nth(n) if count == n => return Ok(time),
@@ -327,9 +341,9 @@ fn crossing_time<'a>(
         };
         let which = match (c.edge, occurrence) {
             (None, _) => "no crossing".to_string(),
-            (Some((e, _)), Occurrence::Last) => format!("no {} crossing", edge_name(e)),
+            (Some((e, _)), Occurrence::Last) => format!("no {}crossing", edge_name(e)),
             (Some((e, _)), Occurrence::Nth(n)) => {
-                format!("no {} crossing number {n}", edge_name(e))
+                format!("no {}crossing number {n}", edge_name(e))
             }
         };
         let after =
@@ -340,8 +354,8 @@ fn crossing_time<'a>(
 
 fn edge_name(edge: Edge) -> &'static str {
     match edge {
-        Edge::Rise => "rising",
-        Edge::Fall => "falling",
+        Edge::Rise => "rising ",
+        Edge::Fall => "falling ",
         Edge::Cross => "",
     }
 }
@@ -499,6 +513,28 @@ mod tests {
             at: Event::At(0.125),
         });
         assert!(close(at(find), (std::f64::consts::TAU / 8.0).cos()));
+    }
+
+    #[test]
+    fn a_signal_resting_on_the_level_crosses_nothing() {
+        // 0 until 1, a ramp to 2 at 3, back to 0 at 5, then 0: a PULSE on a rail at VAL = 0.
+        let t: Vec<f64> = (0..=8).map(f64::from).collect();
+        let y = [0.0, 0.0, 1.0, 2.0, 2.0, 0.0, 0.0, 0.0, 0.0];
+        let column = |_: &str| -> &[f64] { &y };
+        let when = |edge| measure(MeasureKind::When(crossing("y", 0.0, Some(edge))));
+        let first = |e| (e, Occurrence::Nth(1));
+        // Leaving the rail it started on is no rise; landing on it at t = 5 and staying is no
+        // fall (ngspice-39 fails both measures too).
+        assert!(when(first(Edge::Rise)).evaluate(&t, &column).is_err());
+        assert_eq!(
+            when(first(Edge::Fall)).evaluate(&t, &column),
+            Err("no falling crossing number 1 of y through 0e0".to_string())
+        );
+        // Resting on a level the signal then leaves on the same side is no crossing; passing it
+        // is, at the first sample on it.
+        let z = [-1.0, 0.0, 0.0, -1.0, 0.0, 1.0, 1.0, 1.0, 1.0];
+        let column = |_: &str| -> &[f64] { &z };
+        assert_eq!(when(first(Edge::Cross)).evaluate(&t, &column), Ok(4.0));
     }
 
     #[test]

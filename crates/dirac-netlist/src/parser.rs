@@ -1542,10 +1542,17 @@ impl<'a> CardParser<'a> {
                     let signal = tokens.signal()?;
                     let params = tokens.params(&[])?;
                     params.only(&tokens, &["from", "to", "td"])?;
+                    if params.td.is_some() {
+                        warnings.push(ignored(format!(
+                            "`TD=` on `{}` ignored, as ngspice-39 ignores it there (the window \
+                             is FROM= to TO=): `{}`",
+                            kind_word.text, self.text
+                        )));
+                    }
                     MeasureKind::Statistic {
                         statistic,
                         signal,
-                        from: params.from.or(params.td),
+                        from: params.from,
                         to: params.to,
                     }
                 }
@@ -1787,7 +1794,25 @@ pub(crate) fn parse(lexed: Lexed) -> Result<Parsed, NetlistError> {
                         format!("`.meas` inside a subcircuit ignored (measures belong at the top level): `{}`", p.text),
                     ));
                 }
-                ".meas" | ".measure" => measures.extend(p.measure(&mut warnings)?),
+                ".meas" | ".measure" => {
+                    if let Some(m) = p.measure(&mut warnings)? {
+                        if let Some(k) = measures
+                            .iter()
+                            .position(|o: &Measure<ExprTok>| o.name == m.name)
+                        {
+                            warnings.push(Warning::new(
+                                start,
+                                p.text.clone(),
+                                format!(
+                                    "`.meas {}` defined twice; the last definition is used",
+                                    m.name
+                                ),
+                            ));
+                            measures.remove(k);
+                        }
+                        measures.push(m);
+                    }
+                }
                 k if OTHER_ANALYSES.contains(&k) => {
                     other_analyses.push((start, p.text.clone(), k.to_owned()));
                 }
