@@ -1567,6 +1567,27 @@ fn measures_are_their_closed_forms_and_failed_ones_do_not_fail_the_run() {
         "{stderr}"
     );
     assert!(stderr.contains("tdelay              =  6.93"), "{stderr}");
+    // The corners are on the step grid: no measure reads across one.
+    assert!(!stderr.contains("reads across a source corner"), "{stderr}");
+    // A 1 µs edge inside a 10 µs step is read as a ramp over the step (docs/audit.md item 51):
+    // the trigger time is 1.005 ms for 1.0005 ms, and the run says so, naming the corner.
+    let off_grid = deck(
+        "rc_meas_off_grid.cir",
+        "rc meas\nV1 in 0 PULSE(0 1 1m 1u 1u 5m 10m)\nR1 in out 1k\nC1 out 0 1u\n\
+         .tran 10u 10m\n.meas tran trig WHEN v(in)=0.5\n.meas tran vat FIND v(out) AT=3m\n.end\n",
+    );
+    let out = dirac(&["run", off_grid.to_str().unwrap(), "--signals", "v(out)"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("trig                =  1.005000e-3"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("`.meas trig` reads across a source corner inside a step (t = 1.001e-3)"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("`.meas vat` reads across"), "{stderr}");
 }
 
 #[test]

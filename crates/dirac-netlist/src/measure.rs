@@ -250,6 +250,44 @@ impl Measure<f64> {
     }
 }
 
+impl Measure<f64> {
+    /// The stretches of time its value reads between two samples, for a warning where a source
+    /// corner lies inside one (the samples do not resolve it; docs/audit.md item 51): the
+    /// sample interval around each event time (a crossing, an `AT=`) and a statistic's window.
+    #[must_use]
+    pub fn stretches<'a>(&self, t: &[f64], column: &dyn Fn(&str) -> &'a [f64]) -> Vec<(f64, f64)> {
+        let around = |time: f64| -> Option<(f64, f64)> {
+            let i = t.iter().position(|&ti| ti >= time)?;
+            if t[i] == time {
+                return None;
+            }
+            Some((t[i.checked_sub(1)?], t[i]))
+        };
+        let events: Vec<&Event<f64>> = match &self.kind {
+            MeasureKind::Delay { trig, targ } => vec![trig, targ],
+            MeasureKind::Find { at, .. } => vec![at],
+            MeasureKind::When(c) => {
+                return crossing_time(c, t, column)
+                    .ok()
+                    .and_then(around)
+                    .into_iter()
+                    .collect();
+            }
+            MeasureKind::Statistic { from, to, .. } => {
+                let (Some(&first), Some(&last)) = (t.first(), t.last()) else {
+                    return Vec::new();
+                };
+                return vec![(from.unwrap_or(first), to.unwrap_or(last))];
+            }
+        };
+        events
+            .into_iter()
+            .filter_map(|e| event_time(e, t, column).ok())
+            .filter_map(around)
+            .collect()
+    }
+}
+
 fn event_time<'a>(
     event: &Event<f64>,
     t: &[f64],

@@ -176,6 +176,13 @@ def test_measures_reach_the_summary_as_on_the_command_line(cli, tmp_path):
     out = cli("run", path, "--quiet", "--signals", "v(out)", "--json-summary")
     summary = json.loads(out.stderr.decode().strip().splitlines()[-1])
     assert summary["measures"] == measures
+    assert not any("reads across a source corner" in w for w in run.summary.warnings)
+    # A 1 us edge inside a 10 us step: the crossing is read across it, and the summary says so.
+    off = tmp_path / "rc_meas_off.cir"
+    off.write_text(path.read_text().replace("PULSE(0 1 1m 10u 10u 5m 10m)", "PULSE(0 1 1m 1u 1u 5m 10m)"))
+    warned = dirac.run(off, signals=["v(out)"])
+    assert warned.summary.measures["trig"] == pytest.approx(1.005e-3, abs=1e-15)
+    assert any("`.meas trig` reads across a source corner" in w for w in warned.summary.warnings)
 
 
 def test_composition_reaches_the_run_as_on_the_command_line(cli):

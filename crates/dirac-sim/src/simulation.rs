@@ -888,6 +888,13 @@ impl Simulation {
         engine.snapshot(snapshot, connections, residual, fill, imprecise)
     }
 
+    /// The model's first source breakpoint after `t` (a PULSE or PWL corner; `None` when there
+    /// is none, before the simulation is prepared, or for a staggered run).
+    #[must_use]
+    pub fn next_breakpoint(&self, t: f64) -> Option<f64> {
+        self.engine.as_ref().and_then(|e| e.next_breakpoint(t))
+    }
+
     /// The time of the current state.
     #[must_use]
     pub fn time(&self) -> f64 {

@@ -187,12 +187,14 @@ impl Prepared {
             watch,
         };
         let summary = self.simulation.run_into(self.t_end, &all, &mut skip)?;
+        let corners = samples.corners_between_samples(&self.simulation);
         self.measurements = self
             .measures
             .iter()
             .map(|m| Measurement {
                 name: m.name.clone(),
                 value: samples.evaluate(m),
+                corner: samples.corner_read(m, &corners),
             })
             .collect();
         Ok(summary)
@@ -223,6 +225,10 @@ pub struct Measurement {
     pub name: String,
     /// The value, or why there is none.
     pub value: Result<f64, String>,
+    /// A source corner (a breakpoint) inside a step the value reads across, which the samples
+    /// (the states at the steps) do not resolve: the value is then off by up to that step's
+    /// worth of the signal's change (docs/audit.md item 51).
+    pub corner: Option<f64>,
 }
 
 /// Every step's time and recorded values from the first output time on, for the measures
@@ -234,15 +240,53 @@ struct Samples {
 }
 
 impl Samples {
+    fn column(&self, name: &str) -> &[f64] {
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .and_then(|i| self.columns.get(i))
+            .map_or(&[], Vec::as_slice)
+    }
+
     fn evaluate(&self, measure: &Measure) -> Result<f64, String> {
-        let column = |name: &str| -> &[f64] {
-            self.names
-                .iter()
-                .position(|n| n == name)
-                .and_then(|i| self.columns.get(i))
-                .map_or(&[], Vec::as_slice)
+        measure.evaluate(&self.t, &|name| self.column(name))
+    }
+
+    /// The source breakpoints strictly between two samples (not on a step time), in order.
+    fn corners_between_samples(&self, simulation: &Simulation) -> Vec<f64> {
+        let (Some(&first), Some(&last)) = (self.t.first(), self.t.last()) else {
+            return Vec::new();
         };
-        measure.evaluate(&self.t, &column)
+        let snap = 1e-9 * simulation.options().h;
+        let mut out = Vec::new();
+        let mut at = first;
+        while let Some(b) = simulation.next_breakpoint(at) {
+            if b >= last || out.len() >= 100_000 || b <= at {
+                break;
+            }
+            let i = self.t.partition_point(|&ti| ti < b);
+            let on_sample = [i.checked_sub(1), Some(i)]
+                .into_iter()
+                .flatten()
+                .filter_map(|j| self.t.get(j))
+                .any(|&tj| (tj - b).abs() <= snap);
+            if !on_sample {
+                out.push(b);
+            }
+            at = b;
+        }
+        out
+    }
+
+    /// The first of `corners` inside a stretch `measure` reads between two samples.
+    fn corner_read(&self, measure: &Measure, corners: &[f64]) -> Option<f64> {
+        if corners.is_empty() {
+            return None;
+        }
+        measure
+            .stretches(&self.t, &|name| self.column(name))
+            .into_iter()
+            .find_map(|(a, b)| corners.iter().copied().find(|&c| c > a && c < b))
     }
 }
 
