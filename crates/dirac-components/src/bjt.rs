@@ -175,27 +175,20 @@ impl BjtParameters {
     }
 }
 
-/// A `Q` card's instance parameters, with ngspice's defaults.
+/// A `Q` card's instance parameters, with ngspice's defaults. (`AREAB` and `AREAC` are not
+/// carried: they are `AREA`; ngspice-39's operating points with other values differ from what
+/// its later sources compute, so a netlist refuses them.)
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BjtInstance {
-    /// `AREA`: emitter area factor, default 1.
+    /// `AREA`: area factor, default 1.
     pub area: f64,
-    /// `AREAB`: base area factor, default `AREA`.
-    pub areab: f64,
-    /// `AREAC`: collector area factor, default `AREA`.
-    pub areac: f64,
     /// `M`: devices in parallel, default 1.
     pub m: f64,
 }
 
 impl Default for BjtInstance {
     fn default() -> Self {
-        Self {
-            area: 1.0,
-            areab: 1.0,
-            areac: 1.0,
-            m: 1.0,
-        }
+        Self { area: 1.0, m: 1.0 }
     }
 }
 
@@ -288,11 +281,6 @@ impl Bjt {
             }
         }
         let area = inst.area;
-        let (base_area, collector_area) = if p.vertical {
-            (inst.areab, inst.areac)
-        } else {
-            (inst.areac, inst.areab)
-        };
         let inverse = |x: f64| if x == 0.0 { 0.0 } else { 1.0 / x };
         let core = BjtCore {
             sign: p.polarity.sign(),
@@ -302,7 +290,7 @@ impl Bjt {
             vtr: p.nr * vt,
             ise: ise * area,
             vte: p.ne * vt,
-            isc: isc * base_area,
+            isc: isc * area,
             vtc: p.nc * vt,
             bf: p.bf * bfactor,
             br: p.br * bfactor,
@@ -311,7 +299,7 @@ impl Bjt {
             inv_ikf: inverse(p.ikf) / area,
             inv_ikr: inverse(p.ikr) / area,
             be: Depletion::new(cje * area, vje, p.mje, fc),
-            bc: Depletion::new(cjc * base_area, vjc, p.mjc, fc),
+            bc: Depletion::new(cjc * area, vjc, p.mjc, fc),
             tf: p.tf,
             tr: p.tr,
             vcrit: vt * (vt / (std::f64::consts::SQRT_2 * is * area)).ln(),
@@ -321,7 +309,7 @@ impl Bjt {
         let series = |r: f64| if r == 0.0 { 0.0 } else { r / (area * inst.m) };
         let substrate = DiodeParameters {
             is: 0.0,
-            cjo: cjs * collector_area * inst.m,
+            cjo: cjs * area * inst.m,
             vj: vjs,
             m: p.mjs,
             fc: 0.0,
@@ -382,8 +370,6 @@ fn validate(p: &BjtParameters, inst: &BjtInstance, celsius: f64) -> Result<(), B
         ("XTB", p.xtb),
         ("TNOM", p.tnom),
         ("AREA", inst.area),
-        ("AREAB", inst.areab),
-        ("AREAC", inst.areac),
         ("M", inst.m),
         ("TEMP", celsius),
     ];
@@ -402,8 +388,6 @@ fn validate(p: &BjtParameters, inst: &BjtInstance, celsius: f64) -> Result<(), B
         ("VJC", p.vjc),
         ("VJS", p.vjs),
         ("AREA", inst.area),
-        ("AREAB", inst.areab),
-        ("AREAC", inst.areac),
         ("M", inst.m),
     ] {
         if value <= 0.0 {
@@ -535,7 +519,7 @@ pub struct BjtCore {
     /// `ISE·AREA` and `N_E·V_t`.
     ise: f64,
     vte: f64,
-    /// `ISC·AREA_B` (vertical) and `N_C·V_t`.
+    /// `ISC·AREA` and `N_C·V_t`.
     isc: f64,
     vtc: f64,
     bf: f64,
@@ -699,7 +683,10 @@ impl Model for BjtCore {
             return;
         }
         let (vbe, vbc) = self.voltages(v);
-        let (cbe, cbc) = (self.m * self.charge_be(vbe).1, self.m * self.charge_bc(vbc).1);
+        let (cbe, cbc) = (
+            self.m * self.charge_be(vbe).1,
+            self.m * self.charge_bc(vbc).1,
+        );
         h.vv.add(1, 1, cbc);
         h.vv.add(1, 3, -cbc);
         h.vv.add(3, 1, -cbc);
@@ -944,17 +931,7 @@ mod tests {
             },
             "XCJC",
         );
-        assert!(
-            Bjt::at_temperature(
-                &BjtParameters {
-                    tf: 1e-9,
-                    ..plain
-                },
-                &inst,
-                27.0
-            )
-            .is_ok()
-        );
+        assert!(Bjt::at_temperature(&BjtParameters { tf: 1e-9, ..plain }, &inst, 27.0).is_ok());
     }
 
     /// The limiting follows `DEVpnjlim`: a jump of the base–emitter voltage from 0 to 5 V is cut
