@@ -894,7 +894,7 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                         (Ok(channel.subsystem(name.clone())), channel.dim())
                     }
                     ControlledSource::Bjt { core, .. } => {
-                        let core = core.with_gmin(conditions.gmin);
+                        let core = (**core).with_gmin(conditions.gmin);
                         (Ok(core.subsystem(name.clone())), core.dim())
                     }
                 };

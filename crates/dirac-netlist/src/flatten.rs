@@ -926,6 +926,15 @@ fn bjt_model(
             "iss" if v != 0.0 => {
                 return refuse("the substrate junction's diode current (ISS) is not modelled");
             }
+            "rco" | "vo" | "gamma" | "qco" | "quasimod" if v != 0.0 => {
+                return refuse("quasi-saturation (RCO, VO, GAMMA, QCO) is not modelled");
+            }
+            "ibe" | "ibc" if v != 0.0 => {
+                return refuse(
+                    "separate base–emitter and base–collector saturation currents (IBE, IBC) are \
+                     not modelled; give IS",
+                );
+            }
             "tlev" | "tlevc" if v != 0.0 => {
                 return refuse("only the default temperature model (TLEV = TLEVC = 0) is modelled");
             }
@@ -948,7 +957,8 @@ fn bjt_model(
                     }
                     "vtf" | "itf" => "acts only through XTF, which is zero here",
                     "ns" => "acts only through ISS, which is zero here",
-                    "irb" | "iss" | "tlev" | "tlevc" | "xtf" | "ptf" => "zero: no effect",
+                    "irb" | "iss" | "tlev" | "tlevc" | "xtf" | "ptf" | "rco" | "vo" | "gamma"
+                    | "qco" | "quasimod" | "ibe" | "ibc" => "zero: no effect",
                     _ if other.starts_with('t') && v == 0.0 => "zero: no effect",
                     _ => "not a Gummel–Poon parameter; the simulation does not use it",
                 };
@@ -1042,6 +1052,7 @@ fn bjt_elements(
     let (def, mscope) = ctx.model(model, "BJT", element)?;
     let card = bjt_model(def, mscope, element, model, out)?;
     let mut inst = BjtInstance::default();
+    let (mut areab, mut areac) = (None, None);
     if let Some(w) = area_word {
         inst.area = match crate::parse_spice_number(&w.orig) {
             Some(a) if a > 0.0 && a.is_finite() => a,
@@ -1061,19 +1072,8 @@ fn bjt_elements(
     for (name, e) in params {
         match name.norm.as_str() {
             "area" => inst.area = positive_factor(e, "area", ctx.scope, element)?,
-            "areab" | "areac" => {
-                return Err(NetlistError::unsupported_in(
-                    name.pos,
-                    &name.orig,
-                    &format!(
-                        "BJT instance parameter `{}` of `{}` (separate base and collector areas \
-                         are not modelled: ngspice-39's operating points with them differ from \
-                         its documented use; give AREA)",
-                        name.orig, element.orig
-                    ),
-                    &name.orig,
-                ));
-            }
+            "areab" => areab = Some(positive_factor(e, "areab", ctx.scope, element)?),
+            "areac" => areac = Some(positive_factor(e, "areac", ctx.scope, element)?),
             "m" => inst.m = positive_factor(e, "multiplicity m", ctx.scope, element)?,
             "temp" => temp = Some(e),
             "dtemp" => dtemp = Some(e),
@@ -1093,14 +1093,16 @@ fn bjt_elements(
                     name.pos,
                     name.orig.clone(),
                     format!(
-                        "BJT instance parameter `{}` of `{}` not supported (read: AREA, M, TEMP, \
-                         DTEMP)",
+                        "BJT instance parameter `{}` of `{}` not supported (read: AREA, AREAB, \
+                         AREAC, M, TEMP, DTEMP)",
                         name.orig, element.orig
                     ),
                 ));
             }
         }
     }
+    inst.areab = areab.unwrap_or(inst.area);
+    inst.areac = areac.unwrap_or(inst.area);
     let temp = instance_temperature(temp, dtemp, ctx.scope, out.temperatures.0)?;
     let celsius = temp.unwrap_or(out.temperatures.0);
     let device = Bjt::at_temperature(&card, &inst, celsius).map_err(|e| {
@@ -1166,7 +1168,7 @@ fn bjt_elements(
         source: ControlledSource::Bjt {
             base: b,
             emitter: e,
-            core: device.core,
+            core: Box::new(device.core),
         },
     };
     Ok((core, parts))

@@ -354,8 +354,8 @@ pub enum ControlledSource {
         base: String,
         /// The inner emitter node (`n−`).
         emitter: String,
-        /// The currents and charges.
-        core: BjtCore,
+        /// The currents and charges (boxed: far larger than the other variants).
+        core: Box<BjtCore>,
     },
 }
 
