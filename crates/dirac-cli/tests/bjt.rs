@@ -398,6 +398,69 @@ cl c 0 2p
     }
 }
 
+/// A PNP high-side switch inside a subcircuit driving an NPN, each with a base–emitter charge
+/// and no base–collector one (`CJE`, `TF`; `CJE` alone): a junction without charge leaves its
+/// flux without inertia, which the step at t = 0 failed on ("matrix numerically singular")
+/// while the core wrote a zero Hessian entry for it. ngspice-39's `v(out)`, `v(c2)`, `i(vdd)`
+/// run at TMAX = 5 ps (at 50 ps its own error at the NPN's turn-on edge, t = 15.5 ns, is
+/// 0.057 V of `v(c2)`, where dirac at 50 ps and at 12.5 ps agree to 2e-8 V). Measured at
+/// h = 50 ps over every row: Gauss 2 within 1.8e-6 V, 6.1e-4 V and 1.3e-7 A, midpoint within
+/// 5.3e-5 V, 1.4e-3 V and 3.6e-7 A (the edge); asserted within 2e-4 V, 3e-3 V and 1e-6 A.
+#[test]
+fn pnp_switch_with_emitter_charge_only_matches_ngspice() {
+    let path = deck(
+        "bjt_pnp_tran.cir",
+        "pnp switch
+\
+         .model qp pnp (is=5e-16 bf=60 br=2 cje=4p tf=0.8n rb=30 re=2)\n\
+         .model qe npn (is=1e-16 bf=100 cje=3p)\n\
+         .subckt hs in out vdd\nq1 out b vdd qp\nrb in b 2.2k\n.ends\n\
+         vdd vdd 0 5\nvin in 0 pulse(5 0 10n 3n 3n 40n 100n)\nx1 in out vdd hs\nrl out 0 2k\n\
+         cl out 0 3p\nq2 c2 out 0 qe\nrc2 vdd c2 4.7k\n.tran 0.5n 200n\n.end\n",
+    );
+    let reference = [
+        (5e-9, 2.00016997e-8, 4.99999995, -1.00008890e-11),
+        (12e-9, 2.18078383e-8, 4.99999995, -1.35009343e-3),
+        (14e-9, 9.17672026e-2, 4.99999995, -3.35242974e-3),
+        (15.5e-9, 7.11871585e-1, 4.57767980, -6.63370087e-3),
+        (16e-9, 8.36938152e-1, 2.04755620e-2, -8.68006989e-3),
+        (20e-9, 8.60193889e-1, 1.89350247e-2, -1.70165816e-2),
+        (40e-9, 8.91137039e-1, 1.82284897e-2, -4.96385106e-2),
+        (55e-9, 8.98238471e-1, 1.81560757e-2, -6.29193143e-2),
+        (60e-9, 8.94564281e-1, 1.81910345e-2, -5.40151243e-2),
+        (70e-9, 8.86295224e-1, 1.82907403e-2, -3.93968245e-2),
+        (120e-9, 8.70507059e-1, 1.85996510e-2, -2.39354001e-2),
+        (150e-9, 8.98436987e-1, 1.81543258e-2, -6.48937059e-2),
+        (180e-9, 8.78724514e-1, 1.84151763e-2, -2.95495141e-2),
+    ];
+    for method in ["gauss2", "midpoint"] {
+        let rows = run_rows(
+            &path,
+            &[
+                "--method",
+                method,
+                "--h",
+                "0.05n",
+                "--signals",
+                "v(out),v(c2),i(vdd)",
+            ],
+        );
+        for &(t, out, c2, ivdd) in &reference {
+            let r = row_at(&rows, t);
+            for (got, want, tol, what) in [
+                (r[1], out, 2e-4, "v(out)"),
+                (r[2], c2, 3e-3, "v(c2)"),
+                (r[3], ivdd, 1e-6, "i(vdd)"),
+            ] {
+                assert!(
+                    (got - want).abs() <= tol,
+                    "{method} t = {t}: {what} {got} vs {want}"
+                );
+            }
+        }
+    }
+}
+
 /// Bad `Q` cards are bad input (exit 2) naming file:line:column: a missing model, a diode model,
 /// a negative capacitance, TF with VAF (the charges are not a gradient), XTF with TF, an `IRB`.
 #[test]

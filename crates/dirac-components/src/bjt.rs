@@ -548,12 +548,21 @@ fn junction_integral(v: f64, is: f64, vtn: f64) -> f64 {
 /// junction charges are `Q_BE = Q_dep(V_BE; CJE, VJE, MJE, FC) + TF·I_BE` and `Q_BC =
 /// Q_dep(V_BC; CJC, VJC, MJC, FC) + TR·I_BC` (without `GMIN`), times `M`.
 ///
-/// **Formulation**: two branches from the inner emitter, `(q_c, φ_c)` to the collector (port
-/// `i`) and `(q_b, φ_b)` to the base (port `ib`), with `φ̇_c = V_CE`, `φ̇_b = V_BE`. The
-/// Lagrangian is the co-energy `L = M(W_BE(σV_BE) + W_BC(σV_BC))`, `W' = Q`, `V_BC = φ̇_b − φ̇_c`;
-/// the forces `f_{q_c} = −φ̇_c`, `f_{φ_c} = q̇_c − σM·I_C`, `f_{q_b} = −φ̇_b`, `f_{φ_b} = q̇_b −
-/// σM·I_B`. So `q̇_c = σM·I_C − dQ_BC/dt` and `q̇_b = σM·I_B + d(Q_BE + Q_BC)/dt`, the terminal
-/// currents with the junctions' charging. The Jacobian is the exact derivative.
+/// **Formulation**: two branch charges from the inner emitter, `q_c` to the collector (port
+/// `i`) and `q_b` to the base (port `ib`), and one flux per junction, `φ̇_be = V_BE`,
+/// `φ̇_bc = V_BC`. The Lagrangian is the co-energy `L = M(W_BE(σφ̇_be) + W_BC(σφ̇_bc))`,
+/// `W' = Q`, so each junction's charge is the momentum of its own flux (a junction without
+/// charge leaves its flux degenerate). The forces
+///
+/// ```text
+/// f_{q_c} = −(φ̇_be − φ̇_bc),   f_{q_b} = −φ̇_be,
+/// f_{φ_bc} = σM·I_C − q̇_c,     f_{φ_be} = q̇_c + q̇_b − σM(I_B + I_C)
+/// ```
+///
+/// (the port voltages `V_CE` and `V_BE`, and the charge balances of the two junctions through a
+/// skew-symmetric interconnection) give `q̇_c = σM·I_C − dQ_BC/dt` and `q̇_b = σM·I_B +
+/// d(Q_BE + Q_BC)/dt`: the terminal currents with the junctions' charging. The Jacobian is the
+/// exact derivative.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BjtCore {
     sign: f64,
@@ -666,7 +675,17 @@ impl BjtCore {
     /// Whether the junctions store charge (a capacitance or a transit time).
     #[must_use]
     pub fn has_charge(&self) -> bool {
-        self.be.charge(0.0).1 > 0.0 || self.bc.charge(0.0).1 > 0.0 || self.tf > 0.0 || self.tr > 0.0
+        self.has_be_charge() || self.has_bc_charge()
+    }
+
+    /// Whether the base–emitter junction stores charge (`CJE` or `TF`).
+    fn has_be_charge(&self) -> bool {
+        self.be.charge(0.0).1 > 0.0 || self.tf > 0.0
+    }
+
+    /// Whether the base–collector junction stores charge (`CJC` or `TR`).
+    fn has_bc_charge(&self) -> bool {
+        self.bc.charge(0.0).1 > 0.0 || self.tr > 0.0
     }
 
     /// The base–emitter charge `Q_BE(v)` and capacitance (polarity applied, per device).
@@ -701,9 +720,9 @@ impl BjtCore {
             .with_port(Self::BASE_PORT, 2)
     }
 
-    /// `(V_BE, V_BC)` with the polarity applied, from the rates.
+    /// `(V_BE, V_BC)` with the polarity applied, from the flux rates.
     fn voltages(&self, v: &[f64]) -> (f64, f64) {
-        (self.sign * v[3], self.sign * (v[3] - v[1]))
+        (self.sign * v[3], self.sign * v[1])
     }
 }
 
@@ -721,28 +740,25 @@ impl Model for BjtCore {
     fn lagrangian_gradient(&self, _q: &[f64], v: &[f64], lq: &mut [f64], lv: &mut [f64]) {
         lq.fill(0.0);
         lv.fill(0.0);
-        if !self.has_charge() {
-            return;
-        }
         let (vbe, vbc) = self.voltages(v);
         let s = self.sign * self.m;
-        let (qbe, qbc) = (self.charge_be(vbe).0, self.charge_bc(vbc).0);
-        lv[1] = -s * qbc;
-        lv[3] = s * (qbe + qbc);
+        if self.has_bc_charge() {
+            lv[1] = s * self.charge_bc(vbc).0;
+        }
+        if self.has_be_charge() {
+            lv[3] = s * self.charge_be(vbe).0;
+        }
     }
     fn lagrangian_hessian(&self, _q: &[f64], v: &[f64], h: &mut LagrangianHessian) {
-        if !self.has_charge() {
-            return;
-        }
+        // Each junction's charge is a function of its own flux rate: a diagonal entry for each
+        // junction that stores charge, none for one that does not (its flux is then degenerate).
         let (vbe, vbc) = self.voltages(v);
-        let (cbe, cbc) = (
-            self.m * self.charge_be(vbe).1,
-            self.m * self.charge_bc(vbc).1,
-        );
-        h.vv.add(1, 1, cbc);
-        h.vv.add(1, 3, -cbc);
-        h.vv.add(3, 1, -cbc);
-        h.vv.add(3, 3, cbe + cbc);
+        if self.has_bc_charge() {
+            h.vv.add(1, 1, self.m * self.charge_bc(vbc).1);
+        }
+        if self.has_be_charge() {
+            h.vv.add(3, 3, self.m * self.charge_be(vbe).1);
+        }
     }
     fn has_force(&self) -> bool {
         true
@@ -751,24 +767,26 @@ impl Model for BjtCore {
         let (vbe, vbc) = self.voltages(v);
         let c = self.currents(vbe, vbc);
         let s = self.sign * self.m;
-        f[0] = -v[1];
-        f[1] = v[0] - s * c.ic;
+        f[0] = v[1] - v[3];
+        f[1] = s * c.ic - v[0];
         f[2] = -v[3];
-        f[3] = v[2] - s * c.ib;
+        f[3] = v[0] + v[2] - s * (c.ib + c.ic);
     }
     fn force_jacobian(&self, _q: &[f64], v: &[f64], _t: f64, j: &mut ForceJacobian) {
         let (vbe, vbc) = self.voltages(v);
         let c = self.currents(vbe, vbc);
-        // d(σ·I(σφ̇_b, σ(φ̇_b − φ̇_c))) = (∂_be + ∂_bc) dφ̇_b − ∂_bc dφ̇_c (σ² = 1).
+        // d(σ·I(σφ̇_be, σφ̇_bc)) = ∂_be I dφ̇_be + ∂_bc I dφ̇_bc (σ² = 1).
         let m = self.m;
-        j.v.add(0, 1, -1.0);
-        j.v.add(1, 0, 1.0);
+        j.v.add(0, 1, 1.0);
+        j.v.add(0, 3, -1.0);
+        j.v.add(1, 0, -1.0);
         j.v.add(1, 1, m * c.dic[1]);
-        j.v.add(1, 3, -m * (c.dic[0] + c.dic[1]));
+        j.v.add(1, 3, m * c.dic[0]);
         j.v.add(2, 3, -1.0);
+        j.v.add(3, 0, 1.0);
         j.v.add(3, 2, 1.0);
-        j.v.add(3, 1, m * c.dib[1]);
-        j.v.add(3, 3, -m * (c.dib[0] + c.dib[1]));
+        j.v.add(3, 1, -m * (c.dib[1] + c.dic[1]));
+        j.v.add(3, 3, -m * (c.dib[0] + c.dic[0]));
     }
     fn is_autonomous(&self) -> bool {
         true
@@ -782,7 +800,7 @@ impl Model for BjtCore {
     /// their limits.
     fn update_fraction(&self, _q: &[f64], v: &[f64], _dq: &[f64], dv: &[f64]) -> f64 {
         let (vbe, vbc) = self.voltages(v);
-        let (dbe, dbc) = (self.sign * dv[3], self.sign * (dv[3] - dv[1]));
+        let (dbe, dbc) = self.voltages(dv);
         let mut alpha = 1.0_f64;
         for (old, step) in [(vbe, dbe), (vbc, dbc)] {
             if step == 0.0 {
@@ -800,7 +818,7 @@ impl Model for BjtCore {
         alpha
     }
     fn coordinate_name(&self, i: usize) -> String {
-        ["q_c", "phi_ce", "q_b", "phi_be"]
+        ["q_c", "phi_bc", "q_b", "phi_be"]
             .get(i)
             .map_or_else(|| format!("q{i}"), |s| (*s).to_owned())
     }
@@ -900,7 +918,7 @@ mod tests {
                 (0.3, -0.4),
                 (0.68, 0.68),
             ] {
-                let v = [1e-3, s * vce, 2e-4, s * vbe];
+                let v = [1e-3, s * (vbe - vce), 2e-4, s * vbe];
                 check_model(&part, &[0.0; 4], &v, 0.0);
             }
         }

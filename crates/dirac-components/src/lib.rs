@@ -35,7 +35,7 @@
 //! | [`CurrentSource`] | `q`, flux `φ` | `i` |
 //! | [`CoupledInductors`] | `q₁`, `q₂` | `i1`, `i2` |
 //! | [`Diode`] (SPICE level 1: [`DiodeParameters`]) | `q`, junction flux `φ` | `i` |
-//! | [`BjtCore`] (Gummel–Poon: [`Bjt`], [`BjtParameters`]) | `q_c`, `φ_ce`, `q_b`, `φ_be` | `i`, `ib` |
+//! | [`BjtCore`] (Gummel–Poon: [`Bjt`], [`BjtParameters`]) | `q_c`, `φ_bc`, `q_b`, `φ_be` | `i`, `ib` |
 //! | [`SaturatingInductor`] | `q` | `i` |
 //! | [`Mass`] / [`Inertia`] (no spring or damper of their own) | `x` / `θ` | `x` / `theta` |
 //! | [`Spring`] (linear + cubic), [`Damper`], [`ForceSource`] | `x` (to ground) | `x` or `theta` |
