@@ -34,8 +34,9 @@ same discrete trajectory whether its couplings are written as potentials, constr
 forces; `dirac compare` shows it.
 
 Input files:
-  *.cir, *.sp, *.net   SPICE-subset netlists (R L C V I K D M E F G H B X, .tran, .op, .param,
-                       .subckt, .ic, .options, .model D/NMOS/PMOS; docs/guide.md lists the subset)
+  *.cir, *.sp, *.net   SPICE-subset netlists (R L C V I K D M Q E F G H B X, .tran, .op, .param,
+                       .subckt, .ic, .options, .model D/NMOS/PMOS/NPN/PNP; docs/guide.md lists the
+                       subset)
   *.toml               scene files (parts, connections, integrator, what to record)
 
 Every row of a run is the state at t_k = t_0 + k*h (row 0 is the initial or operating-point state).

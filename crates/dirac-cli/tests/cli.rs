@@ -101,7 +101,11 @@ fn time_flags_take_spice_suffixes() {
 #[test]
 fn unsupported_card_is_exit_2_with_position_and_no_output() {
     let netlist = scratch("bad.cir");
-    std::fs::write(&netlist, "bad\nR1 1 0 1k\nQ1 c b e npn\n.tran 1m 1\n.end\n").unwrap();
+    std::fs::write(
+        &netlist,
+        "bad\nR1 1 0 1k\nJ1 d g s jmod\n.tran 1m 1\n.end\n",
+    )
+    .unwrap();
     let out = scratch("bad.csv");
     let output = dirac()
         .args([

@@ -216,7 +216,7 @@ pub struct Diode {
 /// One depletion charge term (`dioload.c`, `mos1load.c`): `CJO·VJ(1 − (1 − v/VJ)^{1−M})/(1 − M)`
 /// below the knee `FC·VJ`, continued above it by the parabola whose capacitance is linear in `v`.
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Depletion {
+pub(crate) struct Depletion {
     cj0: f64,
     vj: f64,
     m: f64,
@@ -231,7 +231,7 @@ struct Depletion {
 }
 
 impl Depletion {
-    fn new(cj0: f64, vj: f64, m: f64, fc: f64) -> Self {
+    pub(crate) fn new(cj0: f64, vj: f64, m: f64, fc: f64) -> Self {
         let xfc = (1.0 - fc).ln();
         Self {
             cj0,
@@ -245,7 +245,7 @@ impl Depletion {
     }
 
     /// The charge `Q_d(v)` and capacitance `dQ_d/dv`.
-    fn charge(&self, v: f64) -> (f64, f64) {
+    pub(crate) fn charge(&self, v: f64) -> (f64, f64) {
         if self.cj0 == 0.0 {
             return (0.0, 0.0);
         }
@@ -264,7 +264,7 @@ impl Depletion {
     }
 
     /// `∫₀^v Q_d(u) du`, in closed form.
-    fn integral(&self, v: f64) -> f64 {
+    pub(crate) fn integral(&self, v: f64) -> f64 {
         if self.cj0 == 0.0 {
             return 0.0;
         }
@@ -612,7 +612,7 @@ impl Diode {
 }
 
 /// `eˣ − 1 − x` without cancellation.
-fn exp_m1_minus_x(x: f64) -> f64 {
+pub(crate) fn exp_m1_minus_x(x: f64) -> f64 {
     if x.abs() < SERIES {
         let mut term = x * x / 2.0;
         let mut sum = term;
@@ -628,7 +628,7 @@ fn exp_m1_minus_x(x: f64) -> f64 {
 
 /// `DEVpnjlim` (ngspice `devsup.c`) with the forward step made monotone (see
 /// [`Diode::limit_junction_voltage`]).
-fn pnjlim(new: f64, old: f64, vt: f64, vcrit: f64) -> f64 {
+pub(crate) fn pnjlim(new: f64, old: f64, vt: f64, vcrit: f64) -> f64 {
     if new > vcrit && (new - old).abs() > 2.0 * vt {
         if old > 0.0 {
             let arg = (new - old) / vt;

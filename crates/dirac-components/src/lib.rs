@@ -35,6 +35,7 @@
 //! | [`CurrentSource`] | `q`, flux `φ` | `i` |
 //! | [`CoupledInductors`] | `q₁`, `q₂` | `i1`, `i2` |
 //! | [`Diode`] (SPICE level 1: [`DiodeParameters`]) | `q`, junction flux `φ` | `i` |
+//! | [`BjtCore`] (Gummel–Poon: [`Bjt`], [`BjtParameters`]) | `q_c`, `φ_bc`, `q_b`, `φ_be` | `i`, `ib` |
 //! | [`SaturatingInductor`] | `q` | `i` |
 //! | [`Mass`] / [`Inertia`] (no spring or damper of their own) | `x` / `θ` | `x` / `theta` |
 //! | [`Spring`] (linear + cubic), [`Damper`], [`ForceSource`] | `x` (to ground) | `x` or `theta` |
@@ -118,6 +119,7 @@ pub(crate) fn flux_branch_jacobian(at: usize, j: &mut dirac_core::ForceJacobian)
 }
 
 mod behavioural;
+mod bjt;
 mod checked;
 mod circuit;
 mod controlled;
@@ -137,6 +139,7 @@ mod user_part;
 mod waveform;
 
 pub use behavioural::{BehaviouralSource, Control, Expression, Function, Operator, Output};
+pub use bjt::{Bjt, BjtCore, BjtCurrents, BjtError, BjtInstance, BjtParameters, BjtPolarity};
 pub use circuit::CircuitBuilder;
 pub use controlled::{Cccs, Ccvs, Vccs, Vcvs};
 pub use diode::{Diode, DiodeBuild, DiodeError, DiodeParameters, ReverseCurrent};

@@ -717,6 +717,10 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
         let Element::Controlled { source, .. } = element else {
             continue;
         };
+        // A BJT's base branch carries current: its base is a terminal, not a sensed node.
+        if matches!(source, ControlledSource::Bjt { .. }) {
+            continue;
+        }
         let sensed = source.sensed_voltages();
         for node in sensed.iter().flat_map(|&(_, a, b)| [a, b]) {
             if !CircuitBuilder::is_ground(node) && !connected.contains(node) {
@@ -890,6 +894,10 @@ pub fn build_circuit(netlist: &Netlist, file: &str) -> Result<Circuit, CircuitEr
                     }
                     ControlledSource::Mosfet { channel, .. } => {
                         (Ok(channel.subsystem(name.clone())), channel.dim())
+                    }
+                    ControlledSource::Bjt { core, .. } => {
+                        let core = (**core).with_gmin(conditions.gmin);
+                        (Ok(core.subsystem(name.clone())), core.dim())
                     }
                 };
                 (name, check(part)?, none(dim), none(dim))

@@ -18,8 +18,8 @@ use super::parser::{Block, ElemKind, ModelDef, Name, Parsed, SourceFn, SubcktDef
 use super::source::SourceSpec;
 use super::{ControlledSource, DiodeModel, Element, Netlist, Origin, Sensing, Tran};
 use dirac_components::{
-    Diode, DiodeParameters, Expression, Mosfet, MosfetGeometry, MosfetParameters, Operator,
-    Polarity, Waveform,
+    Bjt, BjtInstance, BjtParameters, BjtPolarity, Diode, DiodeParameters, Expression, Mosfet,
+    MosfetGeometry, MosfetParameters, Operator, Polarity, Waveform,
 };
 
 enum Slot {
@@ -828,6 +828,352 @@ fn mosfet_elements(
     Ok((channel, parts))
 }
 
+/// A `.model NPN|PNP` card as a Gummel–Poon BJT's parameters (`TNOM` from `.options` unless
+/// given). Parameters whose effect is not modelled are refused when they would change the
+/// result, ignored with a warning when they would not (noise, safe-operating-area limits).
+fn bjt_model(
+    model: &ModelDef,
+    scope: &Scope<'_>,
+    element: &Name,
+    used_as: &Name,
+    out: &mut Out,
+) -> Result<BjtParameters, NetlistError> {
+    let polarity = match model.kind.norm.as_str() {
+        "npn" => BjtPolarity::Npn,
+        "pnp" => BjtPolarity::Pnp,
+        _ => {
+            return Err(NetlistError::new(
+                ErrorKind::MissingModel,
+                used_as.pos,
+                used_as.orig.clone(),
+                format!(
+                    "BJT `{}` uses model `{}`, which is a `{}` model, not a BJT's",
+                    element.orig, used_as.orig, model.kind.orig
+                ),
+            ));
+        }
+    };
+    let mut c = BjtParameters::new(polarity);
+    c.tnom = out.temperatures.1;
+    let (mut ise, mut c2, mut isc, mut c4) = (None, None, None, None);
+    let (mut rbm, mut tf_dependence) = (None, Vec::new());
+    for (name, e) in &model.params {
+        let v = scope.eval(e)?;
+        let refuse = |why: &str| {
+            Err(NetlistError::unsupported_in(
+                e.pos,
+                &e.text,
+                &format!(
+                    "BJT model `{}` parameter `{}` = {v}: {why}",
+                    model.name.orig, name.orig
+                ),
+                &format!("{}={}", name.orig, e.text),
+            ))
+        };
+        match name.norm.as_str() {
+            "level" if v == 1.0 => {}
+            "level" => return refuse("only level 1 (Gummel–Poon) is modelled"),
+            "is" => c.is = v,
+            "bf" => c.bf = v,
+            "nf" => c.nf = v,
+            "vaf" | "va" => c.vaf = v,
+            "ikf" | "ik" => c.ikf = v,
+            "ise" => ise = Some(v),
+            "c2" => c2 = Some(v),
+            "ne" => c.ne = v,
+            "br" => c.br = v,
+            "nr" => c.nr = v,
+            "var" | "vb" => c.var = v,
+            "ikr" => c.ikr = v,
+            "isc" => isc = Some(v),
+            "c4" => c4 = Some(v),
+            "nc" => c.nc = v,
+            "rb" => c.rb = v,
+            "rc" => c.rc = v,
+            "re" => c.re = v,
+            "cje" => c.cje = v,
+            "vje" | "pe" => c.vje = v,
+            "mje" | "me" => c.mje = v,
+            "cjc" => c.cjc = v,
+            "vjc" | "pc" => c.vjc = v,
+            "mjc" | "mc" => c.mjc = v,
+            "xcjc" => c.xcjc = v,
+            "cjs" | "ccs" | "csub" => c.cjs = v,
+            "vjs" | "ps" => c.vjs = v,
+            "mjs" | "ms" => c.mjs = v,
+            "tf" => c.tf = v,
+            "tr" => c.tr = v,
+            "fc" => c.fc = v,
+            "eg" => c.eg = v,
+            "xti" => c.xti = v,
+            "xtb" => c.xtb = v,
+            "tnom" | "tref" => c.tnom = v,
+            "subs" if v == 1.0 || v == -1.0 => c.vertical = v == 1.0,
+            "subs" => return refuse("SUBS must be 1 (vertical) or -1 (lateral)"),
+            "rbm" => rbm = Some(v),
+            "nkf" if v == 0.5 => {}
+            "nkf" => {
+                return refuse(
+                    "a high-injection roll-off exponent other than 0.5 is not modelled (ngspice's \
+                     derivative for it is not exact either)",
+                );
+            }
+            "xtf" | "ptf" if v != 0.0 => tf_dependence.push((name, e, v)),
+            "xtf" | "ptf" => {}
+            "irb" if v != 0.0 => {
+                return refuse("the current-dependent base resistance (IRB, RBM) is not modelled");
+            }
+            "iss" if v != 0.0 => {
+                return refuse("the substrate junction's diode current (ISS) is not modelled");
+            }
+            "rco" | "vo" | "gamma" | "qco" | "quasimod" if v != 0.0 => {
+                return refuse("quasi-saturation (RCO, VO, GAMMA, QCO) is not modelled");
+            }
+            "ibe" | "ibc" if v != 0.0 => {
+                return refuse(
+                    "separate base–emitter and base–collector saturation currents (IBE, IBC) are \
+                     not modelled; give IS",
+                );
+            }
+            "tlev" | "tlevc" if v != 0.0 => {
+                return refuse("only the default temperature model (TLEV = TLEVC = 0) is modelled");
+            }
+            "tbf1" | "tbf2" | "tbr1" | "tbr2" | "tikf1" | "tikf2" | "tikr1" | "tikr2" | "tirb1"
+            | "tirb2" | "tnc1" | "tnc2" | "tne1" | "tne2" | "tnf1" | "tnf2" | "tnr1" | "tnr2"
+            | "trb1" | "trb2" | "trc1" | "trc2" | "tre1" | "tre2" | "trm1" | "trm2" | "tvaf1"
+            | "tvaf2" | "tvar1" | "tvar2" | "ctc" | "cte" | "cts" | "tvjc" | "tvje" | "tvjs"
+            | "titf1" | "titf2" | "ttf1" | "ttf2" | "ttr1" | "ttr2" | "tmje1" | "tmje2"
+            | "tmjc1" | "tmjc2" | "tmjs1" | "tmjs2" | "tns1" | "tns2" | "tis1" | "tis2"
+            | "tise1" | "tise2" | "tisc1" | "tisc2"
+                if v != 0.0 =>
+            {
+                return refuse("temperature coefficients beyond XTI, XTB and EG are not modelled");
+            }
+            other => {
+                let why = match other {
+                    "kf" | "af" => "flicker noise: no effect on a transient or an operating point",
+                    "vbe_max" | "vbc_max" | "vce_max" => {
+                        "a safe-operating-area limit: ngspice only warns when it is exceeded"
+                    }
+                    "vtf" | "itf" => "acts only through XTF, which is zero here",
+                    "ns" => "acts only through ISS, which is zero here",
+                    "irb" | "iss" | "tlev" | "tlevc" | "xtf" | "ptf" | "rco" | "vo" | "gamma"
+                    | "qco" | "quasimod" | "ibe" | "ibc" => "zero: no effect",
+                    _ if other.starts_with('t') && v == 0.0 => "zero: no effect",
+                    _ => "not a Gummel–Poon parameter; the simulation does not use it",
+                };
+                out.warnings.push(Warning::new(
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "BJT model `{}`: parameter `{}` ignored: {why}",
+                        model.name.orig, name.orig
+                    ),
+                ));
+            }
+        }
+    }
+    if let Some((name, e, v)) = tf_dependence.first()
+        && c.tf != 0.0
+    {
+        return Err(NetlistError::unsupported_in(
+            e.pos,
+            &e.text,
+            &format!(
+                "BJT model `{}` parameter `{}` = {v}: the bias dependence of TF (XTF, VTF, ITF) \
+                 and excess phase (PTF) are not modelled",
+                model.name.orig, name.orig
+            ),
+            &format!("{}={}", name.orig, e.text),
+        ));
+    }
+    if let Some(r) = rbm
+        && r != c.rb
+    {
+        return Err(NetlistError::unsupported_in(
+            model.name.pos,
+            &model.name.orig,
+            &format!(
+                "BJT model `{}`: RBM = {r} differs from RB = {}: the current-dependent base \
+                 resistance is not modelled",
+                model.name.orig, c.rb
+            ),
+            &model.name.orig,
+        ));
+    }
+    // `bjttemp.c`: ISE when given, else C2·IS (likewise ISC, C4).
+    c.ise = ise.or(c2.map(|k| k * c.is)).unwrap_or(0.0);
+    c.isc = isc.or(c4.map(|k| k * c.is)).unwrap_or(0.0);
+    Ok(c)
+}
+
+/// A `Q` card as the elements it places: the core (the main element, named `full`) between the
+/// inner collector, base and emitter, its series resistances and its substrate junction, named
+/// `"<card> <what>"`. The words after the three nodes are `[substrate] model [area]`: a first
+/// word that names a model is the model (ngspice's rule), else it is the substrate node.
+fn bjt_elements(
+    ctx: &Ctx<'_, '_>,
+    element: &Name,
+    words: &[Name],
+    params: &[(Name, ExprTok)],
+    full: String,
+    nodes: &[String],
+    out: &mut Out,
+) -> Result<(Element, Vec<Element>), NetlistError> {
+    let n = |i: usize| nodes.get(i).cloned().unwrap_or_default();
+    let (substrate, model, area_word) = match words {
+        [first, rest @ ..] if ctx.model(first, "BJT", element).is_ok() => {
+            (None, first, rest.first())
+        }
+        [sub, model, rest @ ..] => (Some(sub), model, rest.first()),
+        [only] => (None, only, None),
+        [] => {
+            return Err(NetlistError::syntax(
+                element.pos,
+                element.orig.clone(),
+                format!("`{}` needs a model name", element.orig),
+            ));
+        }
+    };
+    let extra = match words {
+        [first, _, extra, ..] if ctx.model(first, "BJT", element).is_ok() => Some(extra),
+        _ => None,
+    };
+    if let Some(extra) = extra {
+        return Err(NetlistError::syntax(
+            extra.pos,
+            extra.orig.clone(),
+            format!(
+                "`{}` follows the area of `{}`: expected `name=value`",
+                extra.orig, element.orig
+            ),
+        ));
+    }
+    let (def, mscope) = ctx.model(model, "BJT", element)?;
+    let card = bjt_model(def, mscope, element, model, out)?;
+    let mut inst = BjtInstance::default();
+    let (mut areab, mut areac) = (None, None);
+    if let Some(w) = area_word {
+        inst.area = match crate::parse_spice_number(&w.orig) {
+            Some(a) if a > 0.0 && a.is_finite() => a,
+            _ => {
+                return Err(NetlistError::bad_value(
+                    w.pos,
+                    w.orig.clone(),
+                    format!(
+                        "area of `{}` must be a positive number, got `{}`",
+                        element.orig, w.orig
+                    ),
+                ));
+            }
+        };
+    }
+    let (mut temp, mut dtemp) = (None, None);
+    for (name, e) in params {
+        match name.norm.as_str() {
+            "area" => inst.area = positive_factor(e, "area", ctx.scope, element)?,
+            "areab" => areab = Some(positive_factor(e, "areab", ctx.scope, element)?),
+            "areac" => areac = Some(positive_factor(e, "areac", ctx.scope, element)?),
+            "m" => inst.m = positive_factor(e, "multiplicity m", ctx.scope, element)?,
+            "temp" => temp = Some(e),
+            "dtemp" => dtemp = Some(e),
+            "ic" | "icvbe" | "icvce" => {
+                out.warnings.push(Warning::new(
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "`{}` of `{}` ignored: initial conditions are set with `.ic` on nodes",
+                        name.orig, element.orig
+                    ),
+                ));
+            }
+            _ => {
+                return Err(NetlistError::new(
+                    ErrorKind::Unsupported,
+                    name.pos,
+                    name.orig.clone(),
+                    format!(
+                        "BJT instance parameter `{}` of `{}` not supported (read: AREA, AREAB, \
+                         AREAC, M, TEMP, DTEMP)",
+                        name.orig, element.orig
+                    ),
+                ));
+            }
+        }
+    }
+    inst.areab = areab.unwrap_or(inst.area);
+    inst.areac = areac.unwrap_or(inst.area);
+    let temp = instance_temperature(temp, dtemp, ctx.scope, out.temperatures.0)?;
+    let celsius = temp.unwrap_or(out.temperatures.0);
+    let device = Bjt::at_temperature(&card, &inst, celsius).map_err(|e| {
+        NetlistError::bad_value(
+            element.pos,
+            element.orig.clone(),
+            format!("BJT `{}` (model `{}`): {e}", element.orig, model.orig),
+        )
+    })?;
+    for w in &device.warnings {
+        out.warnings.push(Warning::new(
+            element.pos,
+            element.orig.clone(),
+            format!("BJT `{}`: {w}", element.orig),
+        ));
+    }
+    let (collector, base, emitter) = (n(0), n(1), n(2));
+    let substrate = substrate.map_or_else(|| "0".to_owned(), |s| ctx.node(s));
+    let mut parts = Vec::new();
+    let mut inner = |outer: &String, r: f64, which: &str, node: &str| {
+        if r > 0.0 {
+            let inner = crate::inner_name(&full, node);
+            parts.push(Element::R {
+                name: crate::inner_name(&full, which),
+                n1: outer.clone(),
+                n2: inner.clone(),
+                value: r,
+            });
+            inner
+        } else {
+            outer.clone()
+        }
+    };
+    let b = inner(&base, device.series[0], "rb", "base");
+    let c = inner(&collector, device.series[1], "rc", "collector");
+    let e = inner(&emitter, device.series[2], "re", "emitter");
+    // The substrate junction (GMIN and CJS) from the substrate to the inner collector (vertical)
+    // or base (lateral); not placed when the card's wiring shorts it.
+    let contact = if card.vertical { &c } else { &b };
+    if *contact != substrate {
+        let (anode, cathode) = if device.substrate_anode {
+            (substrate.clone(), contact.clone())
+        } else {
+            (contact.clone(), substrate.clone())
+        };
+        parts.push(Element::D {
+            name: crate::inner_name(&full, "sub"),
+            anode,
+            cathode,
+            model: DiodeModel {
+                name: def.name.norm.clone(),
+                card: device.substrate,
+                tnom_given: true,
+                ignored: Vec::new(),
+                temp: Some(celsius),
+            },
+        });
+    }
+    let core = Element::Controlled {
+        name: full,
+        n_plus: c,
+        n_minus: e.clone(),
+        source: ControlledSource::Bjt {
+            base: b,
+            emitter: e,
+            core: Box::new(device.core),
+        },
+    };
+    Ok((core, parts))
+}
+
 /// What an ignored `.model D` parameter would change (ngspice's level-1 diode and its
 /// extensions).
 fn unsupported_diode_parameter(name: &str) -> &'static str {
@@ -1028,6 +1374,11 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
                     mosfet_elements(ctx, &el.name, model, params, full, &nodes, out)?;
                 parts = placed;
                 channel
+            }
+            ElemKind::Q(words, params) => {
+                let (core, placed) = bjt_elements(ctx, &el.name, words, params, full, &nodes, out)?;
+                parts = placed;
+                core
             }
             ElemKind::E(v) | ElemKind::G(v) => {
                 let value = scope.eval(v)?;

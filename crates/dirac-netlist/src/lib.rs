@@ -20,6 +20,7 @@
 //! | `Fname n+ n- vname gain` | current-controlled current source; `vname` is a `V`, `E` or `H` |
 //! | `Hname n+ n- vname r` | current-controlled voltage source; `vname` is a `V`, `E` or `H` |
 //! | `Dname anode cathode model [area] [area=A] [m=M] [off]` | diode; `model` names a `.model NAME D(...)`; the junction scaled by area·m (area defaults to the model's `AREA`); `off` ignored |
+//! | `Qname c b e [s] model [area] [area=A] [m=M] [temp=T] [off]` | bipolar transistor (Gummel–Poon); `model` names a `.model NAME NPN\|PNP(...)`; a fourth word naming a model is the model, else the substrate node |
 //! | `Xname n1 n2 ... SUB [params:] [a=..]` | subcircuit instance |
 //!
 //! Source functions: `SIN(VO VA [FREQ [TD [THETA [PHASE]]]])`, `PULSE(V1 V2 [TD [TR [TF [PW
@@ -116,7 +117,7 @@ mod units;
 mod circuit;
 
 pub use circuit::{Circuit, CircuitError, DeviceConditions, build_circuit, waveform};
-use dirac_components::{BehaviouralSource, MosfetChannel};
+use dirac_components::{BehaviouralSource, BjtCore, MosfetChannel};
 pub use dirac_components::{Expression, Output};
 pub use error::{ErrorKind, NetlistError, Pos, Warning};
 pub use flatten::MOSFET_INSTANCE_KEYS;
@@ -347,6 +348,19 @@ pub enum ControlledSource {
         /// The drain current.
         channel: MosfetChannel,
     },
+    /// A `Q` card's core: the collector current flows from `n+` (the inner collector) to `n−`
+    /// (the inner emitter) and the base current from the inner base to the inner emitter, both
+    /// functions of the base–emitter and base–collector voltages, with the junction charges.
+    /// The card's series resistances and substrate junction are elements of their own (`R`, `D`
+    /// named `"<q> rb"`, `"<q> sub"`, …).
+    Bjt {
+        /// The inner base node, whose branch to the inner emitter carries the base current.
+        base: String,
+        /// The inner emitter node (`n−`).
+        emitter: String,
+        /// The currents and charges (boxed: far larger than the other variants).
+        core: Box<BjtCore>,
+    },
 }
 
 /// What one control of a controlled source senses.
@@ -389,7 +403,8 @@ impl Sensing {
 
 impl ControlledSource {
     /// Each sensing branch: the part's port for it and what it senses (one for the linear forms,
-    /// at port `ic`; one per control for a behavioural source, at ports `ic0`, `ic1`, …).
+    /// at port `ic`; one per control for a behavioural source, at ports `ic0`, `ic1`, …; a BJT's
+    /// base branch, port `ib`, which is not a sensing branch but is wired as one).
     #[must_use]
     pub fn sensing(&self) -> Vec<(String, Sensed<'_>)> {
         match self {
@@ -419,6 +434,10 @@ impl ControlledSource {
                     Sensed::Voltage(bulk, source),
                 ),
             ],
+            // Not a sensing branch: it carries the base current.
+            Self::Bjt { base, emitter, .. } => {
+                vec![(BjtCore::BASE_PORT.into(), Sensed::Voltage(base, emitter))]
+            }
         }
     }
 
@@ -440,7 +459,7 @@ impl ControlledSource {
     pub fn drives_voltage(&self) -> bool {
         match self {
             Self::Vcvs { .. } | Self::Ccvs { .. } => true,
-            Self::Vccs { .. } | Self::Cccs { .. } | Self::Mosfet { .. } => false,
+            Self::Vccs { .. } | Self::Cccs { .. } | Self::Mosfet { .. } | Self::Bjt { .. } => false,
             Self::Behavioural { output, .. } => *output == Output::Voltage,
         }
     }

@@ -75,6 +75,10 @@ pub(crate) enum ElemKind {
     D(Name, DiodeInstance),
     /// `M` (drain, gate, source, bulk): model and instance parameters (`L=`, `W=`, …).
     M(Name, Vec<(Name, ExprTok)>),
+    /// `Q` (collector, base, emitter): the words after them (an optional substrate node, the
+    /// model, an optional area, told apart when the models are known) and the instance
+    /// parameters (`AREA=`, `M=`, …).
+    Q(Vec<Name>, Vec<(Name, ExprTok)>),
     X(Name, Vec<(Name, ExprTok)>),
     /// `E` (voltage gain) and `G` (transconductance): the card's nodes are the output pair,
     /// then the controlling pair.
@@ -140,10 +144,11 @@ pub(crate) struct ElemCard {
 #[derive(Debug, Clone)]
 pub(crate) struct ModelDef {
     pub name: Name,
-    /// The model type as written (`D`, `NMOS`, `PMOS`, or a type no element dirac reads uses:
-    /// `NPN`, `SW`, …).
+    /// The model type as written (`D`, `NMOS`, `PMOS`, `NPN`, `PNP`, or a type no element dirac
+    /// reads uses: `SW`, …).
     pub kind: Name,
-    /// The parameters (of a `D`, `NMOS` or `PMOS` model; other types' are not read).
+    /// The parameters (of a `D`, `NMOS`, `PMOS`, `NPN` or `PNP` model; other types' are not
+    /// read).
     pub params: Vec<(Name, ExprTok)>,
 }
 
@@ -1314,6 +1319,51 @@ impl<'a> CardParser<'a> {
                 }
                 (nodes, ElemKind::M(model, params))
             }
+            'q' => {
+                let nodes = vec![self.node()?, self.node()?, self.node()?];
+                // Then `[substrate] model [area]`, `off`, and `name=value` parameters; which
+                // word is the model is decided when the models are known (as ngspice does:
+                // a fourth word that names a model is the model).
+                let mut words = Vec::new();
+                let mut params = Vec::new();
+                while !self.cur.at_end() {
+                    if self.cur.eat_keyword("off") {
+                        warnings.push(Warning::new(
+                            self.card.start(),
+                            self.text.clone(),
+                            format!("`off` ignored in card `{}`", self.text),
+                        ));
+                        continue;
+                    }
+                    let is_assignment = self
+                        .cur
+                        .peek_word_and_next()
+                        .is_some_and(|(_, next)| next == Some('='));
+                    if is_assignment || !params.is_empty() {
+                        let (key, value) = self.assignment("instance parameter")?;
+                        // `IC=vbe,vce` (the comma reads as a blank): the second value is read
+                        // and, like the first, ignored.
+                        if key.norm == "ic"
+                            && self.cur.peek_word_and_next().is_some_and(|(w, next)| {
+                                next != Some('=') && crate::parse_spice_number(&w).is_some()
+                            })
+                        {
+                            self.word("initial V_CE")?;
+                        }
+                        params.push((key, value));
+                    } else {
+                        words.push(Name::plain(&self.word("model name")?));
+                    }
+                }
+                if words.is_empty() || words.len() > 3 {
+                    return Err(self.syntax(format!(
+                        "`{}` needs three nodes (collector, base, emitter), an optional substrate \
+                         node, its model name and an optional area",
+                        name.orig
+                    )));
+                }
+                (nodes, ElemKind::Q(words, params))
+            }
             'x' => {
                 let (mut words, params) =
                     self.words_then_assignments("node or subcircuit name", |_, _| Ok(()))?;
@@ -1390,7 +1440,7 @@ impl<'a> CardParser<'a> {
         let name = Name::plain(&self.word("model name")?);
         let ty = self.word("model type")?;
         let kind = Name::plain(&ty);
-        if !matches!(kind.norm.as_str(), "d" | "nmos" | "pmos") {
+        if !matches!(kind.norm.as_str(), "d" | "nmos" | "pmos" | "npn" | "pnp") {
             // A model library (an `.include`d one most often) holds models of devices dirac does
             // not read; an element that uses one is refused at its own card.
             warnings.push(Warning::new(

@@ -682,18 +682,17 @@ V1 a 0 SIN(0 1 1k)
 #[test]
 fn unsupported_cards() {
     let e = assert_err(
-        "t\nR1 a 0 1\n    Q1 c b e npn\n",
+        "t\nR1 a 0 1\n    J1 d g s jmod\n",
         ErrorKind::Unsupported,
         3,
         5,
     );
     assert_eq!(
         e.to_string(),
-        "t.cir:3:5: card `Q1 c b e npn` not supported"
+        "t.cir:3:5: card `J1 d g s jmod` not supported"
     );
-    assert_eq!(e.text, "Q1 c b e npn");
+    assert_eq!(e.text, "J1 d g s jmod");
     for card in [
-        "Q1 c b e npn",
         "T1 a 0 b 0 Z0=50 TD=1n",
         "J1 d g s jmod",
         ".ac dec 10 1 1meg",
@@ -1354,10 +1353,11 @@ fn unsupported_features_inside_cards() {
     assert!(e.message.contains("must be positive"), "{e}");
     // A model of a device dirac does not read is ignored with a warning (a model library holds
     // them); a diode that names one is refused, and so is the element that would use it.
-    let net = parse("t\nR1 a 0 1\n.model q1 NPN(BF=100 VAF=50)\n+ IKF=0.1\n.model s1 sw ron=1\n");
+    let net =
+        parse("t\nR1 a 0 1\n.model j1 NJF(BETA=1e-4 VTO=-2)\n+ LAMBDA=0.1\n.model s1 sw ron=1\n");
     assert_eq!(net.warnings.len(), 2, "{:?}", net.warnings);
     assert!(
-        net.warnings[0].message.contains("type `NPN` ignored"),
+        net.warnings[0].message.contains("type `NJF` ignored"),
         "{:?}",
         net.warnings
     );
@@ -1369,11 +1369,19 @@ fn unsupported_features_inside_cards() {
     );
     assert!(e.message.contains("a `NPN` model, not a diode's"), "{e}");
     assert_err(
-        "t\nQ1 c b 0 q1\n.model q1 NPN(BF=100)\n",
+        "t\nJ1 d g 0 j1\n.model j1 NJF(BETA=1e-4)\n",
         ErrorKind::Unsupported,
         2,
         1,
     );
+    // A BJT that names a diode's model is refused at the model's name.
+    let e = assert_err(
+        "t\nQ1 c b 0 dm\n.model dm D\n",
+        ErrorKind::MissingModel,
+        2,
+        10,
+    );
+    assert!(e.message.contains("a `D` model, not a BJT's"), "{e}");
     assert_err(
         "t\nD1 a 0 dm pj=2\n.model dm D\n",
         ErrorKind::Unsupported,

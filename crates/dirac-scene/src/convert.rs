@@ -35,6 +35,21 @@ pub enum ConvertError {
         /// The element as written.
         element: String,
     },
+    /// A bipolar transistor, which scenes have no part for.
+    #[error(
+        "{file}:{line}:{column}: `{element}` is a bipolar transistor: scenes have no part for it; \
+         run the netlist itself"
+    )]
+    Bjt {
+        /// The netlist file.
+        file: String,
+        /// Line of the element's card.
+        line: usize,
+        /// Column of the element's name.
+        column: usize,
+        /// The element as written.
+        element: String,
+    },
     /// A MOSFET, which scenes have no part for.
     #[error(
         "{file}:{line}:{column}: `{element}` is a MOSFET: scenes have no part for it; run the \
@@ -369,6 +384,14 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
                 ControlledSource::Ccvs { r, .. } => format!("type = \"ccvs\"\nr = {}", number(*r)),
                 ControlledSource::Behavioural { .. } => {
                     return Err(ConvertError::Behavioural {
+                        file: origin.file.clone(),
+                        line: origin.line,
+                        column: origin.column,
+                        element: origin.name.clone(),
+                    });
+                }
+                ControlledSource::Bjt { .. } => {
+                    return Err(ConvertError::Bjt {
                         file: origin.file.clone(),
                         line: origin.line,
                         column: origin.column,

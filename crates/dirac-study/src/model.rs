@@ -560,6 +560,7 @@ fn element_keys(element: &Element) -> Vec<&'static str> {
             // An expression has no one number to sweep.
             ControlledSource::Behavioural { .. } => Vec::new(),
             ControlledSource::Mosfet { .. } => MOSFET_INSTANCE_KEYS.to_vec(),
+            ControlledSource::Bjt { .. } => Vec::new(),
         },
         Element::V { source, .. } | Element::I { source, .. } => match source {
             SourceSpec::Dc(_) => vec!["waveform"],
