@@ -525,7 +525,7 @@ impl Sweep {
     }
 
     /// [`Sweep::run_point`], calling `watch` before every step's row as
-    /// [`Prepared::run_into_watched`] does (a front end's interrupt check); an error from it
+    /// [`crate::Prepared::run_into_watched`] does (a front end's interrupt check); an error from it
     /// stops the point.
     ///
     /// # Errors
