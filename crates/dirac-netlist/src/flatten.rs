@@ -529,6 +529,32 @@ fn diode_model(
     Ok(m)
 }
 
+/// The variant a device's `.model` kind names (`kinds`: lowercase kind and variant), or the
+/// error at the name it was used by: `device` `element` uses a model of another kind.
+fn model_kind<P: Copy>(
+    model: &ModelDef,
+    element: &Name,
+    used_as: &Name,
+    device: &str,
+    kinds: &[(&str, P)],
+) -> Result<P, NetlistError> {
+    kinds
+        .iter()
+        .find(|(kind, _)| *kind == model.kind.norm)
+        .map(|&(_, variant)| variant)
+        .ok_or_else(|| {
+            NetlistError::new(
+                ErrorKind::MissingModel,
+                used_as.pos,
+                used_as.orig.clone(),
+                format!(
+                    "{device} `{}` uses model `{}`, which is a `{}` model, not a {device}'s",
+                    element.orig, used_as.orig, model.kind.orig
+                ),
+            )
+        })
+}
+
 /// A `.model NMOS|PMOS` card as a level-1 MOSFET's parameters (`TNOM` from `.options` unless
 /// given). A card of another level is refused at the element using it (a model library may hold
 /// BSIM cards for devices a netlist does not use); parameters that only matter with `TOX` or
@@ -540,21 +566,13 @@ fn mosfet_model(
     used_as: &Name,
     out: &mut Out,
 ) -> Result<MosfetParameters, NetlistError> {
-    let polarity = match model.kind.norm.as_str() {
-        "nmos" => Polarity::N,
-        "pmos" => Polarity::P,
-        _ => {
-            return Err(NetlistError::new(
-                ErrorKind::MissingModel,
-                used_as.pos,
-                used_as.orig.clone(),
-                format!(
-                    "MOSFET `{}` uses model `{}`, which is a `{}` model, not a MOSFET's",
-                    element.orig, used_as.orig, model.kind.orig
-                ),
-            ));
-        }
-    };
+    let polarity = model_kind(
+        model,
+        element,
+        used_as,
+        "MOSFET",
+        &[("nmos", Polarity::N), ("pmos", Polarity::P)],
+    )?;
     let mut c = MosfetParameters::new(polarity);
     c.tnom = out.temperatures.1;
     for (name, e) in &model.params {
@@ -838,21 +856,13 @@ fn bjt_model(
     used_as: &Name,
     out: &mut Out,
 ) -> Result<BjtParameters, NetlistError> {
-    let polarity = match model.kind.norm.as_str() {
-        "npn" => BjtPolarity::Npn,
-        "pnp" => BjtPolarity::Pnp,
-        _ => {
-            return Err(NetlistError::new(
-                ErrorKind::MissingModel,
-                used_as.pos,
-                used_as.orig.clone(),
-                format!(
-                    "BJT `{}` uses model `{}`, which is a `{}` model, not a BJT's",
-                    element.orig, used_as.orig, model.kind.orig
-                ),
-            ));
-        }
-    };
+    let polarity = model_kind(
+        model,
+        element,
+        used_as,
+        "BJT",
+        &[("npn", BjtPolarity::Npn), ("pnp", BjtPolarity::Pnp)],
+    )?;
     let mut c = BjtParameters::new(polarity);
     c.tnom = out.temperatures.1;
     let (mut ise, mut c2, mut isc, mut c4) = (None, None, None, None);
@@ -1338,17 +1348,7 @@ fn expand(ctx: &Ctx<'_, '_>, out: &mut Out) -> Result<(), NetlistError> {
             }
             ElemKind::D(model, instance) => {
                 let (found_model, mscope) = ctx.model(model, "diode", &el.name)?;
-                if found_model.kind.norm != "d" {
-                    return Err(NetlistError::new(
-                        ErrorKind::MissingModel,
-                        model.pos,
-                        model.orig.clone(),
-                        format!(
-                            "diode `{}` uses model `{}`, which is a `{}` model, not a diode's",
-                            el.name.orig, model.orig, found_model.kind.orig
-                        ),
-                    ));
-                }
+                model_kind(found_model, &el.name, model, "diode", &[("d", ())])?;
                 let mut model = diode_model(found_model, mscope, out)?;
                 // The instance's area replaces the model's AREA; `m` multiplies either.
                 let area = match &instance.area {
