@@ -524,3 +524,28 @@ fn convert_refuses_a_bjt() {
     );
     assert!(!scene.exists());
 }
+
+/// A class-AB push-pull stage on ±12 V with its output at −4.6 V: the PNP's base sits 5.4 V
+/// below the grounded substrate. ngspice-39's substrate junction carries no current (`ISS` is
+/// 0); one given the diode part's smallest saturation current (1e-28 A) conducted once forward
+/// biased and read `v(out)` −0.80 V (an independent check's deck). Reference: ngspice-39 at
+/// `reltol=1e-10`, `numdgt=14`.
+#[test]
+fn a_pnp_base_below_a_grounded_substrate_draws_no_substrate_current() {
+    let text = "push-pull\nVCC vcc 0 12\nVEE vee 0 -12\nVIN in 0 -4.755\nR1 vcc bn 4.7k\n\
+                D1 bn in DB\nD2 in bp DB\nR2 bp vee 4.7k\nQ1 vcc bn out QNPN\nQ2 vee bp out QPNP\n\
+                RL out 0 100\n.model DB D(IS=1e-14 N=1)\n\
+                .model QNPN NPN(IS=1e-14 BF=150 VAF=100 IKF=0.5 RB=5 RE=0.2)\n\
+                .model QPNP PNP(IS=1e-14 BF=120 VAF=80 IKF=0.4 RB=5 RE=0.2)\n.op\n.end\n";
+    let parsed = operating_point("push_pull.cir", text);
+    assert_values(
+        &parsed,
+        &[
+            ("v(out)", -4.6443192213829),
+            ("v(bp)", -5.4103569400209),
+            ("v(bn)", -4.0680894535276),
+            ("i(vcc)", -3.4736787549509e-3),
+        ],
+        1e-9,
+    );
+}

@@ -1150,7 +1150,11 @@ fn bjt_elements(
     let c = inner(&collector, device.series[1], "rc", "collector");
     let e = inner(&emitter, device.series[2], "re", "emitter");
     // The substrate junction (GMIN and CJS) from the substrate to the inner collector (vertical)
-    // or base (lateral); not placed when the card's wiring shorts it.
+    // or base (lateral); not placed when the card's wiring shorts it. It carries no diode
+    // current (ngspice-39's `ISS` is 0): without `CJS` it is GMIN alone, a resistor, since the
+    // diode part's smallest saturation current (1e-28 A) conducts milliamperes once forward
+    // biased by 1.5 V, which a PNP base or an NPN collector below a grounded substrate is on
+    // split supplies (a push-pull stage on ±12 V read `v(out)` −0.80 V for ngspice's −4.64).
     let contact = if card.vertical { &c } else { &b };
     if *contact != substrate {
         let (anode, cathode) = if device.substrate_anode {
@@ -1158,18 +1162,27 @@ fn bjt_elements(
         } else {
             (contact.clone(), substrate.clone())
         };
-        parts.push(Element::D {
-            name: crate::inner_name(&full, "sub"),
-            anode,
-            cathode,
-            model: DiodeModel {
-                name: def.name.norm.clone(),
-                card: device.substrate,
-                tnom_given: true,
-                ignored: Vec::new(),
-                temp: Some(celsius),
-            },
-        });
+        if device.substrate.cjo == 0.0 {
+            parts.push(Element::R {
+                name: crate::inner_name(&full, "sub"),
+                n1: anode,
+                n2: cathode,
+                value: 1.0 / dirac_components::Diode::GMIN,
+            });
+        } else {
+            parts.push(Element::D {
+                name: crate::inner_name(&full, "sub"),
+                anode,
+                cathode,
+                model: DiodeModel {
+                    name: def.name.norm.clone(),
+                    card: device.substrate,
+                    tnom_given: true,
+                    ignored: Vec::new(),
+                    temp: Some(celsius),
+                },
+            });
+        }
     }
     let core = Element::Controlled {
         name: full,
