@@ -231,9 +231,9 @@ pub struct Bjt {
     /// The substrate junction's diode card, already at the temperature (its `TNOM` is the
     /// temperature), anode at the substrate for an NPN of vertical or a PNP of lateral
     /// geometry (ngspice's `type·subs > 0`), at the inner collector or base otherwise: `GMIN`
-    /// and the depletion charge `CJS` (its saturation current is `IS`'s floor, 1e-28 A, where
-    /// ngspice-39's default `ISS = 0` carries none; a netlist places GMIN alone, a resistor,
-    /// when there is no `CJS`).
+    /// and the depletion charge `CJS`, no diode current (ngspice-39's `ISS` is 0: the card does
+    /// not conduct, [`DiodeParameters::conducts`]; a netlist places GMIN alone, a resistor, when
+    /// there is no `CJS`).
     pub substrate: DiodeParameters,
     /// Whether the substrate junction's anode is the substrate node.
     pub substrate_anode: bool,
@@ -357,6 +357,7 @@ impl Bjt {
             fc: 0.0,
             reverse: ReverseCurrent::Cubic,
             tnom: celsius,
+            conducts: false,
             ..DiodeParameters::default()
         };
         Ok(Self {

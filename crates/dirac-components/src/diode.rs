@@ -88,6 +88,11 @@ pub struct DiodeParameters {
     /// The current below `−3·N·V_t` (and above the breakdown knee): a junction diode's cubic
     /// approach to `−I_S` by default, or `−I_S` itself, as ngspice's MOSFET junctions compute it.
     pub reverse: ReverseCurrent,
+    /// Whether the junction carries its diode current (true by default). False: only its
+    /// charges and `GMIN`, a BJT's substrate junction (ngspice-39's `ISS` is 0 there), where the
+    /// floor `IS` of 1e-28 A a diode card gets would conduct milliamperes once forward biased
+    /// by 1.5 V.
+    pub conducts: bool,
 }
 
 /// How a junction's current approaches `−I_S` below `−3·N·V_t`.
@@ -127,6 +132,7 @@ impl Default for DiodeParameters {
             mjsw: 0.33,
             fcs: 0.5,
             reverse: ReverseCurrent::Cubic,
+            conducts: true,
         }
     }
 }
@@ -365,8 +371,16 @@ impl Diode {
         // Saturation current.
         let arg1 = (temp / tnom - 1.0) * p.eg / vte;
         let arg2 = p.xti / p.n * (temp / tnom).ln();
-        let is = p.is.max(IS_MIN) * p.area * (arg1 + arg2).exp();
-        let vcrit = vte * (vte / (std::f64::consts::SQRT_2 * is)).ln();
+        let is = if p.conducts {
+            p.is.max(IS_MIN) * p.area * (arg1 + arg2).exp()
+        } else {
+            0.0
+        };
+        let vcrit = if is > 0.0 {
+            vte * (vte / (std::f64::consts::SQRT_2 * is)).ln()
+        } else {
+            f64::INFINITY
+        };
         if p.fc * vj > 1.0 {
             warnings.push(format!(
                 "junction potential VJ = {vj} too large for FC = {}, limited to {} (as ngspice does)",
@@ -473,6 +487,9 @@ impl Diode {
     #[must_use]
     pub fn shockley(&self, v: f64) -> (f64, f64) {
         let vte = self.vte;
+        if self.is == 0.0 {
+            return (0.0, 0.0);
+        }
         if v >= -3.0 * vte {
             let x = v / vte;
             (self.is * x.exp_m1(), self.is * x.exp() / vte)
@@ -505,6 +522,9 @@ impl Diode {
     #[must_use]
     pub fn shockley_integral(&self, v: f64) -> f64 {
         let (is, vte) = (self.is, self.vte);
+        if is == 0.0 {
+            return 0.0;
+        }
         let v3 = -3.0 * vte;
         let forward = |v: f64| is * vte * exp_m1_minus_x(v / vte);
         if v >= v3 {

@@ -1151,10 +1151,9 @@ fn bjt_elements(
     let e = inner(&emitter, device.series[2], "re", "emitter");
     // The substrate junction (GMIN and CJS) from the substrate to the inner collector (vertical)
     // or base (lateral); not placed when the card's wiring shorts it. It carries no diode
-    // current (ngspice-39's `ISS` is 0): without `CJS` it is GMIN alone, a resistor, since the
-    // diode part's smallest saturation current (1e-28 A) conducts milliamperes once forward
-    // biased by 1.5 V, which a PNP base or an NPN collector below a grounded substrate is on
-    // split supplies (a push-pull stage on ±12 V read `v(out)` −0.80 V for ngspice's −4.64).
+    // current (ngspice-39's `ISS` is 0; a PNP base or an NPN collector below a grounded
+    // substrate forward biases it on split supplies): its charge `CJS` only, as a junction that
+    // does not conduct, and without `CJS` GMIN alone, a resistor.
     let contact = if card.vertical { &c } else { &b };
     if *contact != substrate {
         let (anode, cathode) = if device.substrate_anode {
