@@ -279,6 +279,14 @@ fn statistic(word: &str) -> Option<Statistic> {
     })
 }
 
+/// A signal as an output card keeps it (`v(a,b)`: lowercase, no blanks).
+fn signal_name(word: &Spanned) -> String {
+    word.lower()
+        .chars()
+        .filter(|c| !c.is_whitespace())
+        .collect()
+}
+
 /// Whether a word names a signal (`v(…)`, `i(…)`) rather than a value.
 fn is_signal(word: &str) -> bool {
     let lower = word.to_ascii_lowercase();
@@ -324,17 +332,13 @@ impl MeasTokens {
         }
     }
 
-    /// A signal name, normalised as an output card's (`v(a,b)`, lowercase, no blanks).
+    /// A signal name ([`signal_name`]).
     fn signal(&mut self) -> Result<String, NetlistError> {
         let word = self.word("a signal such as v(out)")?;
         if !is_signal(&word.text) {
             return Err(self.error(&word, "expected a signal such as `v(out)` or `i(v1)`"));
         }
-        Ok(word
-            .lower()
-            .chars()
-            .filter(|c| !c.is_whitespace())
-            .collect())
+        Ok(signal_name(&word))
     }
 
     fn value(&mut self, key: &Spanned) -> Result<ExprTok, NetlistError> {
@@ -406,13 +410,7 @@ impl MeasTokens {
         }
         let level = self.word("the level crossed")?;
         let level = if is_signal(&level.text) {
-            Level::Signal(
-                level
-                    .lower()
-                    .chars()
-                    .filter(|c| !c.is_whitespace())
-                    .collect(),
-            )
+            Level::Signal(signal_name(&level))
         } else {
             Level::Value(ExprTok::parse(&level)?)
         };
@@ -1119,6 +1117,20 @@ impl<'a> CardParser<'a> {
         }
     }
 
+    /// Reads a device card's `off` (a hint for the operating point's Newton start, which
+    /// dirac's does not take), with a warning that it is ignored.
+    fn eat_off(&mut self, warnings: &mut Vec<Warning>) -> bool {
+        let off = self.cur.eat_keyword("off");
+        if off {
+            warnings.push(Warning::new(
+                self.card.start(),
+                self.text.clone(),
+                format!("`off` ignored in card `{}`", self.text),
+            ));
+        }
+        off
+    }
+
     fn element(&mut self, warnings: &mut Vec<Warning>) -> Result<ElemCard, NetlistError> {
         let name_span = self.word("element name")?;
         let name = Name::plain(&name_span);
@@ -1175,13 +1187,10 @@ impl<'a> CardParser<'a> {
                 // dirac's does not take).
                 let mut instance = DiodeInstance::default();
                 while !self.cur.at_end() {
-                    if self.cur.eat_keyword("off") {
-                        warnings.push(Warning::new(
-                            self.card.start(),
-                            self.text.clone(),
-                            format!("`off` ignored in card `{}`", self.text),
-                        ));
-                    } else if self.cur.eat_assignment_of("area") {
+                    if self.eat_off(warnings) {
+                        continue;
+                    }
+                    if self.cur.eat_assignment_of("area") {
                         instance.area = Some(self.value("area factor")?);
                     } else if self.cur.eat_assignment_of("m") {
                         instance.m = Some(self.value("multiplicity")?);
@@ -1307,12 +1316,7 @@ impl<'a> CardParser<'a> {
                             )),
                         ));
                     }
-                    if self.cur.eat_keyword("off") {
-                        warnings.push(Warning::new(
-                            self.card.start(),
-                            self.text.clone(),
-                            format!("`off` ignored in card `{}`", self.text),
-                        ));
+                    if self.eat_off(warnings) {
                         continue;
                     }
                     params.push(self.assignment("instance parameter")?);
@@ -1327,12 +1331,7 @@ impl<'a> CardParser<'a> {
                 let mut words = Vec::new();
                 let mut params = Vec::new();
                 while !self.cur.at_end() {
-                    if self.cur.eat_keyword("off") {
-                        warnings.push(Warning::new(
-                            self.card.start(),
-                            self.text.clone(),
-                            format!("`off` ignored in card `{}`", self.text),
-                        ));
+                    if self.eat_off(warnings) {
                         continue;
                     }
                     let is_assignment = self
