@@ -596,13 +596,8 @@ fn run(args: &RunArgs) -> Result<(), Failure> {
             Ok(v) => eprintln!("{:<20}=  {v:.6e}", m.name),
             Err(why) => eprintln!("warning: `.meas {}` failed: {why}", m.name),
         }
-        if let (Ok(_), Some(corner)) = (&m.value, m.corner) {
-            eprintln!(
-                "warning: `.meas {}` reads across a source corner inside a step (t = {corner:e}), \
-                 which the steps' states do not resolve: it may be off by up to a step's change \
-                 of the signal; put the corner on the step grid or take a smaller step (TMAX)",
-                m.name
-            );
+        if let Some(w) = m.corner_warning() {
+            eprintln!("warning: {w}");
         }
     }
     if args.json_summary {

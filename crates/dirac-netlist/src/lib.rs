@@ -168,6 +168,17 @@ impl Tran {
             .unwrap_or_else(|| self.tstep.min((self.tstop - self.tstart) / 50.0))
     }
 
+    /// Where a run to `t` ends: on the TSTEP grid (the nearest multiple) when its rows come
+    /// from [`Tran::steps_per_row`] steps each, so that the last row is a row; `t` otherwise.
+    #[must_use]
+    pub fn run_end(&self, t: f64) -> f64 {
+        if self.steps_per_row() > 1 {
+            (t / self.tstep).round() * self.tstep
+        } else {
+            t
+        }
+    }
+
     /// Steps per output row: the fewest equal substeps of `TSTEP` that are no longer than
     /// [`Tran::max_step`] (1 when `TSTEP` is short enough). A deck that asks for rows every
     /// `TSTEP` but for steps of at most `TMAX` (or of a fiftieth of the interval) is stepped at

@@ -226,16 +226,7 @@ fn summary_dict<'py>(
     d.set_item("max_constraint_residual", summary.max_constraint_residual)?;
     d.set_item("wall_s", summary.wall_s)?;
     let mut warnings = summary.warnings.clone();
-    for m in measurements {
-        if let (Ok(_), Some(corner)) = (&m.value, m.corner) {
-            warnings.push(format!(
-                "`.meas {}` reads across a source corner inside a step (t = {corner:e}), which \
-                 the steps' states do not resolve: it may be off by up to a step's change of the \
-                 signal; put the corner on the step grid or take a smaller step (TMAX)",
-                m.name
-            ));
-        }
-    }
+    warnings.extend(measurements.iter().filter_map(Measurement::corner_warning));
     d.set_item("warnings", warnings)?;
     d.set_item("execution", execution)?;
     d.set_item("h", h)?;

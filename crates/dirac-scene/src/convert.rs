@@ -285,12 +285,8 @@ pub fn netlist_to_scene(netlist: &Netlist, file: &str) -> Result<String, Convert
             number(tran.tstep)
         );
     }
-    // …and ends where the netlist's run ends: on the TSTEP grid when it steps at TSTEP/m.
-    let t_end = if every > 1 {
-        (tran.tstop / tran.tstep).round() * tran.tstep
-    } else {
-        tran.tstop
-    };
+    // …and ends where the netlist's run ends.
+    let t_end = tran.run_end(tran.tstop);
     let _ = writeln!(
         out,
         "h = {}\nt_end = {}",

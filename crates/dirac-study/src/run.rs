@@ -165,18 +165,7 @@ impl Prepared {
     ) -> Result<RunSummary, StudyError> {
         let mut all = self.signals.clone();
         all.extend(self.measured_signals.iter().cloned());
-        let mut samples = Samples {
-            names: all.iter().map(|s| s.name.clone()).collect(),
-            t: Vec::new(),
-            columns: vec![
-                Vec::new();
-                if self.measures.is_empty() {
-                    0
-                } else {
-                    all.len()
-                }
-            ],
-        };
+        let mut samples = Samples::for_measures(&self.measures, &all);
         let mut skip = FromTime {
             inner: sink,
             first: self.first_output,
@@ -231,15 +220,51 @@ pub struct Measurement {
     pub corner: Option<f64>,
 }
 
-/// Every step's time and recorded values from the first output time on, for the measures
-/// (nothing is kept when there are none).
+impl Measurement {
+    /// The warning a front end gives for a value read across [`Measurement::corner`].
+    #[must_use]
+    pub fn corner_warning(&self) -> Option<String> {
+        let corner = self.corner.filter(|_| self.value.is_ok())?;
+        Some(format!(
+            "`.meas {}` reads across a source corner inside a step (t = {corner:e}), which the \
+             steps' states do not resolve: it may be off by up to a step's change of the signal; \
+             put the corner on the step grid or take a smaller step (TMAX)",
+            self.name
+        ))
+    }
+}
+
+/// Every step's time and the values the measures read, from the first output time on (nothing
+/// is kept without measures).
 struct Samples {
+    /// The signals the measures read, and where each sits in a recorded row.
     names: Vec<String>,
+    read: Vec<usize>,
     t: Vec<f64>,
     columns: Vec<Vec<f64>>,
 }
 
 impl Samples {
+    /// Room for the signals `measures` read, among the `recorded` ones.
+    fn for_measures(measures: &[Measure], recorded: &[Signal]) -> Self {
+        let (mut names, mut read) = (Vec::new(), Vec::new());
+        for name in measures.iter().flat_map(Measure::signals) {
+            if names.contains(&name) {
+                continue;
+            }
+            if let Some(i) = recorded.iter().position(|s| s.name == name) {
+                names.push(name);
+                read.push(i);
+            }
+        }
+        Self {
+            columns: vec![Vec::new(); names.len()],
+            names,
+            read,
+            t: Vec::new(),
+        }
+    }
+
     fn column(&self, name: &str) -> &[f64] {
         self.names
             .iter()
@@ -315,10 +340,10 @@ impl Sink for FromTime<'_> {
         if t < self.first * (1.0 - 1e-12) {
             return Ok(());
         }
-        if !self.samples.columns.is_empty() {
+        if !self.samples.read.is_empty() {
             self.samples.t.push(t);
-            for (column, &v) in self.samples.columns.iter_mut().zip(values) {
-                column.push(v);
+            for (column, &i) in self.samples.columns.iter_mut().zip(&self.samples.read) {
+                column.push(values[i]);
             }
         }
         if !k.is_multiple_of(self.every) {
@@ -455,9 +480,9 @@ impl Model {
                 (
                     settings.h.or(tran.map(|t| t.0 / every as f64)),
                     // Rows every TSTEP from `m` steps each: the run ends on that grid.
-                    match (tran, every) {
-                        (Some((tstep, _)), 2..) => t_end.map(|t| (t / tstep).round() * tstep),
-                        _ => t_end,
+                    match circuit.tran.filter(|_| every > 1) {
+                        Some(card) => t_end.map(|t| card.run_end(t)),
+                        None => t_end,
                     },
                     circuit
                         .method
