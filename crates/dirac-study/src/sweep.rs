@@ -501,18 +501,19 @@ impl Sweep {
     /// # Errors
     /// A point that does not exist, or a parameter value the model rejects.
     pub fn point_steps(&self, index: usize) -> Result<u64, StudyError> {
-        let model = self.point_model(index)?;
+        let (_, model) = self.point_model(index)?;
         Ok(model.plan(&self.settings)?.steps())
     }
 
-    fn point_model(&self, index: usize) -> Result<Model, StudyError> {
+    /// Point `index`'s parameter values and the model with them set.
+    fn point_model(&self, index: usize) -> Result<(&[f64], Model), StudyError> {
         let point = self.plan.points().get(index).ok_or_else(|| {
             StudyError::Sweep(format!(
                 "point {index} does not exist (the sweep has {})",
                 self.plan.len()
             ))
         })?;
-        self.model.with_parameters(self.plan.names(), point)
+        Ok((point, self.model.with_parameters(self.plan.names(), point)?))
     }
 
     /// Runs point `index` and returns its table rows (one for reductions; one per output time for
@@ -535,13 +536,7 @@ impl Sweep {
         index: usize,
         watch: &mut dyn FnMut(usize) -> Result<(), String>,
     ) -> Result<Vec<Vec<f64>>, StudyError> {
-        let point = self.plan.points().get(index).ok_or_else(|| {
-            StudyError::Sweep(format!(
-                "point {index} does not exist (the sweep has {})",
-                self.plan.len()
-            ))
-        })?;
-        let model = self.point_model(index)?;
+        let (point, model) = self.point_model(index)?;
         let mut prepared = model.prepare(&self.settings)?;
         let mut head = vec![index as f64];
         head.extend_from_slice(point);
