@@ -248,9 +248,7 @@ impl Measure<f64> {
                 .ok_or_else(|| format!("the window holds no stretch of {signal}")),
         }
     }
-}
 
-impl Measure<f64> {
     /// The stretches of time its value reads between two samples, for a warning where a source
     /// corner lies inside one (the samples do not resolve it; docs/audit.md item 51): the
     /// sample interval around each event time (a crossing, an `AT=`) and a statistic's window.

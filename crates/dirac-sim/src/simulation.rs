@@ -1691,7 +1691,7 @@ impl Agreement {
     /// method does not damp, excited by a switching event inside a step (a diode turning off),
     /// can put the state's value hundreds of times outside the motion there (docs/audit.md
     /// item 52).
-    fn outlier(k: usize, entry: Entry, state: f64, means: &Means) -> Option<Outlier> {
+    fn outlier(k: usize, entry: Entry, state: f64, means: &Means) -> Option<(f64, f64, f64, f64)> {
         let a = means.pair(k, entry)?;
         let clean: Vec<f64> = (a.saturating_sub(1)..=a + 2)
             .filter_map(|j| means.mean(j))
@@ -1712,13 +1712,7 @@ impl Agreement {
             1 => OUTLIER_SINGLE,
             _ => OUTLIER_SIZE,
         };
-        (excess > OUTLIER_SPREAD * (highest - lowest)).then_some((
-            f64::NAN,
-            excess,
-            lowest,
-            highest,
-            share,
-        ))
+        (excess > OUTLIER_SPREAD * (highest - lowest)).then_some((excess, lowest, highest, share))
     }
 
     /// Whether the two steps after row `k` have been taken (its values can be compared: a row
@@ -1812,9 +1806,10 @@ impl Agreement {
             if steps.is_none()
                 && !completed.contains(&entry)
                 && let Some(state) = values_at.get(entry)
-                && let Some(found) = Self::outlier(k, entry, state, means)
+                && let Some((excess, lowest, highest, share)) =
+                    Self::outlier(k, entry, state, means)
             {
-                outlier.push((t, found.1, found.2, found.3, found.4));
+                outlier.push((t, excess, lowest, highest, share));
             }
             let read = steps.zip(values_at.get(entry));
             if let Some((steps, _)) = &read {
