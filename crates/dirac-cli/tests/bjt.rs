@@ -52,6 +52,33 @@ fn assert_values(parsed: &serde_json::Value, expected: &[(&str, f64)], relative:
 }
 
 /// The rows of `dirac run` (header dropped), which must succeed.
+/// Runs `path` under Gauss 2 and the midpoint rule at step `h`, recording the three comma-
+/// separated `signals`, and checks each reference row `(t, a, b, c)` against the row at `t`, each
+/// value within its own tolerance.
+fn matches_reference(
+    path: &std::path::Path,
+    h: &str,
+    signals: &str,
+    tolerances: [f64; 3],
+    reference: &[(f64, f64, f64, f64)],
+) {
+    let names: Vec<&str> = signals.split(',').collect();
+    for method in ["gauss2", "midpoint"] {
+        let rows = run_rows(path, &["--method", method, "--h", h, "--signals", signals]);
+        for &(t, a, b, c) in reference {
+            let r = row_at(&rows, t);
+            for (j, want) in [a, b, c].into_iter().enumerate() {
+                let got = r[j + 1];
+                assert!(
+                    (got - want).abs() <= tolerances[j],
+                    "{method} t = {t}: {} {got} vs {want}",
+                    names[j]
+                );
+            }
+        }
+    }
+}
+
 fn run_rows(path: &std::path::Path, args: &[&str]) -> Vec<Vec<f64>> {
     let mut all = vec!["run", path.to_str().unwrap()];
     all.extend_from_slice(args);
@@ -301,32 +328,13 @@ fn rtl_inverter_transient_matches_ngspice() {
         (367e-9, 1.94442334, 4.91955159, -3.13602507e-3),
         (390e-9, 3.68359122, 1.80110398, -4.51530480e-3),
     ];
-    for method in ["gauss2", "midpoint"] {
-        let rows = run_rows(
-            &path,
-            &[
-                "--method",
-                method,
-                "--h",
-                "0.1n",
-                "--signals",
-                "v(o1),v(o2),i(vcc)",
-            ],
-        );
-        for &(t, o1, o2, ivcc) in &reference {
-            let r = row_at(&rows, t);
-            for (got, want, tol, what) in [
-                (r[1], o1, 1e-3, "v(o1)"),
-                (r[2], o2, 1e-3, "v(o2)"),
-                (r[3], ivcc, 1e-6, "i(vcc)"),
-            ] {
-                assert!(
-                    (got - want).abs() <= tol,
-                    "{method} t = {t}: {what} {got} vs {want}"
-                );
-            }
-        }
-    }
+    matches_reference(
+        &path,
+        "0.1n",
+        "v(o1),v(o2),i(vcc)",
+        [1e-3, 1e-3, 1e-6],
+        &reference,
+    );
 }
 
 /// A hot switch: `.temp 90` against `TNOM = 20` (`XTI`, `XTB`, and the junction capacitances and
@@ -370,32 +378,13 @@ cl c 0 2p
         (230e-9, 9.65660744e-2, -3.26895595e-3, 5.69862906e-6),
         (280e-9, 3.08222251e-1, -3.12785183e-3, 6.80375032e-5),
     ];
-    for method in ["gauss2", "midpoint"] {
-        let rows = run_rows(
-            &path,
-            &[
-                "--method",
-                method,
-                "--h",
-                "0.05n",
-                "--signals",
-                "v(c),i(vcc),i(vsub)",
-            ],
-        );
-        for &(t, vc, ivcc, isub) in &reference {
-            let r = row_at(&rows, t);
-            for (got, want, tol, what) in [
-                (r[1], vc, 2e-5, "v(c)"),
-                (r[2], ivcc, 2e-8, "i(vcc)"),
-                (r[3], isub, 2e-7, "i(vsub)"),
-            ] {
-                assert!(
-                    (got - want).abs() <= tol,
-                    "{method} t = {t}: {what} {got} vs {want}"
-                );
-            }
-        }
-    }
+    matches_reference(
+        &path,
+        "0.05n",
+        "v(c),i(vcc),i(vsub)",
+        [2e-5, 2e-8, 2e-7],
+        &reference,
+    );
 }
 
 /// A PNP high-side switch inside a subcircuit driving an NPN, each with a base–emitter charge
@@ -433,32 +422,13 @@ fn pnp_switch_with_emitter_charge_only_matches_ngspice() {
         (150e-9, 8.98436987e-1, 1.81543258e-2, -6.48937059e-2),
         (180e-9, 8.78724514e-1, 1.84151763e-2, -2.95495141e-2),
     ];
-    for method in ["gauss2", "midpoint"] {
-        let rows = run_rows(
-            &path,
-            &[
-                "--method",
-                method,
-                "--h",
-                "0.05n",
-                "--signals",
-                "v(out),v(c2),i(vdd)",
-            ],
-        );
-        for &(t, out, c2, ivdd) in &reference {
-            let r = row_at(&rows, t);
-            for (got, want, tol, what) in [
-                (r[1], out, 2e-4, "v(out)"),
-                (r[2], c2, 3e-3, "v(c2)"),
-                (r[3], ivdd, 1e-6, "i(vdd)"),
-            ] {
-                assert!(
-                    (got - want).abs() <= tol,
-                    "{method} t = {t}: {what} {got} vs {want}"
-                );
-            }
-        }
-    }
+    matches_reference(
+        &path,
+        "0.05n",
+        "v(out),v(c2),i(vdd)",
+        [2e-4, 3e-3, 1e-6],
+        &reference,
+    );
 }
 
 /// Bad `Q` cards are bad input (exit 2) naming file:line:column: a missing model, a diode model,
