@@ -973,7 +973,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 &self.v0,
                 self.t,
             );
-            history.restart(self.t, &self.q, &self.p);
+            history.start(self.t, &self.q, &self.p);
             (!history.is_empty()).then_some(history)
         });
     }
@@ -1227,13 +1227,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 other => other,
             });
         }
-        self.restore(saved, t);
+        self.restore(&saved, t);
         self.counters.step_cuts += 1;
         self.advance_in_pieces(size, depth, 1, t, stats)
     }
 
     /// Puts back the state before a failed or rejected attempt at time `t`.
-    fn restore(&mut self, saved: Saved, t: f64) {
+    fn restore(&mut self, saved: &Saved, t: f64) {
         match saved {
             Saved::Untouched => {}
             Saved::Buffers => {
@@ -1242,9 +1242,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 self.impulse.clone_from(&self.saved_impulse);
             }
             Saved::Copy(q, p, impulse) => {
-                self.q = q;
-                self.p = p;
-                self.impulse = impulse;
+                self.q.copy_from_slice(q);
+                self.p.copy_from_slice(p);
+                self.impulse.clone_from(impulse);
             }
         }
         self.t = t;
@@ -1277,19 +1277,34 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         depth: u32,
         t: f64,
         saved: Saved,
-        stats: NewtonStats,
+        mut stats: NewtonStats,
     ) -> Result<NewtonStats, SimError> {
-        let verdict = match (&self.history, &self.options.truncation) {
-            (Some(history), Some(rule)) if depth < rule.max_depth => {
-                match history.judge(rule, t + size, &self.q, &self.p) {
-                    Verdict::Split(m) => Some(m.min(rule.max_depth - depth)),
-                    Verdict::Accept => None,
+        let rule = self
+            .options
+            .truncation
+            .filter(|rule| depth < rule.max_depth && self.history.is_some());
+        let short = self.history.as_ref().is_some_and(History::is_short);
+        let verdict = match (rule, &self.history) {
+            (Some(rule), Some(_)) if short => {
+                self.judge_halves(&rule, size, t, &saved, None, &mut stats)
+            }
+            (Some(rule), Some(history)) => {
+                let window = YOUNG_STEPS * self.options.h;
+                match history.judge(&rule, t + size, (&self.q, &self.p), window) {
+                    Verdict::Doubtful(only) => {
+                        self.judge_halves(&rule, size, t, &saved, Some(&only), &mut stats)
+                    }
+                    verdict => verdict,
                 }
             }
+            _ => Verdict::Accept,
+        };
+        let verdict = match (verdict, rule) {
+            (Verdict::Split(m), Some(rule)) => Some(m.min(rule.max_depth - depth)),
             _ => None,
         };
         if let Some(halvings) = verdict {
-            self.restore(saved, t);
+            self.restore(&saved, t);
             self.counters.refinements += 1;
             return self.advance_in_pieces(size, depth, halvings, t, stats);
         }
@@ -1298,6 +1313,74 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             history.push(t + size, &self.q, &self.p);
         }
         Ok(stats)
+    }
+
+    /// Judges the substep of `size` from `t` just solved by taking it again as two halves from
+    /// the `saved` start ([`History::judge_halves`]); the whole substep's end is put back
+    /// whatever the verdict (a split restores the start itself). Halves that fail to solve
+    /// split the substep too.
+    fn judge_halves(
+        &mut self,
+        rule: &TruncationControl,
+        size: f64,
+        t: f64,
+        saved: &Saved,
+        only: Option<&[usize]>,
+        stats: &mut NewtonStats,
+    ) -> Verdict {
+        let whole = (self.q.clone(), self.p.clone(), self.impulse.clone());
+        // The stages' steps (their start, which diagnostics such as the constraint residual
+        // read after the step) and last solutions (which the next substep's guess is made
+        // from): put back with the whole substep, so that a check that keeps it changes
+        // nothing after it.
+        let kept: Vec<_> = self
+            .stages
+            .iter()
+            .map(|stage| {
+                (
+                    stage.step.clone(),
+                    stage.x.clone(),
+                    stage.past.clone(),
+                    stage.known,
+                    stage.last_size,
+                )
+            })
+            .collect();
+        self.restore(saved, t);
+        let half = 0.5 * size;
+        let mut solved = Ok(());
+        for j in 0..2 {
+            self.t = t + f64::from(j) * half;
+            solved = if self.explicit.is_some() {
+                self.explicit_advance(half, false)
+            } else {
+                self.implicit_advance(half, false, stats)
+            };
+            if solved.is_err() {
+                break;
+            }
+        }
+        let verdict = match (solved, &self.history) {
+            (Ok(()), Some(history)) => {
+                let (whole, halves) = ((&whole.0[..], &whole.1[..]), (&self.q[..], &self.p[..]));
+                history.judge_halves(rule, t + size, whole, halves, only)
+            }
+            (Ok(()), None) => Verdict::Accept,
+            (Err(_), _) => Verdict::Split(1),
+        };
+        let (q, p, impulse) = whole;
+        self.q = q;
+        self.p = p;
+        self.impulse = impulse;
+        for (stage, (step, x, past, known, last_size)) in self.stages.iter_mut().zip(kept) {
+            stage.step = step;
+            stage.x = x;
+            stage.past = past;
+            stage.known = known;
+            stage.last_size = last_size;
+        }
+        self.t = t + size;
+        verdict
     }
 
     /// Substep `i` at a size other than its regular one, solved with the stage's auxiliary Newton
@@ -2111,6 +2194,10 @@ fn stage_solver(choice: SolverChoice, constant_jacobian: bool) -> SolverChoice {
         other => other,
     }
 }
+
+/// Grid steps after the start or a source corner within which a substep that the truncation
+/// test passes narrowly is judged again by step doubling ([`History::judge`]).
+const YOUNG_STEPS: f64 = 2.0;
 
 /// The state before an attempt of [`Integrator::advance`], to put back if the attempt fails or
 /// is rejected.
