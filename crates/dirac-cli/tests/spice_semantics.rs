@@ -1569,25 +1569,63 @@ fn measures_are_their_closed_forms_and_failed_ones_do_not_fail_the_run() {
     assert!(stderr.contains("tdelay              =  6.93"), "{stderr}");
     // The corners are on the step grid: no measure reads across one.
     assert!(!stderr.contains("reads across a source corner"), "{stderr}");
-    // A 1 µs edge inside a 10 µs step is read as a ramp over the step (docs/audit.md item 51):
-    // the trigger time is 1.005 ms for 1.0005 ms, and the run says so, naming the corner.
+    // A 1 µs edge inside a 10 µs step: the state at its corner (1.001 ms), where the step's
+    // substeps land, is a sample of the measures, so the crossing of 0.5 V is at 1.0005 ms as
+    // on the source (it read 1.005 ms across the step before: docs/audit.md item 51).
     let off_grid = deck(
         "rc_meas_off_grid.cir",
         "rc meas\nV1 in 0 PULSE(0 1 1m 1u 1u 5m 10m)\nR1 in out 1k\nC1 out 0 1u\n\
-         .tran 10u 10m\n.meas tran trig WHEN v(in)=0.5\n.meas tran vat FIND v(out) AT=3m\n.end\n",
+         .tran 10u 10m\n.meas tran trig WHEN v(in)=0.5\n.meas tran vat FIND v(out) AT=3m\n\
+         .meas tran tdelay TRIG v(in) VAL=0.5 TARG v(out) VAL=0.5\n.end\n",
     );
     let out = dirac(&["run", off_grid.to_str().unwrap(), "--signals", "v(out)"]);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(
-        stderr.contains("trig                =  1.005000e-3"),
+        stderr.contains("trig                =  1.000500e-3"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("reads across"), "{stderr}");
+    // The delay to v(out) = 0.5 after a 1 µs ramp: τ ln(2A) − Tr/2 as above, with Tr = 1 µs
+    // (the step's own error, O(h²), is about 6e-9 s here).
+    let a = tau / 1e-6 * ((1e-6 / tau).exp() - 1.0);
+    let delay = tau * (2.0 * a).ln() - 0.5e-6;
+    let line = stderr
+        .lines()
+        .find(|l| l.starts_with("tdelay"))
+        .expect("tdelay");
+    let measured: f64 = line
+        .split('=')
+        .nth(1)
+        .expect("value")
+        .trim()
+        .parse()
+        .expect("number");
+    assert!(
+        (measured - delay).abs() < 2e-8,
+        "{measured} against {delay}"
+    );
+    // A value the state at the corner does not determine (the current of a capacitor straight
+    // across the source: index 2, read from the steps) is still read across the corner, and
+    // the measure reading it says so; the one reading v(in) alone does not.
+    let index_two = deck(
+        "rc_meas_index_two.cir",
+        "rc meas\nV1 in 0 PULSE(0 1 1m 1u 1u 5m 10m)\nC2 in 0 1u\nR1 in out 1k\nC1 out 0 1u\n\
+         .tran 10u 10m\n.meas tran trig WHEN v(in)=0.5\n\
+         .meas tran qin INTEG i(v1) FROM=0.5m TO=3m\n.end\n",
+    );
+    let out = dirac(&["run", index_two.to_str().unwrap(), "--signals", "v(out)"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("trig                =  1.000500e-3"),
         "{stderr}"
     );
     assert!(
-        stderr.contains("`.meas trig` reads across a source corner inside a step (t = 1.001e-3)"),
+        stderr.contains("`.meas qin` reads across a source corner inside a step (t = 1.001e-3)"),
         "{stderr}"
     );
-    assert!(!stderr.contains("`.meas vat` reads across"), "{stderr}");
+    assert!(!stderr.contains("`.meas trig` reads across"), "{stderr}");
 }
 
 #[test]

@@ -354,6 +354,20 @@ pub struct Integrator<M, C> {
     free_momenta: Vec<(usize, f64)>,
     /// Accepted points of the judged components (with [`IntegratorOptions::truncation`]).
     history: Option<History>,
+    /// The states at the source breakpoints inside the last step, when asked for (see
+    /// [`Integrator::record_corner_states`]).
+    corner_states: Option<Vec<CornerState>>,
+}
+
+/// The state `(t, q, p)` at a source breakpoint inside a step, which the step's substeps land on.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CornerState {
+    /// The breakpoint's time.
+    pub t: f64,
+    /// Positions there.
+    pub q: Vec<f64>,
+    /// Momenta there.
+    pub p: Vec<f64>,
 }
 
 /// How often steps were split: at source breakpoints and after Newton failures.
@@ -777,6 +791,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             saved_q: vec![0.0; n],
             saved_p: vec![0.0; n],
             saved_impulse: Vec::new(),
+            corner_states: None,
             counters: StepCounters::default(),
             free_momenta: Vec::new(),
             history: None,
@@ -1000,6 +1015,9 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     }
 
     fn step_unflushed(&mut self) -> Result<StepReport, SimError> {
+        if let Some(states) = &mut self.corner_states {
+            states.clear();
+        }
         if matches!(self.affine, Affine::Unknown) {
             self.affine = self.build_affine()?;
         }
@@ -1117,6 +1135,13 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             let Some(b) = stop else { break };
             self.counters.breakpoint_substeps += 1;
             self.t = b;
+            if let Some(states) = &mut self.corner_states {
+                states.push(CornerState {
+                    t: b,
+                    q: self.q.clone(),
+                    p: self.p.clone(),
+                });
+            }
             after_corner = true;
             // A source's derivative jumps here: differences across it are no estimate.
             if let Some(history) = &mut self.history {
@@ -2033,6 +2058,22 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     #[must_use]
     pub fn steps_taken(&self) -> usize {
         self.k
+    }
+
+    /// Whether each step keeps its states at the source breakpoints inside it (off by default):
+    /// a signal read there is a sample of the motion that the states at `t_k` miss (a `.meas`
+    /// trigger on an edge inside a step).
+    pub fn record_corner_states(&mut self, on: bool) {
+        self.corner_states = on.then(Vec::new);
+    }
+
+    /// The states at the source breakpoints inside the last step, in time order, when
+    /// [`Integrator::record_corner_states`] is on (empty otherwise); taken, not copied.
+    pub fn take_corner_states(&mut self) -> Vec<CornerState> {
+        self.corner_states
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
     }
 
     /// Newton counters accumulated since construction.

@@ -28,7 +28,8 @@ pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
 pub use error::{SimError, Time};
 pub use integrator::{
-    Integrator, IntegratorOptions, Predictor, Scheme, StartRamp, StepCounters, StepReport,
+    CornerState, Integrator, IntegratorOptions, Predictor, Scheme, StartRamp, StepCounters,
+    StepReport,
 };
 pub use linear::{AutoLu, SolverChoice};
 pub use modes::{

@@ -18,7 +18,7 @@ use dirac_graph::{
 use thiserror::Error;
 
 use crate::error::SimError;
-use crate::integrator::{Integrator, IntegratorOptions};
+use crate::integrator::{CornerState, Integrator, IntegratorOptions};
 use crate::modes::{MODAL_LIMIT, MethodResponse, ModesError, NaturalModes};
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -519,6 +519,7 @@ impl Simulation {
             system,
             integrator,
             readout: None,
+            corner_readout: None,
             plan: None,
             replay_start_solve: false,
             memo: self.graph.memo().clone(),
@@ -1032,6 +1033,12 @@ impl Simulation {
         // Rows with values from the steps, in order, waiting for the steps' means they need.
         let mut pending: VecDeque<(usize, Snapshot, Vec<Entry>)> = VecDeque::new();
         let mut snapshot = Snapshot::default();
+        let corner_samples =
+            sink.wants_samples() && matches!(self.engine, Some(Engine::Assembled(_)));
+        if let Some(Engine::Assembled(e)) = &mut self.engine {
+            e.integrator.record_corner_states(corner_samples);
+        }
+        let mut corner = CornerSamples::default();
         for k in 0..=steps {
             self.snapshot_into(&mut snapshot, fill, &mut imprecise)
                 .map_err(|e| match e {
@@ -1062,6 +1069,9 @@ impl Simulation {
                     &mut before,
                     &mut means,
                 )?);
+                if corner_samples {
+                    self.sample_corners(signals, &per_signal, &deferred, fill, &mut corner, sink)?;
+                }
             }
             while let Some((row, _, entries)) = pending.front() {
                 if !means.can_complete(*row, entries) || compare && !Agreement::ready(*row, &means)
@@ -1088,6 +1098,50 @@ impl Simulation {
         summary.max_constraint_residual = self.track_residual.then_some(max_residual);
         summary.wall_s = started.elapsed().as_secs_f64();
         Ok(summary)
+    }
+
+    /// Passes `sink` the signals at the source corners inside the step just taken
+    /// ([`Sink::sample`]): `NaN` for a signal that reads a value the state there does not
+    /// determine (one the rows read from the steps), and nothing for a corner whose readout
+    /// fails (the rows are the run's result; a sample is an extra).
+    fn sample_corners(
+        &mut self,
+        signals: &[Signal],
+        per_signal: &[Vec<Entry>],
+        deferred: &[Entry],
+        fill: Fill,
+        buffers: &mut CornerSamples,
+        sink: &mut dyn Sink,
+    ) -> Result<(), RunError> {
+        let connections = self.graph.connections().len();
+        let Some(Engine::Assembled(e)) = &mut self.engine else {
+            return Ok(());
+        };
+        for state in e.integrator.take_corner_states() {
+            let CornerSamples {
+                snapshot,
+                imprecise,
+                values,
+            } = &mut *buffers;
+            if e.snapshot_at(&state, snapshot, connections, fill, imprecise)
+                .is_err()
+            {
+                continue;
+            }
+            values.clear();
+            for (signal, entries) in signals.iter().zip(per_signal) {
+                let undetermined = entries
+                    .iter()
+                    .any(|entry| deferred.contains(entry) || imprecise.contains(entry));
+                values.push(if undetermined {
+                    f64::NAN
+                } else {
+                    snapshot.evaluate(&self.graph, &self.offsets, &signal.probe)
+                });
+            }
+            sink.sample(state.t, values).map_err(RunError::Output)?;
+        }
+        Ok(())
     }
 
     fn emit(
@@ -2031,6 +2085,10 @@ struct AssembledEngine {
     /// The readout, built when first needed (a signal that reads a rate or a multiplier, the
     /// natural modes, or a start to check).
     readout: Option<Readout>,
+    /// A second readout for the states at source corners inside steps (see
+    /// [`Sink::sample`]), so that reading them leaves the rows' readout, its guess and its
+    /// factorisation as they were: the rows are the same with samples or without.
+    corner_readout: Option<Readout>,
     /// Its structural analysis, when asked for before the readout itself.
     plan: Option<Arc<ReadoutPlan>>,
     /// The start state the readout's buffers are stamped at (as the eager set-up did).
@@ -2155,9 +2213,122 @@ impl AssembledEngine {
     }
 }
 
+/// Buffers of [`Simulation::sample_corners`], kept over a run.
+#[derive(Default)]
+struct CornerSamples {
+    snapshot: Snapshot,
+    imprecise: Vec<Entry>,
+    values: Vec<f64>,
+}
+
 struct StaggeredEngine {
     staggered: Staggered,
     readouts: Vec<Readout>,
+}
+
+impl AssembledEngine {
+    /// Fills `out` with the state `at` (positions, momenta as `fill` asks, the readout's
+    /// velocities and multipliers) through the corner readout; `imprecise` receives the entries
+    /// it did not determine to [`crate::READOUT_PRECISION`].
+    fn snapshot_at(
+        &mut self,
+        at: &CornerState,
+        out: &mut Snapshot,
+        connections: usize,
+        fill: Fill,
+        imprecise: &mut Vec<Entry>,
+    ) -> Result<(), RunError> {
+        if !fill.readout {
+            imprecise.clear();
+            out.efforts.resize(connections, None);
+            let state = (&at.q[..], &at.p[..], at.t);
+            Self::fill_snapshot(out, &self.system, None, &[], state, fill, imprecise);
+            return Ok(());
+        }
+        if self.corner_readout.is_none() {
+            let plan = self.plan();
+            self.corner_readout = Some(Readout::with_plan(
+                plan,
+                self.integrator.model(),
+                self.integrator.active_constraints(),
+                &self.start_q,
+                &self.start_v,
+                self.t0,
+            ));
+        }
+        let (Some(readout), integrator) = (self.corner_readout.as_mut(), &self.integrator) else {
+            return Err(RunError::Settings("readout not built".into()));
+        };
+        readout.solve(
+            integrator.model(),
+            integrator.active_constraints(),
+            &at.q,
+            &at.p,
+            at.t,
+        )?;
+        imprecise.clear();
+        out.efforts.resize(connections, None);
+        Self::fill_snapshot(
+            out,
+            &self.system,
+            Some(readout),
+            &self.connection_rows,
+            (&at.q, &at.p, at.t),
+            fill,
+            imprecise,
+        );
+        Ok(())
+    }
+
+    /// Writes the state `(q, p, t)` into `out`: the parts' positions, their momenta as `fill`
+    /// asks, and from `readout` (solved at that state, when given) the velocities, the
+    /// positions' shifts and the connections' efforts, with the entries it did not determine
+    /// precisely added to `imprecise` (`out.efforts` sized to the connections by the caller).
+    fn fill_snapshot(
+        out: &mut Snapshot,
+        system: &AssembledSystem,
+        readout: Option<&Readout>,
+        connection_rows: &[Option<usize>],
+        (q, p, t): (&[f64], &[f64], f64),
+        fill: Fill,
+        imprecise: &mut Vec<Entry>,
+    ) {
+        let parts = system.subsystem_coordinates();
+        out.t = t;
+        out.q.clear();
+        out.q.extend_from_slice(&q[..parts]);
+        if fill.momenta {
+            out.p = system.subsystem_momenta(p);
+        }
+        out.v.resize(parts, 0.0);
+        let Some(readout) = readout else {
+            return;
+        };
+        out.v.copy_from_slice(&readout.velocities()[..parts]);
+        for (i, shift) in readout.position_shifts() {
+            if i < parts {
+                out.q[i] += shift;
+            }
+        }
+        let lambda = readout.multipliers();
+        for (effort, row) in out.efforts.iter_mut().zip(connection_rows) {
+            *effort = row.map(|r| lambda[r]);
+        }
+        if readout.plan().judges_precision() {
+            imprecise.extend(
+                (0..parts)
+                    .filter(|&i| !readout.velocity_precise(i))
+                    .map(Entry::Velocity),
+            );
+            imprecise.extend(
+                connection_rows
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, row)| row.is_some_and(|r| !readout.multiplier_precise(r)))
+                    .map(|(c, _)| Entry::Effort(c)),
+            );
+        }
+    }
 }
 
 impl Engine {
@@ -2181,14 +2352,6 @@ impl Engine {
         out.efforts.resize(connections, None);
         match self {
             Self::Assembled(e) => {
-                let parts = e.system.subsystem_coordinates();
-                out.t = e.integrator.t();
-                out.q.clear();
-                out.q.extend_from_slice(&e.integrator.q()[..parts]);
-                if fill.momenta {
-                    out.p = e.system.subsystem_momenta(e.integrator.p());
-                }
-                out.v.resize(parts, 0.0);
                 if fill.readout {
                     e.readout()?;
                     let (integrator, Some(readout)) = (&e.integrator, e.readout.as_mut()) else {
@@ -2201,33 +2364,17 @@ impl Engine {
                         integrator.p(),
                         integrator.t(),
                     )?;
-                    out.v.copy_from_slice(&readout.velocities()[..parts]);
-                    for (i, shift) in readout.position_shifts() {
-                        if i < parts {
-                            out.q[i] += shift;
-                        }
-                    }
-                    let lambda = readout.multipliers();
-                    for (effort, row) in out.efforts.iter_mut().zip(&e.connection_rows) {
-                        *effort = row.map(|r| lambda[r]);
-                    }
-                    if readout.plan().judges_precision() {
-                        imprecise.extend(
-                            (0..parts)
-                                .filter(|&i| !readout.velocity_precise(i))
-                                .map(Entry::Velocity),
-                        );
-                        imprecise.extend(
-                            e.connection_rows
-                                .iter()
-                                .enumerate()
-                                .filter(|(_, row)| {
-                                    row.is_some_and(|r| !readout.multiplier_precise(r))
-                                })
-                                .map(|(c, _)| Entry::Effort(c)),
-                        );
-                    }
                 }
+                let integrator = &e.integrator;
+                AssembledEngine::fill_snapshot(
+                    out,
+                    &e.system,
+                    e.readout.as_ref().filter(|_| fill.readout),
+                    &e.connection_rows,
+                    (integrator.q(), integrator.p(), integrator.t()),
+                    fill,
+                    imprecise,
+                );
                 Ok(())
             }
             Self::Staggered(e) => {

@@ -14,6 +14,24 @@ pub trait Sink {
     /// # Errors
     /// A message when the destination cannot take the row (the run stops with it).
     fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String>;
+
+    /// Whether the sink takes [`Sink::sample`]s (no by default: a run then reads nothing at
+    /// the corners).
+    fn wants_samples(&self) -> bool {
+        false
+    }
+
+    /// The signals at a source breakpoint inside a step (a time `t` between two rows, which
+    /// the rows miss), in no order relative to the rows; `NaN` where the state there does not
+    /// determine a value (one the rows read from the steps around them). Only called when
+    /// [`Sink::wants_samples`] says so.
+    ///
+    /// # Errors
+    /// A message when the destination cannot take the sample (the run stops with it).
+    fn sample(&mut self, t: f64, values: &[f64]) -> Result<(), String> {
+        let _ = (t, values);
+        Ok(())
+    }
 }
 
 /// Every row of a run in memory: times and named columns.

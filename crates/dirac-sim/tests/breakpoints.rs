@@ -127,3 +127,102 @@ fn representations_agree_across_corners() {
         assert!(worst <= 1e-13, "{representation}: {worst:e}");
     }
 }
+
+/// A sink that keeps rows and, when asked to, the samples at corners inside steps.
+#[derive(Default)]
+struct Recorder {
+    wants: bool,
+    rows: Vec<(f64, Vec<f64>)>,
+    samples: Vec<(f64, Vec<f64>)>,
+}
+
+impl dirac_sim::Sink for Recorder {
+    fn begin(&mut self, _names: &[String]) -> Result<(), String> {
+        Ok(())
+    }
+
+    fn row(&mut self, _k: usize, t: f64, values: &[f64]) -> Result<(), String> {
+        self.rows.push((t, values.to_vec()));
+        Ok(())
+    }
+
+    fn wants_samples(&self) -> bool {
+        self.wants
+    }
+
+    fn sample(&mut self, t: f64, values: &[f64]) -> Result<(), String> {
+        self.samples.push((t, values.to_vec()));
+        Ok(())
+    }
+}
+
+/// The states the steps land on at corners inside them reach a sink that asks for them
+/// (`Sink::sample`): one sample per corner strictly inside a step, at the corner's time, with
+/// the charge of the hand recursion of `pieces_are_midpoint_steps_of_their_own_size` there and
+/// the source's own value on its node; the rows are the same with samples or without.
+#[test]
+fn corner_states_inside_steps_are_samples_and_leave_the_rows_alone() {
+    let (r, c, h) = (1.0, 1.0, 0.1);
+    let points = vec![
+        (0.0, 0.0),
+        (0.025, 1.0),
+        (0.26, 1.0),
+        (0.33, -0.5),
+        (1.0, 0.3),
+    ];
+    let wave = Waveform::pwl(points.clone());
+    let (g, mut signals) = common::source_rc(wave.clone(), r, c);
+    signals.push(Signal::new("v(in)", Probe::effort(&g, "in").unwrap()));
+    let run = |wants: bool| {
+        let mut sim = Simulation::new(
+            g.clone(),
+            Execution::Assembled(Representation::Monolithic),
+            IntegratorOptions::new(Discretisation::midpoint(), h),
+        );
+        let mut sink = Recorder {
+            wants,
+            ..Recorder::default()
+        };
+        sim.run_into(1.0, &signals, &mut sink).unwrap();
+        sink
+    };
+    let sampled = run(true);
+    let plain = run(false);
+    assert_eq!(sampled.rows, plain.rows);
+    assert!(plain.samples.is_empty());
+    // The hand recursion, keeping the charge at each corner inside a step.
+    let mut q = 0.0;
+    let mut at_corners = Vec::new();
+    for k in 0..10 {
+        let (t0, t1) = (k as f64 * h, (k + 1) as f64 * h);
+        let cuts: Vec<f64> = points
+            .iter()
+            .map(|p| p.0)
+            .filter(|&b| b > t0 + 1e-12 && b < t1 - 1e-12)
+            .collect();
+        let mut t = t0;
+        for end in cuts.iter().copied().chain(std::iter::once(t1)) {
+            let d = end - t;
+            let a = d / (2.0 * r * c);
+            q = (q * (1.0 - a) + d * wave.value(t + 0.5 * d) / r) / (1.0 + a);
+            t = end;
+            if cuts.contains(&end) {
+                at_corners.push((end, q));
+            }
+        }
+    }
+    assert_eq!(sampled.samples.len(), 3, "{:?}", sampled.samples);
+    for ((t, values), (corner, charge)) in sampled.samples.iter().zip(&at_corners) {
+        assert_eq!(t, corner);
+        assert!(
+            (values[0] - charge).abs() <= 1e-15,
+            "{t}: {} against {charge}",
+            values[0]
+        );
+        assert!(
+            (values[1] - wave.value(*t)).abs() <= 1e-15,
+            "{t}: {}",
+            values[1]
+        );
+    }
+}

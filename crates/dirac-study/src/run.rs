@@ -176,6 +176,7 @@ impl Prepared {
             watch,
         };
         let summary = self.simulation.run_into(self.t_end, &all, &mut skip)?;
+        samples.merge_corner_samples();
         let corners = samples.corners_between_samples(&self.simulation);
         self.measurements = self
             .measures
@@ -234,14 +235,19 @@ impl Measurement {
     }
 }
 
-/// Every step's time and the values the measures read, from the first output time on (nothing
-/// is kept without measures).
+/// Every step's time and the values the measures read, from the first output time on, and the
+/// same at the source corners inside steps (nothing is kept without measures).
 struct Samples {
     /// The signals the measures read, and where each sits in a recorded row.
     names: Vec<String>,
     read: Vec<usize>,
     t: Vec<f64>,
     columns: Vec<Vec<f64>>,
+    /// `(t, values read)` at the corners inside steps, in the order they came.
+    corners: Vec<(f64, Vec<f64>)>,
+    /// Corner samples where a column's value was not determined by the state there and was
+    /// interpolated between the steps around it: `(t, column)`.
+    filled: Vec<(f64, usize)>,
 }
 
 impl Samples {
@@ -262,6 +268,54 @@ impl Samples {
             names,
             read,
             t: Vec::new(),
+            corners: Vec::new(),
+            filled: Vec::new(),
+        }
+    }
+
+    /// Puts the corner samples strictly between the first and the last step time among the
+    /// steps' in time order. A value the state at a corner does not determine (`NaN`: one the
+    /// rows read from the steps) is interpolated between the steps around it, as before, and
+    /// kept in `filled`, so that a measure reading it there still warns of the corner.
+    fn merge_corner_samples(&mut self) {
+        let (Some(&first), Some(&last)) = (self.t.first(), self.t.last()) else {
+            return;
+        };
+        let mut corners: Vec<_> = std::mem::take(&mut self.corners)
+            .into_iter()
+            .filter(|(t, _)| *t > first && *t < last)
+            .collect();
+        if corners.is_empty() {
+            return;
+        }
+        corners.sort_by(|a, b| a.0.total_cmp(&b.0));
+        // One merge pass over the steps' samples (a pulse train has a corner in many steps).
+        let steps = std::mem::take(&mut self.t);
+        let columns = std::mem::take(&mut self.columns);
+        self.t = Vec::with_capacity(steps.len() + corners.len());
+        self.columns = vec![Vec::with_capacity(steps.len() + corners.len()); columns.len()];
+        let mut next = corners.into_iter().peekable();
+        for (i, &t) in steps.iter().enumerate() {
+            while let Some((tc, values)) = next.next_if(|(tc, _)| *tc <= t) {
+                if tc < t {
+                    self.t.push(tc);
+                    // Between steps i − 1 and i (the first step is before every corner kept).
+                    let w = (tc - steps[i - 1]) / (t - steps[i - 1]);
+                    for (j, (column, value)) in self.columns.iter_mut().zip(values).enumerate() {
+                        if value.is_finite() {
+                            column.push(value);
+                        } else {
+                            let (a, b) = (columns[j][i - 1], columns[j][i]);
+                            column.push(a + w * (b - a));
+                            self.filled.push((tc, j));
+                        }
+                    }
+                }
+            }
+            self.t.push(t);
+            for (column, step_column) in self.columns.iter_mut().zip(&columns) {
+                column.push(step_column[i]);
+            }
         }
     }
 
@@ -303,15 +357,26 @@ impl Samples {
         out
     }
 
-    /// The first of `corners` inside a stretch `measure` reads between two samples.
+    /// The first of `corners` inside a stretch `measure` reads between two samples, or a
+    /// corner sample at a stretch's end where a value it reads was interpolated.
     fn corner_read(&self, measure: &Measure, corners: &[f64]) -> Option<f64> {
-        if corners.is_empty() {
+        let signals = measure.signals();
+        let filled: Vec<f64> = self
+            .filled
+            .iter()
+            .filter(|(_, j)| signals.contains(&self.names[*j]))
+            .map(|&(t, _)| t)
+            .collect();
+        if corners.is_empty() && filled.is_empty() {
             return None;
         }
         measure
             .stretches(&self.t, &|name| self.column(name))
             .into_iter()
-            .find_map(|(a, b)| corners.iter().copied().find(|&c| c > a && c < b))
+            .find_map(|(a, b)| {
+                let inside = corners.iter().copied().find(|&c| c > a && c < b);
+                inside.or_else(|| filled.iter().copied().find(|&c| c >= a && c <= b))
+            })
     }
 }
 
@@ -355,6 +420,18 @@ impl Sink for FromTime<'_> {
         }
         let j = k / self.every;
         self.inner.row(j, j as f64 * self.spacing, values)
+    }
+
+    fn wants_samples(&self) -> bool {
+        !self.samples.read.is_empty()
+    }
+
+    fn sample(&mut self, t: f64, values: &[f64]) -> Result<(), String> {
+        if t >= self.first * (1.0 - 1e-12) {
+            let read = self.samples.read.iter().map(|&i| values[i]).collect();
+            self.samples.corners.push((t, read));
+        }
+        Ok(())
     }
 }
 
