@@ -454,12 +454,20 @@ fn statistic_over(
         Statistic::Pp => ys[max] - ys[min],
         Statistic::Integ => integral(&xs, &ys),
         Statistic::Avg if span > 0.0 => integral(&xs, &ys) / span,
-        Statistic::Rms if span > 0.0 => {
-            let squares: Vec<f64> = ys.iter().map(|v| v * v).collect();
-            (integral(&xs, &squares) / span).sqrt()
-        }
+        Statistic::Rms if span > 0.0 => (integral_of_square(&xs, &ys) / span).sqrt(),
         Statistic::Avg | Statistic::Rms => return None,
     })
+}
+
+/// The integral of the square of the samples' linear interpolant (the curve every other measure
+/// reads): `Δt·(a² + ab + b²)/3` per interval. The trapezoid rule on the squares, which this
+/// replaced, put a 1 V → 0 ramp between two samples at an RMS of `√½` for its `√⅓` (22 % off; a
+/// pulse's edge between two corner samples).
+fn integral_of_square(x: &[f64], y: &[f64]) -> f64 {
+    x.windows(2)
+        .zip(y.windows(2))
+        .map(|(x, y)| (x[1] - x[0]) * (y[0] * y[0] + y[0] * y[1] + y[1] * y[1]) / 3.0)
+        .sum()
 }
 
 /// The trapezoid rule: the integral of the samples' linear interpolant, the curve every other
@@ -574,6 +582,25 @@ mod tests {
     }
 
     #[test]
+    fn the_rms_of_a_ramp_between_two_samples_is_its_own() {
+        // 1 → 0 over [0, 1], sampled at its ends only: the ramp's RMS is 1/√3; over a window
+        // [0.25, 1] inside it, √(∫ (1 − t)² / 0.75) = √(0.75²/3/0.75) = √0.1875.
+        let (t, y) = ([0.0, 1.0], [1.0, 0.0]);
+        let rms = |from, to| {
+            measure(MeasureKind::Statistic {
+                statistic: Statistic::Rms,
+                signal: "s".into(),
+                from,
+                to,
+            })
+            .evaluate(&t, &|_: &str| -> &[f64] { &y })
+            .expect("a window")
+        };
+        assert!((rms(None, None) - (1.0f64 / 3.0).sqrt()).abs() < 1e-15);
+        assert!((rms(Some(0.25), None) - 0.1875f64.sqrt()).abs() < 1e-15);
+    }
+
+    #[test]
     fn statistics_of_a_sine_are_their_closed_forms() {
         let (t, s, _) = sine(3000);
         let stat = |statistic, from, to| {
@@ -587,11 +614,14 @@ mod tests {
             .expect("a window")
         };
         let close = |a: f64, b: f64, tol: f64| (a - b).abs() < tol;
-        // Over one period: mean 0, RMS 1/√2, peak to peak 2 (samples hit ±1 at n = 3000).
+        // Over one period: mean 0, RMS 1/√2, peak to peak 2 (samples hit ±1 at n = 3000). The
+        // RMS is that of the samples' linear interpolant: its mean square over a period is
+        // (2 + cos δ)/6 for samples δ = 2π/3000 apart, 1/2 − δ²/12 (1.8e-7 of 1/√2 below).
         assert!(close(stat(Statistic::Avg, None, None), 0.0, 1e-12));
+        let delta = std::f64::consts::TAU / 3000.0;
         assert!(close(
             stat(Statistic::Rms, None, None),
-            0.5f64.sqrt(),
+            ((2.0 + delta.cos()) / 6.0).sqrt(),
             1e-12
         ));
         assert!(close(stat(Statistic::Pp, None, None), 2.0, 1e-12));
