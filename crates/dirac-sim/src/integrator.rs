@@ -354,15 +354,16 @@ pub struct Integrator<M, C> {
     free_momenta: Vec<(usize, f64)>,
     /// Accepted points of the judged components (with [`IntegratorOptions::truncation`]).
     history: Option<History>,
-    /// The states at the source breakpoints inside the last step, when asked for (see
-    /// [`Integrator::record_corner_states`]).
-    corner_states: Option<Vec<CornerState>>,
+    /// The states at the ends of the substeps inside the last step, when asked for (see
+    /// [`Integrator::record_inner_states`]).
+    inner_states: Option<Vec<InnerState>>,
 }
 
-/// The state `(t, q, p)` at a source breakpoint inside a step, which the step's substeps land on.
+/// The state `(t, q, p)` at the end of a substep inside a step: a source breakpoint the substeps
+/// land on, a piece of a step the truncation-error control refined, a ramp's substep.
 #[derive(Debug, Clone, PartialEq)]
-pub struct CornerState {
-    /// The breakpoint's time.
+pub struct InnerState {
+    /// Its time, strictly between two grid points.
     pub t: f64,
     /// Positions there.
     pub q: Vec<f64>,
@@ -791,7 +792,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             saved_q: vec![0.0; n],
             saved_p: vec![0.0; n],
             saved_impulse: Vec::new(),
-            corner_states: None,
+            inner_states: None,
             counters: StepCounters::default(),
             free_momenta: Vec::new(),
             history: None,
@@ -1015,7 +1016,7 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
     }
 
     fn step_unflushed(&mut self) -> Result<StepReport, SimError> {
-        if let Some(states) = &mut self.corner_states {
+        if let Some(states) = &mut self.inner_states {
             states.clear();
         }
         if matches!(self.affine, Affine::Unknown) {
@@ -1135,13 +1136,6 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
             let Some(b) = stop else { break };
             self.counters.breakpoint_substeps += 1;
             self.t = b;
-            if let Some(states) = &mut self.corner_states {
-                states.push(CornerState {
-                    t: b,
-                    q: self.q.clone(),
-                    p: self.p.clone(),
-                });
-            }
             after_corner = true;
             // A source's derivative jumps here: differences across it are no estimate.
             if let Some(history) = &mut self.history {
@@ -1336,6 +1330,16 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.counters.substeps += 1;
         if let Some(history) = &mut self.history {
             history.push(t + size, &self.q, &self.p);
+        }
+        let step_end = self.t0 + (self.k + 1) as f64 * self.options.h;
+        if let Some(states) = &mut self.inner_states
+            && t + size < step_end - BREAKPOINT_SNAP * self.options.h
+        {
+            states.push(InnerState {
+                t: t + size,
+                q: self.q.clone(),
+                p: self.p.clone(),
+            });
         }
         Ok(stats)
     }
@@ -2060,17 +2064,18 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.k
     }
 
-    /// Whether each step keeps its states at the source breakpoints inside it (off by default):
-    /// a signal read there is a sample of the motion that the states at `t_k` miss (a `.meas`
-    /// trigger on an edge inside a step).
-    pub fn record_corner_states(&mut self, on: bool) {
-        self.corner_states = on.then(Vec::new);
+    /// Whether each step keeps the states at the ends of its substeps inside it ([`InnerState`];
+    /// off by default): a signal read there is a sample of the motion that the states at `t_k`
+    /// miss (a `.meas` trigger on an edge inside a step, a diode's recovery spike that the
+    /// truncation-error control resolved in pieces).
+    pub fn record_inner_states(&mut self, on: bool) {
+        self.inner_states = on.then(Vec::new);
     }
 
-    /// The states at the source breakpoints inside the last step, in time order, when
-    /// [`Integrator::record_corner_states`] is on (empty otherwise); taken, not copied.
-    pub fn take_corner_states(&mut self) -> Vec<CornerState> {
-        self.corner_states
+    /// The states at the ends of the substeps inside the last step, in time order, when
+    /// [`Integrator::record_inner_states`] is on (empty otherwise); taken, not copied.
+    pub fn take_inner_states(&mut self) -> Vec<InnerState> {
+        self.inner_states
             .as_mut()
             .map(std::mem::take)
             .unwrap_or_default()

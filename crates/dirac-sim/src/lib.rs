@@ -28,7 +28,7 @@ pub use composition::{Composition, CompositionError};
 pub use dirac_core::{Discretisation, Flavour};
 pub use error::{SimError, Time};
 pub use integrator::{
-    CornerState, Integrator, IntegratorOptions, Predictor, Scheme, StartRamp, StepCounters,
+    InnerState, Integrator, IntegratorOptions, Predictor, Scheme, StartRamp, StepCounters,
     StepReport,
 };
 pub use linear::{AutoLu, SolverChoice};

@@ -18,7 +18,7 @@ use dirac_graph::{
 use thiserror::Error;
 
 use crate::error::SimError;
-use crate::integrator::{CornerState, Integrator, IntegratorOptions};
+use crate::integrator::{InnerState, Integrator, IntegratorOptions};
 use crate::modes::{MODAL_LIMIT, MethodResponse, ModesError, NaturalModes};
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -519,7 +519,7 @@ impl Simulation {
             system,
             integrator,
             readout: None,
-            corner_readout: None,
+            inner_readout: None,
             plan: None,
             replay_start_solve: false,
             memo: self.graph.memo().clone(),
@@ -536,14 +536,7 @@ impl Simulation {
             if let Some(plan) = plan {
                 let given = self.given_global(&engine.system);
                 let e = &mut engine;
-                let readout = e.readout.insert(Readout::with_plan(
-                    plan,
-                    e.integrator.model(),
-                    e.integrator.active_constraints(),
-                    &e.start_q,
-                    &e.start_v,
-                    e.t0,
-                ));
+                let readout = e.readout.insert(e.fresh_readout(plan));
                 self.make_consistent(&mut e.integrator, readout, &mut q, &mut v, &given)?;
             } else {
                 engine.replay_start_solve = true;
@@ -1033,12 +1026,12 @@ impl Simulation {
         // Rows with values from the steps, in order, waiting for the steps' means they need.
         let mut pending: VecDeque<(usize, Snapshot, Vec<Entry>)> = VecDeque::new();
         let mut snapshot = Snapshot::default();
-        let corner_samples =
+        let inner_samples =
             sink.wants_samples() && matches!(self.engine, Some(Engine::Assembled(_)));
         if let Some(Engine::Assembled(e)) = &mut self.engine {
-            e.integrator.record_corner_states(corner_samples);
+            e.integrator.record_inner_states(inner_samples);
         }
-        let mut corner = CornerSamples::default();
+        let mut inner = InnerSamples::default();
         for k in 0..=steps {
             self.snapshot_into(&mut snapshot, fill, &mut imprecise)
                 .map_err(|e| match e {
@@ -1069,8 +1062,15 @@ impl Simulation {
                     &mut before,
                     &mut means,
                 )?);
-                if corner_samples {
-                    self.sample_corners(signals, &per_signal, &deferred, fill, &mut corner, sink)?;
+                if inner_samples {
+                    self.sample_inner_states(
+                        signals,
+                        &per_signal,
+                        &deferred,
+                        fill,
+                        &mut inner,
+                        sink,
+                    )?;
                 }
             }
             while let Some((row, _, entries)) = pending.front() {
@@ -1100,25 +1100,25 @@ impl Simulation {
         Ok(summary)
     }
 
-    /// Passes `sink` the signals at the source corners inside the step just taken
+    /// Passes `sink` the signals at the ends of the substeps inside the step just taken
     /// ([`Sink::sample`]): `NaN` for a signal that reads a value the state there does not
-    /// determine (one the rows read from the steps), and nothing for a corner whose readout
+    /// determine (one the rows read from the steps), and nothing for a state whose readout
     /// fails (the rows are the run's result; a sample is an extra).
-    fn sample_corners(
+    fn sample_inner_states(
         &mut self,
         signals: &[Signal],
         per_signal: &[Vec<Entry>],
         deferred: &[Entry],
         fill: Fill,
-        buffers: &mut CornerSamples,
+        buffers: &mut InnerSamples,
         sink: &mut dyn Sink,
     ) -> Result<(), RunError> {
         let connections = self.graph.connections().len();
         let Some(Engine::Assembled(e)) = &mut self.engine else {
             return Ok(());
         };
-        for state in e.integrator.take_corner_states() {
-            let CornerSamples {
+        for state in e.integrator.take_inner_states() {
+            let InnerSamples {
                 snapshot,
                 imprecise,
                 values,
@@ -2085,10 +2085,9 @@ struct AssembledEngine {
     /// The readout, built when first needed (a signal that reads a rate or a multiplier, the
     /// natural modes, or a start to check).
     readout: Option<Readout>,
-    /// A second readout for the states at source corners inside steps (see
-    /// [`Sink::sample`]), so that reading them leaves the rows' readout, its guess and its
+    /// A second readout for the states inside steps (see [`Sink::sample`]), so that reading them leaves the rows' readout, its guess and its
     /// factorisation as they were: the rows are the same with samples or without.
-    corner_readout: Option<Readout>,
+    inner_readout: Option<Readout>,
     /// Its structural analysis, when asked for before the readout itself.
     plan: Option<Arc<ReadoutPlan>>,
     /// The start state the readout's buffers are stamped at (as the eager set-up did).
@@ -2173,6 +2172,18 @@ impl AssembledEngine {
         plan
     }
 
+    /// A readout of `plan` with its buffers stamped at the start state (as the eager set-up did).
+    fn fresh_readout(&self, plan: Arc<ReadoutPlan>) -> Readout {
+        Readout::with_plan(
+            plan,
+            self.integrator.model(),
+            self.integrator.active_constraints(),
+            &self.start_q,
+            &self.start_v,
+            self.t0,
+        )
+    }
+
     /// The readout, built on first use.
     ///
     /// # Errors
@@ -2180,15 +2191,8 @@ impl AssembledEngine {
     fn readout(&mut self) -> Result<&mut Readout, RunError> {
         if self.readout.is_none() {
             let plan = self.plan();
+            let mut readout = self.fresh_readout(plan);
             let integrator = &self.integrator;
-            let mut readout = Readout::with_plan(
-                plan,
-                integrator.model(),
-                integrator.active_constraints(),
-                &self.start_q,
-                &self.start_v,
-                self.t0,
-            );
             if std::mem::take(&mut self.replay_start_solve) && integrator.steps_taken() == 0 {
                 readout.solve(
                     integrator.model(),
@@ -2213,9 +2217,9 @@ impl AssembledEngine {
     }
 }
 
-/// Buffers of [`Simulation::sample_corners`], kept over a run.
+/// Buffers of [`Simulation::sample_inner_states`], kept over a run.
 #[derive(Default)]
-struct CornerSamples {
+struct InnerSamples {
     snapshot: Snapshot,
     imprecise: Vec<Entry>,
     values: Vec<f64>,
@@ -2228,11 +2232,11 @@ struct StaggeredEngine {
 
 impl AssembledEngine {
     /// Fills `out` with the state `at` (positions, momenta as `fill` asks, the readout's
-    /// velocities and multipliers) through the corner readout; `imprecise` receives the entries
+    /// velocities and multipliers) through the inner readout; `imprecise` receives the entries
     /// it did not determine to [`crate::READOUT_PRECISION`].
     fn snapshot_at(
         &mut self,
-        at: &CornerState,
+        at: &InnerState,
         out: &mut Snapshot,
         connections: usize,
         fill: Fill,
@@ -2245,18 +2249,11 @@ impl AssembledEngine {
             Self::fill_snapshot(out, &self.system, None, &[], state, fill, imprecise);
             return Ok(());
         }
-        if self.corner_readout.is_none() {
+        if self.inner_readout.is_none() {
             let plan = self.plan();
-            self.corner_readout = Some(Readout::with_plan(
-                plan,
-                self.integrator.model(),
-                self.integrator.active_constraints(),
-                &self.start_q,
-                &self.start_v,
-                self.t0,
-            ));
+            self.inner_readout = Some(self.fresh_readout(plan));
         }
-        let (Some(readout), integrator) = (self.corner_readout.as_mut(), &self.integrator) else {
+        let (Some(readout), integrator) = (self.inner_readout.as_mut(), &self.integrator) else {
             return Err(RunError::Settings("readout not built".into()));
         };
         readout.solve(

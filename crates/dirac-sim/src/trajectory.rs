@@ -15,16 +15,18 @@ pub trait Sink {
     /// A message when the destination cannot take the row (the run stops with it).
     fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String>;
 
-    /// Whether the sink takes [`Sink::sample`]s (no by default: a run then reads nothing at
-    /// the corners).
+    /// Whether the sink takes [`Sink::sample`]s (no by default: a run then reads nothing
+    /// between the rows).
     fn wants_samples(&self) -> bool {
         false
     }
 
-    /// The signals at a source breakpoint inside a step (a time `t` between two rows, which
-    /// the rows miss), in no order relative to the rows; `NaN` where the state there does not
-    /// determine a value (one the rows read from the steps around them). Only called when
-    /// [`Sink::wants_samples`] says so.
+    /// The signals at the end of a substep inside a step (a time `t` between two rows: a source
+    /// breakpoint, a piece of a refined step, a ramp's substep; see
+    /// [`crate::Integrator::record_inner_states`]), in time order among themselves but in no
+    /// order relative to the rows; `NaN` where the state there does not determine a value (one
+    /// the rows read from the steps around them). Only called when [`Sink::wants_samples`] says
+    /// so.
     ///
     /// # Errors
     /// A message when the destination cannot take the sample (the run stops with it).

@@ -161,7 +161,7 @@ impl dirac_sim::Sink for Recorder {
 /// the charge of the hand recursion of `pieces_are_midpoint_steps_of_their_own_size` there and
 /// the source's own value on its node; the rows are the same with samples or without.
 #[test]
-fn corner_states_inside_steps_are_samples_and_leave_the_rows_alone() {
+fn inner_states_inside_steps_are_samples_and_leave_the_rows_alone() {
     let (r, c, h) = (1.0, 1.0, 0.1);
     let points = vec![
         (0.0, 0.0),

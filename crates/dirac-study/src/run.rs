@@ -176,7 +176,12 @@ impl Prepared {
             watch,
         };
         let summary = self.simulation.run_into(self.t_end, &all, &mut skip)?;
-        samples.merge_corner_samples();
+        let snap = 1e-9 * self.simulation.options().h;
+        samples.merge_inner_samples(|t| {
+            self.simulation
+                .next_breakpoint(t - snap)
+                .is_some_and(|b| b <= t + snap)
+        });
         let corners = samples.corners_between_samples(&self.simulation);
         self.measurements = self
             .measures
@@ -236,17 +241,18 @@ impl Measurement {
 }
 
 /// Every step's time and the values the measures read, from the first output time on, and the
-/// same at the source corners inside steps (nothing is kept without measures).
+/// same at the ends of the substeps inside steps (source corners, pieces of refined steps, ramp
+/// substeps; nothing is kept without measures).
 struct Samples {
     /// The signals the measures read, and where each sits in a recorded row.
     names: Vec<String>,
     read: Vec<usize>,
     t: Vec<f64>,
     columns: Vec<Vec<f64>>,
-    /// `(t, values read)` at the corners inside steps, in the order they came.
-    corners: Vec<(f64, Vec<f64>)>,
-    /// Corner samples where a column's value was not determined by the state there and was
-    /// interpolated between the steps around it: `(t, column)`.
+    /// `(t, values read)` at the substeps' ends inside steps, in the order they came.
+    inner: Vec<(f64, Vec<f64>)>,
+    /// Samples at source corners where a column's value was not determined by the state there
+    /// and was interpolated between the steps around it: `(t, column)`.
     filled: Vec<(f64, usize)>,
 }
 
@@ -268,46 +274,49 @@ impl Samples {
             names,
             read,
             t: Vec::new(),
-            corners: Vec::new(),
+            inner: Vec::new(),
             filled: Vec::new(),
         }
     }
 
-    /// Puts the corner samples strictly between the first and the last step time among the
-    /// steps' in time order. A value the state at a corner does not determine (`NaN`: one the
-    /// rows read from the steps) is interpolated between the steps around it, as before, and
-    /// kept in `filled`, so that a measure reading it there still warns of the corner.
-    fn merge_corner_samples(&mut self) {
+    /// Puts the inner samples strictly between the first and the last step time among the
+    /// steps' in time order. A value the state there does not determine (`NaN`: one the rows
+    /// read from the steps) is interpolated between the steps around it, as before; at a source
+    /// corner (`is_corner`) that is kept in `filled`, so that a measure reading it there still
+    /// warns of the corner.
+    fn merge_inner_samples(&mut self, is_corner: impl Fn(f64) -> bool) {
         let (Some(&first), Some(&last)) = (self.t.first(), self.t.last()) else {
             return;
         };
-        let mut corners: Vec<_> = std::mem::take(&mut self.corners)
+        let mut inner: Vec<_> = std::mem::take(&mut self.inner)
             .into_iter()
             .filter(|(t, _)| *t > first && *t < last)
             .collect();
-        if corners.is_empty() {
+        if inner.is_empty() {
             return;
         }
-        corners.sort_by(|a, b| a.0.total_cmp(&b.0));
+        inner.sort_by(|a, b| a.0.total_cmp(&b.0));
         // One merge pass over the steps' samples (a pulse train has a corner in many steps).
         let steps = std::mem::take(&mut self.t);
         let columns = std::mem::take(&mut self.columns);
-        self.t = Vec::with_capacity(steps.len() + corners.len());
-        self.columns = vec![Vec::with_capacity(steps.len() + corners.len()); columns.len()];
-        let mut next = corners.into_iter().peekable();
+        self.t = Vec::with_capacity(steps.len() + inner.len());
+        self.columns = vec![Vec::with_capacity(steps.len() + inner.len()); columns.len()];
+        let mut next = inner.into_iter().peekable();
         for (i, &t) in steps.iter().enumerate() {
-            while let Some((tc, values)) = next.next_if(|(tc, _)| *tc <= t) {
-                if tc < t {
-                    self.t.push(tc);
-                    // Between steps i − 1 and i (the first step is before every corner kept).
-                    let w = (tc - steps[i - 1]) / (t - steps[i - 1]);
+            while let Some((ti, values)) = next.next_if(|(ti, _)| *ti <= t) {
+                if ti < t {
+                    self.t.push(ti);
+                    // Between steps i − 1 and i (the first step is before every sample kept).
+                    let w = (ti - steps[i - 1]) / (t - steps[i - 1]);
                     for (j, (column, value)) in self.columns.iter_mut().zip(values).enumerate() {
                         if value.is_finite() {
                             column.push(value);
                         } else {
                             let (a, b) = (columns[j][i - 1], columns[j][i]);
                             column.push(a + w * (b - a));
-                            self.filled.push((tc, j));
+                            if is_corner(ti) {
+                                self.filled.push((ti, j));
+                            }
                         }
                     }
                 }
@@ -429,7 +438,7 @@ impl Sink for FromTime<'_> {
     fn sample(&mut self, t: f64, values: &[f64]) -> Result<(), String> {
         if t >= self.first * (1.0 - 1e-12) {
             let read = self.samples.read.iter().map(|&i| values[i]).collect();
-            self.samples.corners.push((t, read));
+            self.samples.inner.push((t, read));
         }
         Ok(())
     }
