@@ -1847,6 +1847,24 @@ fn a_diode_turning_off_inside_a_step_recovers_as_in_ngspice() {
             && l.contains("next to a source corner or the start (first t = 0.0000011)")),
         "{stderr}"
     );
+    // Nor does a clamp whose source starts at −3 V and has its first edge inside the first
+    // step: the row at t = 0 is compared only with the steps reached from it without passing a
+    // corner (none here), not with the +3 V after the edge (Gauss 2 at 3.3 µs steps flagged
+    // `v(in)` and `v(a)` at t = 0).
+    let clamp = deck(
+        "clamp_first_edge.cir",
+        "clamp\n.model dm D (is=1e-14 n=1 rs=1 cjo=2p)\nV1 in 0 PULSE(-3 3 1.7u 1u 1u 15u 40u)\n\
+         R1 in a 1k\nD1 a out dm\nC1 out 0 10n\nR2 out 0 10k\n.tran 10u 200u\n.end\n",
+    );
+    for method in ["midpoint", "gauss2"] {
+        let out = dirac(&["run", clamp.to_str().unwrap(), "--method", method]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(
+            !stderr.contains("next to a source corner"),
+            "{method}: {stderr}"
+        );
+    }
     // A rectifier whose rows are right raises no such warning (its first rows are tiny values
     // next to the start, judged against the value's size over the whole run).
     let bundled = repo("examples/netlists/rectifier.cir");

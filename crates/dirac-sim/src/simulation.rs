@@ -1737,7 +1737,9 @@ impl Agreement {
 
     /// Whether `state`, `entry`'s value at row `k` from the state, lies outside the values of the
     /// steps around it that are a clean sample of it (no corner inside, for a potential none
-    /// touching it and no substeps; among steps `k − 2 … k + 1`) by more than
+    /// touching it and no substeps; among steps `k − 2 … k + 1`, and only those reached from
+    /// `t_k` without passing a source corner: beyond one the motion is another, and a source's
+    /// node at t = 0 was flagged against its value after the pulse's first edge) by more than
     /// [`OUTLIER_SPREAD`] times their spread: `Some((excess, lowest, highest, share))`, the
     /// excess to be judged against `share` of the value's size over the whole run
     /// ([`Agreement::warn`]). Used where [`Agreement::from_steps`] gives no value (a row next to
@@ -1747,15 +1749,39 @@ impl Agreement {
     /// item 52).
     fn outlier(k: usize, entry: Entry, state: f64, means: &Means) -> Option<(f64, f64, f64, f64)> {
         let a = means.pair(k, entry)?;
-        let clean: Vec<f64> = (a.saturating_sub(1)..=a + 2)
-            .filter_map(|j| means.mean(j))
-            .filter(|m| match entry {
-                Entry::Effort(_) => !m.corner.disturbs_forces(),
-                Entry::Velocity(_) => !m.corner.inside,
-            })
-            .map(|m| m.get(entry))
-            .filter(|v| v.is_finite())
-            .collect();
+        let (lo, hi) = (a.saturating_sub(1), a + 2);
+        let is_clean = |m: &StepMean| match entry {
+            Entry::Effort(_) => !m.corner.disturbs_forces(),
+            Entry::Velocity(_) => !m.corner.inside,
+        };
+        let mut clean: Vec<f64> = Vec::new();
+        // Forward from t_k: steps k, k + 1, … up to a corner.
+        for j in k.max(lo)..=hi {
+            let Some(m) = means.mean(j) else { break };
+            if m.corner.inside || j > k && m.corner.start {
+                break;
+            }
+            if is_clean(m) {
+                clean.push(m.get(entry));
+            }
+            if m.corner.end {
+                break;
+            }
+        }
+        // Backward: steps k − 1, k − 2, … down to a corner.
+        for j in (lo..k.min(hi + 1)).rev() {
+            let Some(m) = means.mean(j) else { break };
+            if m.corner.inside || j + 1 < k && m.corner.end {
+                break;
+            }
+            if is_clean(m) {
+                clean.push(m.get(entry));
+            }
+            if m.corner.start {
+                break;
+            }
+        }
+        clean.retain(|v| v.is_finite());
         let lowest = clean.iter().copied().fold(f64::INFINITY, f64::min);
         let highest = clean.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let excess = (lowest - state).max(state - highest);
