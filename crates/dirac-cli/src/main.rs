@@ -173,8 +173,8 @@ struct ModelArgs {
     #[arg(long = "no-start-ramp")]
     no_start_ramp: bool,
     /// Control the truncation error as SPICE does: a step whose estimated local error (charges
-    /// and fluxes, third divided differences; step doubling right after the start and source
-    /// corners) exceeds .options reltol/abstol/chgtol/trtol is taken again as 2^m equal
+    /// and fluxes, third divided differences; step doubling right after source corners inside
+    /// steps) exceeds .options reltol/abstol/chgtol/trtol is taken again as 2^m equal
     /// substeps on the same grid. On by default for netlists with diodes.
     #[arg(long, conflicts_with = "fixed_step")]
     refine: bool,

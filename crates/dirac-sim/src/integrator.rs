@@ -520,6 +520,9 @@ struct Stage {
     /// Newton for substeps of other sizes (landing on a breakpoint, a cut step), so the regular
     /// step keeps its factorisation.
     aux: Option<(Newton<AutoLu>, f64)>,
+    /// The Newton the step-doubling check's halves solve with (swapped in for `aux`), so that
+    /// the check leaves `aux`'s factorisation and its contraction record as they were.
+    check_aux: Option<(Newton<AutoLu>, f64)>,
     /// The size of the last solve (the guess of the next one is scaled from it).
     last_size: f64,
     /// Row-major `s × s` map from the last increments `Z^{l'}` to the predicted next ones:
@@ -657,6 +660,7 @@ impl Stage {
             checked_turns: Vec::new(),
             fraction: h / options.h,
             aux: None,
+            check_aux: None,
             last_size: h,
             newton: Newton::new(
                 AutoLu::for_size(
@@ -1360,8 +1364,8 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         let whole = (self.q.clone(), self.p.clone(), self.impulse.clone());
         // The stages' steps (their start, which diagnostics such as the constraint residual
         // read after the step) and last solutions (which the next substep's guess is made
-        // from): put back with the whole substep, so that a check that keeps it changes
-        // nothing after it.
+        // from): put back with the whole substep, and the halves solved with their own Newton,
+        // so that a check that keeps it changes nothing after it but the Newton counts.
         let kept: Vec<_> = self
             .stages
             .iter()
@@ -1375,6 +1379,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
                 )
             })
             .collect();
+        let counters = self.counters;
+        for stage in &mut self.stages {
+            std::mem::swap(&mut stage.aux, &mut stage.check_aux);
+        }
         self.restore(saved, t);
         let half = 0.5 * size;
         let mut solved = Ok(());
@@ -1401,7 +1409,10 @@ impl<M: Model, C: Constraints> Integrator<M, C> {
         self.q = q;
         self.p = p;
         self.impulse = impulse;
+        // The halves are no accepted substeps: their turn checks are not the run's.
+        self.counters = counters;
         for (stage, (step, x, past, known, last_size)) in self.stages.iter_mut().zip(kept) {
+            std::mem::swap(&mut stage.aux, &mut stage.check_aux);
             stage.step = step;
             stage.x = x;
             stage.past = past;
@@ -2241,7 +2252,7 @@ fn stage_solver(choice: SolverChoice, constant_jacobian: bool) -> SolverChoice {
     }
 }
 
-/// Grid steps after the start or a source corner within which a substep that the truncation
+/// Grid steps after a source corner inside a step within which a substep that the truncation
 /// test passes narrowly is judged again by step doubling ([`History::judge`]).
 const YOUNG_STEPS: f64 = 2.0;
 

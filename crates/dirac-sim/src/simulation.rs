@@ -1062,7 +1062,8 @@ impl Simulation {
                     &mut before,
                     &mut means,
                 )?);
-                if inner_samples {
+                // Not the extra step a run of no steps takes past its end for a mean.
+                if inner_samples && k < steps {
                     self.sample_inner_states(
                         signals,
                         &per_signal,

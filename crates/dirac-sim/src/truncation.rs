@@ -59,9 +59,9 @@ pub(crate) enum Verdict {
     Accept,
     /// Take it again as `2^m` equal pieces (`m ≥ 1`).
     Split(u32),
-    /// The estimate passes, on the third substep after the start or a corner, by less than
-    /// [`DOUBT`] for these judged components (positions in [`History::judged`]'s order): judge
-    /// them again by step doubling.
+    /// The estimate passes, within the window after a source corner ([`History::judge`]), by
+    /// less than [`DOUBT`] for these judged components (positions in [`History::judged`]'s
+    /// order): judge them again by step doubling.
     Doubtful(Vec<usize>),
 }
 
@@ -295,8 +295,8 @@ impl History {
         if s <= 0.0 {
             return Verdict::Accept;
         }
-        // The smallest step any component allows, as ngspice computes it. Shortly after the
-        // start or a corner (within `window`) the components it passes narrowly are judged
+        // The smallest step any component allows, as ngspice computes it. Shortly after a
+        // source corner (within `window`) the components it passes narrowly are judged
         // again by doubling: there a source has just changed its slope, the divided differences
         // span few points, and an event it sets off inside a substep (a diode turning off
         // 50 ns after its source falls) can leave a charge that continues its trend smoothly
