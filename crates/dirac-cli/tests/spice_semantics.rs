@@ -47,6 +47,14 @@ fn dirac(args: &[&str]) -> Output {
         .expect("dirac runs")
 }
 
+/// The stderr (warnings, measures) of a `dirac` run with `args`, which must succeed.
+fn stderr_of_success(args: &[&str]) -> String {
+    let out = dirac(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{args:?}: {stderr}");
+    stderr
+}
+
 /// The rows of `dirac run path --method method --signals signals`, which must succeed.
 fn run_rows(path: &std::path::Path, method: &str, signals: &str) -> Vec<Vec<f64>> {
     let out = dirac(&[
@@ -1578,9 +1586,7 @@ fn measures_are_their_closed_forms_and_failed_ones_do_not_fail_the_run() {
          .tran 10u 10m\n.meas tran trig WHEN v(in)=0.5\n.meas tran vat FIND v(out) AT=3m\n\
          .meas tran tdelay TRIG v(in) VAL=0.5 TARG v(out) VAL=0.5\n.end\n",
     );
-    let out = dirac(&["run", off_grid.to_str().unwrap(), "--signals", "v(out)"]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
+    let stderr = stderr_of_success(&["run", off_grid.to_str().unwrap(), "--signals", "v(out)"]);
     assert!(
         stderr.contains("trig                =  1.000500e-3"),
         "{stderr}"
@@ -1614,9 +1620,7 @@ fn measures_are_their_closed_forms_and_failed_ones_do_not_fail_the_run() {
          .tran 10u 10m\n.meas tran trig WHEN v(in)=0.5\n\
          .meas tran qin INTEG i(v1) FROM=0.5m TO=3m\n.end\n",
     );
-    let out = dirac(&["run", index_two.to_str().unwrap(), "--signals", "v(out)"]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
+    let stderr = stderr_of_success(&["run", index_two.to_str().unwrap(), "--signals", "v(out)"]);
     assert!(
         stderr.contains("trig                =  1.000500e-3"),
         "{stderr}"
@@ -1682,9 +1686,7 @@ fn a_measure_of_an_unknown_signal_or_without_its_value_is_refused_at_its_card() 
         "rc_meas_other.cir",
         ".meas ac gain MAX vdb(out)\n.meas tran p PARAM='2*3'\n",
     );
-    let out = dirac(&["run", path.to_str().unwrap(), "--signals", "v(out)"]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
+    let stderr = stderr_of_success(&["run", path.to_str().unwrap(), "--signals", "v(out)"]);
     assert!(stderr.contains("`.meas ac` ignored"), "{stderr}");
     assert!(
         stderr.contains("`.meas` PARAM not computed, ignored"),
@@ -1833,15 +1835,13 @@ fn a_diode_turning_off_inside_a_step_recovers_as_in_ngspice() {
     // not silent: where the readout cannot take the steps' value (next to a corner), a row far
     // outside the steps around it is warned of.
     let path = deck("diode_recovery_fixed.cir", &text("50n"));
-    let out = dirac(&[
+    let stderr = stderr_of_success(&[
         "run",
         path.to_str().unwrap(),
         "--signals",
         "v(a)",
         "--fixed-step",
     ]);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
     assert!(
         stderr.lines().any(|l| l.starts_with("warning: `v(a)` at ")
             && l.contains("next to a source corner or the start (first t = 0.0000011)")),
@@ -1857,9 +1857,7 @@ fn a_diode_turning_off_inside_a_step_recovers_as_in_ngspice() {
          R1 in a 1k\nD1 a out dm\nC1 out 0 10n\nR2 out 0 10k\n.tran 10u 200u\n.end\n",
     );
     for method in ["midpoint", "gauss2"] {
-        let out = dirac(&["run", clamp.to_str().unwrap(), "--method", method]);
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success(), "{stderr}");
+        let stderr = stderr_of_success(&["run", clamp.to_str().unwrap(), "--method", method]);
         assert!(
             !stderr.contains("next to a source corner"),
             "{method}: {stderr}"
@@ -1869,9 +1867,7 @@ fn a_diode_turning_off_inside_a_step_recovers_as_in_ngspice() {
     // next to the start, judged against the value's size over the whole run).
     let bundled = repo("examples/netlists/rectifier.cir");
     for method in ["midpoint", "gauss2"] {
-        let out = dirac(&["run", bundled.to_str().unwrap(), "--method", method]);
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert!(out.status.success(), "{stderr}");
+        let stderr = stderr_of_success(&["run", bundled.to_str().unwrap(), "--method", method]);
         assert!(
             !stderr.contains("next to a source corner"),
             "{method}: {stderr}"
