@@ -1026,10 +1026,11 @@ impl Simulation {
         // Rows with values from the steps, in order, waiting for the steps' means they need.
         let mut pending: VecDeque<(usize, Snapshot, Vec<Entry>)> = VecDeque::new();
         let mut snapshot = Snapshot::default();
-        let inner_samples =
-            sink.wants_samples() && matches!(self.engine, Some(Engine::Assembled(_)));
+        let samples_from = sink
+            .samples_from()
+            .filter(|_| matches!(self.engine, Some(Engine::Assembled(_))));
         if let Some(Engine::Assembled(e)) = &mut self.engine {
-            e.integrator.record_inner_states(inner_samples);
+            e.integrator.record_inner_states(samples_from.is_some());
         }
         let mut inner = InnerSamples::default();
         for k in 0..=steps {
@@ -1063,15 +1064,9 @@ impl Simulation {
                     &mut means,
                 )?);
                 // Not the extra step a run of no steps takes past its end for a mean.
-                if inner_samples && k < steps {
-                    self.sample_inner_states(
-                        signals,
-                        &per_signal,
-                        &deferred,
-                        fill,
-                        &mut inner,
-                        sink,
-                    )?;
+                if let Some(from) = samples_from.filter(|_| k < steps) {
+                    let entries = (&per_signal[..], &deferred[..]);
+                    self.sample_inner_states(signals, entries, fill, from, &mut inner, sink)?;
                 }
             }
             while let Some((row, _, entries)) = pending.front() {
@@ -1102,15 +1097,16 @@ impl Simulation {
     }
 
     /// Passes `sink` the signals at the ends of the substeps inside the step just taken
-    /// ([`Sink::sample`]): `NaN` for a signal that reads a value the state there does not
-    /// determine (one the rows read from the steps), and nothing for a state whose readout
-    /// fails (the rows are the run's result; a sample is an extra).
+    /// ([`Sink::sample`]) from time `from` on: `NaN` for a signal that reads a value the state
+    /// there does not determine (one of `deferred`, which the rows read from the steps, or one
+    /// the readout finds imprecise; `per_signal` lists each signal's entries), and nothing for a
+    /// state whose readout fails (the rows are the run's result; a sample is an extra).
     fn sample_inner_states(
         &mut self,
         signals: &[Signal],
-        per_signal: &[Vec<Entry>],
-        deferred: &[Entry],
+        (per_signal, deferred): (&[Vec<Entry>], &[Entry]),
         fill: Fill,
+        from: f64,
         buffers: &mut InnerSamples,
         sink: &mut dyn Sink,
     ) -> Result<(), RunError> {
@@ -1119,6 +1115,9 @@ impl Simulation {
             return Ok(());
         };
         for state in e.integrator.take_inner_states() {
+            if state.t < from {
+                continue;
+            }
             let InnerSamples {
                 snapshot,
                 imprecise,

@@ -15,18 +15,17 @@ pub trait Sink {
     /// A message when the destination cannot take the row (the run stops with it).
     fn row(&mut self, k: usize, t: f64, values: &[f64]) -> Result<(), String>;
 
-    /// Whether the sink takes [`Sink::sample`]s (no by default: a run then reads nothing
-    /// between the rows).
-    fn wants_samples(&self) -> bool {
-        false
+    /// From what time on the sink takes [`Sink::sample`]s (`None`, the default: none, and a
+    /// run then reads nothing between the rows). States before it are not read.
+    fn samples_from(&self) -> Option<f64> {
+        None
     }
 
-    /// The signals at the end of a substep inside a step (a time `t` between two rows: a source
-    /// breakpoint, a piece of a refined step, a ramp's substep; see
-    /// [`crate::Integrator::record_inner_states`]), in time order among themselves but in no
-    /// order relative to the rows; `NaN` where the state there does not determine a value (one
-    /// the rows read from the steps around them). Only called when [`Sink::wants_samples`] says
-    /// so.
+    /// The signals at the end of a substep inside a step (a time `t` between two rows, not
+    /// before [`Sink::samples_from`]: a source breakpoint, a piece of a refined step, a ramp's
+    /// substep; see [`crate::Integrator::record_inner_states`]), in time order among themselves
+    /// but in no order relative to the rows; `NaN` where the state there does not determine a
+    /// value (one the rows read from the steps around them).
     ///
     /// # Errors
     /// A message when the destination cannot take the sample (the run stops with it).

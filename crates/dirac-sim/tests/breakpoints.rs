@@ -146,8 +146,8 @@ impl dirac_sim::Sink for Recorder {
         Ok(())
     }
 
-    fn wants_samples(&self) -> bool {
-        self.wants
+    fn samples_from(&self) -> Option<f64> {
+        self.wants.then_some(0.0)
     }
 
     fn sample(&mut self, t: f64, values: &[f64]) -> Result<(), String> {

@@ -431,15 +431,13 @@ impl Sink for FromTime<'_> {
         self.inner.row(j, j as f64 * self.spacing, values)
     }
 
-    fn wants_samples(&self) -> bool {
-        !self.samples.read.is_empty()
+    fn samples_from(&self) -> Option<f64> {
+        (!self.samples.read.is_empty()).then_some(self.first * (1.0 - 1e-12))
     }
 
     fn sample(&mut self, t: f64, values: &[f64]) -> Result<(), String> {
-        if t >= self.first * (1.0 - 1e-12) {
-            let read = self.samples.read.iter().map(|&i| values[i]).collect();
-            self.samples.inner.push((t, read));
-        }
+        let read = self.samples.read.iter().map(|&i| values[i]).collect();
+        self.samples.inner.push((t, read));
         Ok(())
     }
 }
