@@ -176,12 +176,7 @@ impl Prepared {
             watch,
         };
         let summary = self.simulation.run_into(self.t_end, &all, &mut skip)?;
-        let snap = 1e-9 * self.simulation.options().h;
-        samples.merge_inner_samples(|t| {
-            self.simulation
-                .next_breakpoint(t - snap)
-                .is_some_and(|b| b <= t + snap)
-        });
+        samples.merge_inner_samples(&self.simulation);
         let corners = samples.corners_between_samples(&self.simulation);
         self.measurements = self
             .measures
@@ -240,6 +235,9 @@ impl Measurement {
     }
 }
 
+/// Distance, in steps, within which a sample's time is a source corner's.
+const CORNER_SNAP: f64 = 1e-9;
+
 /// Every step's time and the values the measures read, from the first output time on, and the
 /// same at the ends of the substeps inside steps (source corners, pieces of refined steps, ramp
 /// substeps; nothing is kept without measures).
@@ -282,9 +280,15 @@ impl Samples {
     /// Puts the inner samples strictly between the first and the last step time among the
     /// steps' in time order. A value the state there does not determine (`NaN`: one the rows
     /// read from the steps) is interpolated between the steps around it, as before; at a source
-    /// corner (`is_corner`) that is kept in `filled`, so that a measure reading it there still
+    /// corner of `simulation` that is kept in `filled`, so that a measure reading it there still
     /// warns of the corner.
-    fn merge_inner_samples(&mut self, is_corner: impl Fn(f64) -> bool) {
+    fn merge_inner_samples(&mut self, simulation: &Simulation) {
+        let snap = CORNER_SNAP * simulation.options().h;
+        let is_corner = |t: f64| {
+            simulation
+                .next_breakpoint(t - snap)
+                .is_some_and(|b| b <= t + snap)
+        };
         let (Some(&first), Some(&last)) = (self.t.first(), self.t.last()) else {
             return;
         };
@@ -345,7 +349,7 @@ impl Samples {
         let (Some(&first), Some(&last)) = (self.t.first(), self.t.last()) else {
             return Vec::new();
         };
-        let snap = 1e-9 * simulation.options().h;
+        let snap = CORNER_SNAP * simulation.options().h;
         let mut out = Vec::new();
         let mut at = first;
         while let Some(b) = simulation.next_breakpoint(at) {
